@@ -1,0 +1,135 @@
+"""The registry of diagnostic codes: one stable kebab-case code per kind of problem.
+
+Codes never change meaning once released; ``docs/diagnostics.md`` lists every code here
+(a test keeps the two in step) and ``tests/fixtures/check/`` holds one fixture per code.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+
+class Severity(str, enum.Enum):
+    """How bad a diagnostic is: errors fail ``imrosc check``; warnings only with ``--strict``."""
+
+    ERROR = "error"
+    WARNING = "warning"
+
+
+@dataclass(frozen=True)
+class Code:
+    """One diagnostic code: its name, default severity, the stage that emits it and a summary."""
+
+    name: str
+    severity: Severity
+    stage: str
+    summary: str
+
+
+_E = Severity.ERROR
+_W = Severity.WARNING
+
+CODES: tuple[Code, ...] = (
+    # Reading the file.
+    Code("io-error", _E, "read", "The file cannot be read (missing, a directory, no permission)."),
+    Code("file-too-large", _E, "read", "The file is larger than the configuration size cap."),
+    Code("encoding-error", _E, "read", "The file is not UTF-8, or declares another encoding."),
+    Code("xml-syntax", _E, "parse", "The file is not well-formed XML."),
+    Code(
+        "dtd-forbidden",
+        _E,
+        "parse",
+        "The document has a DOCTYPE; DTDs and entities are refused (XXE, billion laughs).",
+    ),
+    # Structure, checked against grammar/imros.xsd.
+    Code("unknown-root", _E, "schema", "The root element is not <imROS>."),
+    Code("unexpected-element", _E, "schema", "An element that the grammar does not allow here."),
+    Code("missing-element", _E, "schema", "A required child element is missing."),
+    Code("unknown-attribute", _E, "schema", "An attribute that the element does not have."),
+    Code("missing-attribute", _E, "schema", "A required attribute is missing."),
+    Code("invalid-value", _E, "schema", "An attribute or text value is not of its type."),
+    # Semantics the XSD cannot express.
+    Code("duplicate-id", _E, "semantic", "Two elements share one id."),
+    Code(
+        "bad-id",
+        _E,
+        "semantic",
+        "An id breaks its lexical rule: scope elements and actions take lowercase letters, "
+        "conditions take digits.",
+    ),
+    Code("unknown-ref", _E, "semantic", "An id in events, conds or <violation> names nothing."),
+    Code("wrong-ref-kind", _E, "semantic", "An id names an element of the wrong kind."),
+    Code("bad-violation", _E, "semantic", "A <violation> is not of the form POINTS -> ACTIONS."),
+    Code("bad-name", _E, "semantic", "A topic, service or parameter name is not a ROS name."),
+    Code(
+        "relative-name",
+        _W,
+        "semantic",
+        "A name is not global; it is resolved against the root namespace.",
+    ),
+    Code(
+        "ros2-incompatible-name",
+        _W,
+        "semantic",
+        "A valid ROS 1 name that ROS 2 rejects (a token starting with a digit, or '__').",
+    ),
+    Code("missing-topic", _E, "semantic", "A point or condition names no topic or service."),
+    Code(
+        "topic-conflict",
+        _E,
+        "semantic",
+        "A name is given both as text and as child elements.",
+    ),
+    Code("bad-relative", _E, "semantic", "The relative hop count is negative."),
+    Code("bad-pattern", _E, "semantic", "A temporal pattern is not a valid regular expression."),
+    Code(
+        "pattern-unknown-event",
+        _E,
+        "semantic",
+        "A lowercase letter in a pattern is not an event of its <temporal>.",
+    ),
+    Code(
+        "pattern-too-few-events",
+        _E,
+        "semantic",
+        "A pattern has more placeholders than its <temporal> has events to bind them to.",
+    ),
+    Code("bad-expression", _E, "semantic", "A condition <value> is not a valid expression."),
+    Code("bad-action-value", _E, "semantic", "An action <value> is not a YAML flow mapping."),
+    Code("bad-arch-kind", _E, "semantic", "An <arch> kind is not one of pub, sub, srv."),
+    Code(
+        "monitor-without-invariants",
+        _E,
+        "semantic",
+        "A <monitor> has no invariants file: no inv on it, on <check> or on <detect>.",
+    ),
+    Code("check-mixed", _E, "semantic", "A <check> holds both <success>/<fail> and <bag>."),
+    Code(
+        "check-incomplete",
+        _E,
+        "semantic",
+        "A <check> has <success> without <fail> or the reverse, or no bags at all.",
+    ),
+    Code("unused-condition", _W, "semantic", "A condition that no point uses."),
+    Code(
+        "uninvolved-event",
+        _W,
+        "semantic",
+        "An event that no ordered pair or pattern of its <temporal> can involve.",
+    ),
+    Code("unused-action", _W, "semantic", "An action that no <violation> takes."),
+    Code(
+        "unmonitored-block",
+        _W,
+        "semantic",
+        "A blocked topic or service that no <publish> or <call> point monitors.",
+    ),
+)
+
+BY_NAME: dict[str, Code] = {code.name: code for code in CODES}
+
+
+def lookup(name: str) -> Code:
+    """Return the registered code called ``name``; unknown names are a programming error."""
+    return BY_NAME[name]

@@ -1,0 +1,1 @@
+"""Lowering passes over the IR: scope resolution, relative grouping, conditions, events."""

@@ -1,0 +1,1 @@
+"""The imROS configuration language: safe loading, the XSD grammar, mini-languages, semantics."""
