@@ -11,10 +11,12 @@ from dataclasses import dataclass
 
 
 class Severity(str, enum.Enum):
-    """How bad a diagnostic is: errors fail ``imrosc check``; warnings only with ``--strict``."""
+    """How bad a diagnostic is: errors fail ``imrosc check``; warnings only with ``--strict``;
+    notes only inform."""
 
     ERROR = "error"
     WARNING = "warning"
+    NOTE = "note"
 
 
 @dataclass(frozen=True)
@@ -29,6 +31,7 @@ class Code:
 
 _E = Severity.ERROR
 _W = Severity.WARNING
+_N = Severity.NOTE
 
 CODES: tuple[Code, ...] = (
     # Reading the file.
@@ -124,6 +127,29 @@ CODES: tuple[Code, ...] = (
         _W,
         "semantic",
         "A blocked topic or service that no <publish> or <call> point monitors.",
+    ),
+    # Graph files and bags (imrosc graph, imrosc build).
+    Code("graph-syntax", _E, "graph", "A graph file is not valid YAML."),
+    Code("graph-invalid", _E, "graph", "A graph file does not follow the graph file format."),
+    Code("bag-error", _E, "graph", "A bag cannot be opened or read; it is skipped."),
+    # Lowering (imrosc build).
+    Code(
+        "relative-without-graph",
+        _E,
+        "lower",
+        "relative > 0 but no graph source says who subscribes to what.",
+    ),
+    Code(
+        "unknown-topic",
+        _E,
+        "lower",
+        "Relative grouping needs the publisher of a topic the graph does not know.",
+    ),
+    Code(
+        "relative-cycle",
+        _N,
+        "lower",
+        "Relative grouping went round a cycle of the graph; each topic is grouped once.",
     ),
 )
 

@@ -52,7 +52,10 @@ def finalize(diagnostics: Iterable[Diagnostic], *, strict: bool = False) -> list
     """Sort and de-duplicate; with ``strict`` every warning becomes an error."""
     found = set(diagnostics)
     if strict:
-        found = {replace(d, severity=Severity.ERROR) for d in found}
+        found = {
+            replace(d, severity=Severity.ERROR) if d.severity is Severity.WARNING else d
+            for d in found
+        }
     return sorted(found)
 
 
@@ -63,9 +66,9 @@ def has_errors(diagnostics: Iterable[Diagnostic]) -> bool:
 
 def _summary(diagnostics: Sequence[Diagnostic], files: int) -> str:
     errors = sum(d.severity is Severity.ERROR for d in diagnostics)
-    warnings = len(diagnostics) - errors
+    warnings = sum(d.severity is Severity.WARNING for d in diagnostics)
     noun = "file" if files == 1 else "files"
-    if not diagnostics:
+    if not errors and not warnings:
         return f"Success: no issues found in {files} {noun}"
     affected = len({d.path for d in diagnostics})
     return (
@@ -84,12 +87,12 @@ def render_text(diagnostics: Sequence[Diagnostic], files: int) -> str:
 
 def render_json(diagnostics: Sequence[Diagnostic], files: int) -> str:
     """A JSON document: the diagnostics and their counts."""
-    errors = sum(d.severity is Severity.ERROR for d in diagnostics)
     document = {
         "version": 1,
         "files": files,
-        "errors": errors,
-        "warnings": len(diagnostics) - errors,
+        "errors": sum(d.severity is Severity.ERROR for d in diagnostics),
+        "warnings": sum(d.severity is Severity.WARNING for d in diagnostics),
+        "notes": sum(d.severity is Severity.NOTE for d in diagnostics),
         "diagnostics": [d.as_json() for d in diagnostics],
     }
     return json.dumps(document, indent=2) + "\n"

@@ -19,7 +19,7 @@ def test_codes_are_unique_kebab_case() -> None:
 def test_docs_page_lists_every_code_with_its_severity() -> None:
     text = DOCS.read_text(encoding="utf-8")
     rows = dict(
-        re.findall(r"^\| \[`([a-z0-9-]+)`\]\(#[a-z0-9-]+\) \| (error|warning) \|", text, re.M)
+        re.findall(r"^\| \[`([a-z0-9-]+)`\]\(#[a-z0-9-]+\) \| (error|warning|note) \|", text, re.M)
     )
     sections = re.findall(r"^## ([a-z0-9-]+)$", text, re.M)
     assert set(rows) == set(BY_NAME), "docs table and registry differ"

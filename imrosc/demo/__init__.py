@@ -17,7 +17,7 @@ from imrosc.diagnostics import has_errors, render_text
 
 STAGES = (
     ("check", "validate each configuration against grammar/imros.xsd and its semantics", True),
-    ("build --backend plan", "lower it to the IR and write the translator plan and job", False),
+    ("build --backend plan", "lower it to the IR and write the translator plan and job", True),
     ("infer", "translate the bags into program points and infer the invariants", False),
     ("classify", "score each invariant on successful and failed runs, keep the useful", False),
     ("build --backend ros1|ros2", "render a monitor package that checks them live", False),
@@ -42,6 +42,6 @@ def run_demo() -> int:
     click.echo(render_text(diagnostics, len(configs)), nl=False)
     click.echo("\nPipeline stages:")
     for command, what, ready in STAGES:
-        state = "done" if ready else "coming"
+        state = "ready" if ready else "coming"
         click.echo(f"  [{state:>6}] imrosc {command}: {what}")
     return 1 if has_errors(diagnostics) else 0

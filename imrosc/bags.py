@@ -1,0 +1,229 @@
+"""Finding and opening bags: every stage that reads bags goes through here.
+
+A bag is a ROS 1 ``.bag`` file or a ROS 2 bag directory (one holding ``metadata.yaml``, with
+sqlite3 ``.db3`` or ``.mcap`` storage files). :func:`discover_bags` turns a path the user gave
+into the bags it names, and reports what it cannot use; :func:`open_bag` opens one with
+rosbags' ``AnyReader`` and turns every way a bag can be broken (missing, truncated, corrupt,
+an unsupported serialization, an unknown message type) into a :class:`BagError` with a
+one-line message, never a traceback.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import stat
+from collections.abc import Collection, Generator, Iterator
+from contextlib import contextmanager, suppress
+from pathlib import Path
+
+from rosbags.highlevel import AnyReader, AnyReaderError
+from rosbags.interfaces import Connection
+from rosbags.rosbag1 import ReaderError as Ros1ReaderError
+from rosbags.rosbag2 import ReaderError as Ros2ReaderError
+from rosbags.serde import SerdeError
+from rosbags.typesys import Stores, TypesysError, get_typestore
+from rosbags.typesys.store import Typestore
+
+from imrosc.diagnostics import Diagnostic, make
+
+__all__ = [
+    "ROS1_SUFFIX",
+    "ROS2_METADATA",
+    "ROS2_STORAGE_SUFFIXES",
+    "BagError",
+    "MessageError",
+    "discover_bags",
+    "open_bag",
+    "time_text",
+]
+
+ROS1_SUFFIX = ".bag"
+ROS2_METADATA = "metadata.yaml"
+ROS2_STORAGE_SUFFIXES = (".db3", ".mcap")
+
+_MAX_MESSAGE = 200
+_ROSBAGS_ERRORS = (AnyReaderError, Ros1ReaderError, Ros2ReaderError, SerdeError, TypesysError)
+
+
+class BagError(Exception):
+    """A bag that cannot be found, opened or read; ``message`` is one line."""
+
+    def __init__(self, path: Path, message: str) -> None:
+        super().__init__(f"{path}: {message}")
+        self.path = path
+        self.message = message
+
+    def diagnostic(self) -> Diagnostic:
+        """The ``bag-error`` diagnostic for this problem (a bag has no lines: 1:1)."""
+        return make(str(self.path), 1, 1, "bag-error", self.message)
+
+
+class MessageError(BagError):
+    """One message of a readable bag cannot be decoded; the rest of the bag may be fine."""
+
+
+def _one_line(error: BaseException) -> str:
+    """A one-line description of an exception raised by rosbags or the OS."""
+    if isinstance(error, OSError) and error.strerror:
+        text = error.strerror
+    else:
+        text = " ".join(str(part) for part in error.args) if error.args else ""
+    text = " ".join(text.split()).rstrip(".")
+    if not text:
+        return type(error).__name__
+    if len(text) > _MAX_MESSAGE:
+        text = text[: _MAX_MESSAGE - 3] + "..."
+    return text[:1].lower() + text[1:]
+
+
+def time_text(nanoseconds: int) -> str:
+    """A bag time in seconds with all nine decimals, as rosbag prints it.
+
+    >>> time_text(1379178116917492974)
+    '1379178116.917492974'
+    """
+    seconds, rest = divmod(nanoseconds, 1_000_000_000)
+    return f"{seconds}.{rest:09d}"
+
+
+@functools.lru_cache(maxsize=1)
+def _fallback_typestore() -> Typestore:
+    """Types for ROS 2 bags that store no message definitions (older rosbag2 versions)."""
+    return get_typestore(Stores.LATEST)
+
+
+class _SafeReader(AnyReader):
+    """An AnyReader whose reading methods raise only :class:`BagError` on a broken bag."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__([path], default_typestore=_fallback_typestore())
+        self.bag_path = path
+
+    def messages(
+        self,
+        connections: Collection[Connection] = (),
+        start: int | None = None,
+        stop: int | None = None,
+    ) -> Generator[tuple[Connection, int, bytes], None, None]:
+        """The messages of :meth:`AnyReader.messages`; a broken chunk raises BagError."""
+        stream = super().messages(connections, start, stop)
+        while True:
+            try:
+                item = next(stream)
+            except StopIteration:
+                return
+            except Exception as error:  # corrupt data raises anything from rosbags
+                message = f"cannot read messages (bag damaged or truncated?): {_one_line(error)}"
+                raise BagError(self.bag_path, message) from error
+            yield item
+
+    def deserialize(self, rawdata: bytes, typ: str) -> object:
+        """Decode one message; an unknown type or a corrupt message raises MessageError."""
+        if typ not in self.typestore.fielddefs:
+            raise MessageError(self.bag_path, f"unknown message type {typ}")
+        try:
+            return super().deserialize(rawdata, typ)
+        except Exception as error:  # corrupt data raises anything from rosbags
+            message = f"cannot decode a {typ} message: {_one_line(error)}"
+            raise MessageError(self.bag_path, message) from error
+
+
+@contextmanager
+def open_bag(path: Path) -> Iterator[AnyReader]:
+    """Open one bag (a ``.bag`` file or a ROS 2 bag directory) for reading.
+
+    Anything that goes wrong while opening, iterating ``messages()`` or calling
+    ``deserialize()`` raises :class:`BagError` (:class:`MessageError` for one bad message);
+    rosbags' own errors raised in the ``with`` body become BagError too.
+    """
+    try:
+        reader = _SafeReader(path)
+        reader.open()
+    except Exception as error:  # a broken bag raises anything from rosbags
+        if not os.path.lexists(path):
+            raise BagError(path, "no such file or directory") from None
+        raise BagError(path, f"cannot open bag: {_one_line(error)}") from error
+    try:
+        yield reader
+    except _ROSBAGS_ERRORS as error:
+        raise BagError(path, f"cannot read bag: {_one_line(error)}") from error
+    finally:
+        with suppress(Exception):  # closing a broken bag must not hide the first error
+            reader.close()
+
+
+def _is_ros2_bag(directory: Path) -> bool:
+    return (directory / ROS2_METADATA).is_file()
+
+
+def _not_a_bag(path: Path) -> Diagnostic:
+    if path.name.endswith(ROS1_SUFFIX + ".active"):
+        reason = "an unfinished ROS 1 bag (rosbag record was interrupted; try rosbag reindex)"
+    elif path.suffix in ROS2_STORAGE_SUFFIXES:
+        reason = f"a ROS 2 storage file without {ROS2_METADATA} beside it (try ros2 bag reindex)"
+    else:
+        reason = f"not a bag: expected a {ROS1_SUFFIX} file or a directory holding {ROS2_METADATA}"
+    return make(str(path), 1, 1, "bag-error", reason)
+
+
+def _search(directory: Path, bags: list[Path], found: list[Diagnostic], seen: set[Path]) -> None:
+    """Collect the bags under a directory that is not itself a bag."""
+    real = directory.resolve()
+    if real in seen:
+        return
+    seen.add(real)
+    try:
+        entries = sorted(os.scandir(directory), key=lambda entry: entry.name)
+    except OSError as error:
+        message = f"cannot read directory: {error.strerror or _one_line(error)}"
+        found.append(make(str(directory), 1, 1, "bag-error", message))
+        return
+    for entry in entries:
+        if entry.name.startswith("."):
+            continue
+        child = directory / entry.name
+        if child.is_dir():
+            if _is_ros2_bag(child):
+                bags.append(child)
+            else:
+                _search(child, bags, found, seen)
+        elif child.suffix == ROS1_SUFFIX and child.is_file():
+            bags.append(child)
+        else:
+            found.append(_not_a_bag(child))
+
+
+def discover_bags(path: Path) -> tuple[list[Path], list[Diagnostic]]:
+    """The bags a path names, sorted, and a ``bag-error`` for everything else.
+
+    * a ``.bag`` file is a ROS 1 bag;
+    * a directory holding ``metadata.yaml`` is a ROS 2 bag; its ``metadata.yaml`` or one of
+      its storage files stands for it too;
+    * any other directory is searched recursively: each ``.bag`` file and ROS 2 bag directory
+      in it is a bag, each other file is reported as not a bag (hidden files and directories,
+      whose names start with ``.``, are skipped), and a directory with no bag is reported.
+
+    A missing path or a file that is not a bag is reported.
+    """
+    try:
+        mode = path.stat().st_mode
+    except OSError as error:
+        reason = "no such file or directory" if isinstance(error, FileNotFoundError) else None
+        message = reason or f"cannot read: {error.strerror or _one_line(error)}"
+        return [], [make(str(path), 1, 1, "bag-error", message)]
+    if stat.S_ISDIR(mode):
+        if _is_ros2_bag(path):
+            return [path], []
+        bags: list[Path] = []
+        found: list[Diagnostic] = []
+        _search(path, bags, found, set())
+        if not bags and not found:
+            found.append(make(str(path), 1, 1, "bag-error", "directory holds no bag"))
+        return sorted(set(bags)), found
+    if path.suffix == ROS1_SUFFIX:
+        return [path], []
+    is_ros2_part = path.name == ROS2_METADATA or path.suffix in ROS2_STORAGE_SUFFIXES
+    if is_ros2_part and _is_ros2_bag(path.parent):
+        return [path.parent], []
+    return [], [_not_a_bag(path)]

@@ -1,0 +1,134 @@
+"""The node graph recorded in bags: architecture records, and ROS 1 connection callerids.
+
+Two of the three graph sources live in bags (``docs/graph.md``):
+
+* every message on :data:`imrosc.records.ARCH_TOPIC` is a snapshot of the whole graph,
+  subscribers and servers included; the snapshots of all bags are united;
+* every ROS 1 connection header names the node that published on it (``callerid``); that
+  gives publishers only, so a graph made of callerids alone does not know subscriptions.
+
+A bag that cannot be read is a ``bag-error`` and is skipped; so is each bad record.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import ConnectionExtRosbag1
+
+from imrosc.bags import BagError, MessageError, discover_bags, open_bag, time_text
+from imrosc.diagnostics import Diagnostic, make
+from imrosc.graph.model import SOURCE_CALLERID, SOURCE_RECORDS, Graph, Node
+from imrosc.records import ARCH_TOPIC, RECORD_PREFIX, RECORD_TYPE, RecordError, decode_arch
+
+__all__ = ["BagGraphs", "graph_from_bag", "graph_from_bags", "read_bag_graphs"]
+
+
+@dataclass
+class _BagGraph:
+    """What one bag says about the graph."""
+
+    records: list[Graph] = field(default_factory=list)
+    callers: list[Node] = field(default_factory=list)
+    problems: list[Diagnostic] = field(default_factory=list)
+
+
+def _callers(reader: AnyReader) -> list[Node]:
+    """One publisher node per ROS 1 connection, the recording node's own topics left out."""
+    nodes: list[Node] = []
+    for connection in reader.connections:
+        ext = connection.ext
+        if not isinstance(ext, ConnectionExtRosbag1) or not ext.callerid:
+            continue
+        if connection.topic.startswith(RECORD_PREFIX):
+            continue
+        nodes.append(Node(ext.callerid, publishes=frozenset({connection.topic})))
+    return nodes
+
+
+def _record_problem(path: Path, time_ns: int, message: str) -> Diagnostic:
+    where = f"{ARCH_TOPIC} message at {time_text(time_ns)} s"
+    return make(str(path), 1, 1, "bag-error", f"{where}: {message}")
+
+
+def _records(reader: AnyReader, path: Path, found: _BagGraph) -> None:
+    """Decode every architecture record of the bag into ``found``."""
+    connections = []
+    for connection in reader.connections:
+        if connection.topic != ARCH_TOPIC:
+            continue
+        if connection.msgtype != RECORD_TYPE:
+            message = (
+                f"{ARCH_TOPIC} has type {connection.msgtype}, not {RECORD_TYPE}; "
+                f"its {connection.msgcount} messages are skipped"
+            )
+            found.problems.append(make(str(path), 1, 1, "bag-error", message))
+            continue
+        connections.append(connection)
+    if not connections:  # AnyReader.messages() reads every topic when given no connection
+        return
+    for connection, time_ns, raw in reader.messages(connections):
+        try:
+            text = getattr(reader.deserialize(raw, connection.msgtype), "data", None)
+            if not isinstance(text, str):
+                raise RecordError("the message has no string 'data'")
+            found.records.append(Graph.from_snapshot(decode_arch(text), SOURCE_RECORDS))
+        except MessageError as error:
+            found.problems.append(_record_problem(path, time_ns, error.message))
+        except RecordError as error:
+            found.problems.append(_record_problem(path, time_ns, error.message))
+
+
+def graph_from_bag(path: Path) -> tuple[Graph, list[Diagnostic]]:
+    """The graph one bag records: raises :class:`imrosc.bags.BagError` if it is unreadable."""
+    found = _BagGraph()
+    with open_bag(path) as reader:
+        found.callers = _callers(reader)
+        _records(reader, path, found)
+    callers = Graph.build(found.callers, [SOURCE_CALLERID] if found.callers else [], False)
+    return Graph.merge(*found.records, callers), found.problems
+
+
+@dataclass(frozen=True)
+class BagGraphs:
+    """The graph of many bags, the problems found, and the bags that could be read."""
+
+    graph: Graph
+    diagnostics: tuple[Diagnostic, ...]
+    read: tuple[Path, ...]
+
+
+def read_bag_graphs(paths: Sequence[Path]) -> BagGraphs:
+    """Discover the bags under the paths and merge the graphs of those that can be read.
+
+    Records come first in the merged graph's sources, callerids second.
+    """
+    problems: list[Diagnostic] = []
+    bags: list[Path] = []
+    for path in paths:
+        found, reported = discover_bags(path)
+        bags += found
+        problems += reported
+    graphs: list[Graph] = []
+    read: list[Path] = []
+    for bag in sorted(set(bags)):
+        try:
+            graph, reported = graph_from_bag(bag)
+        except BagError as error:
+            problems.append(error.diagnostic())
+            continue
+        graphs.append(graph)
+        read.append(bag)
+        problems += reported
+    merged = Graph.merge(*graphs)
+    sources = tuple(s for s in (SOURCE_RECORDS, SOURCE_CALLERID) if s in merged.sources)
+    return BagGraphs(replace(merged, sources=sources), tuple(problems), tuple(read))
+
+
+def graph_from_bags(paths: Sequence[Path]) -> tuple[Graph, list[Diagnostic]]:
+    """The graph recorded in every bag under the paths, and a diagnostic per problem."""
+    result = read_bag_graphs(paths)
+    return result.graph, list(result.diagnostics)
