@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # BLAS threads stall a loaded 2-core machine
+
 import sys
 from pathlib import Path
 
@@ -132,9 +136,177 @@ def build(
 main.add_command(graph_command)
 
 
+class _BagProgress:
+    """A progress bar over bags on stderr: bags done and messages per second."""
+
+    def __init__(self, total: int, enabled: bool) -> None:
+        import time
+
+        self.clock = time.monotonic
+        self.started = self.clock()
+        self.messages = 0
+        self.bar = (
+            click.progressbar(length=total, label="inferring", file=sys.stderr, show_pos=True)
+            if enabled and total
+            else None
+        )
+        if self.bar is not None:
+            self.bar.__enter__()
+
+    def __call__(self, bag: Path, messages: int) -> None:
+        self.messages += messages
+        if self.bar is not None:
+            rate = self.messages / max(self.clock() - self.started, 1e-9)
+            self.bar.label = f"inferring ({rate:,.0f} msg/s)"
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+
+
 @main.command()
-def demo() -> None:
-    """Run the pipeline on the embedded example system."""
+@click.argument("config", type=click.Path(path_type=Path))
+@click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
+@click.option(
+    "--graph",
+    "graph_files",
+    multiple=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="A graph file, for relative grouping when the bags hold no architecture records.",
+)
+@click.option(
+    "--bags",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Bags or folders to read instead of the <detect> bags.",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Invariants file [default: detect/@inv].",
+)
+@click.option("--force", is_flag=True, help="Overwrite an output file imrosc did not write.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+def infer(
+    config: Path,
+    jobs: int | None,
+    graph_files: tuple[Path, ...],
+    bags: tuple[Path, ...],
+    output: Path | None,
+    force: bool,
+    quiet: bool,
+) -> None:
+    """Infer the invariants of CONFIG's <detect> bags and write the invariants file."""
+    from imrosc.build import OverwriteRefusedError, write_files
+    from imrosc.detect import run_detect
+    from imrosc.invariants import dumps
+
+    progress: list[_BagProgress] = []
+
+    def factory(total: int) -> _BagProgress:
+        progress.append(_BagProgress(total, not quiet and sys.stderr.isatty()))
+        return progress[-1]
+
+    result = run_detect(
+        config,
+        workers=jobs,
+        graph_files=graph_files,
+        bags=list(bags) or None,
+        progress_factory=factory,
+    )
+    for bar in progress:
+        bar.close()
+    _report(result.diagnostics, "text")
+    if result.document is None or result.output is None:
+        sys.exit(EXIT_ERRORS)
+    target = output or result.output
+    try:
+        write_files(target.parent, {target.name: dumps(result.document).encode()}, force=force)
+    except OverwriteRefusedError as refused:
+        click.echo(f"imrosc infer: {refused}", err=True)
+        sys.exit(EXIT_ERRORS)
+    catalog, inferred = result.catalog, result.result
+    assert catalog is not None and inferred is not None
+    counts = result.counts()
+    total = sum(counts.values())
+    summary = ", ".join(f"{n} {group}" for group, n in counts.items())
+    good = len(catalog.bags) - len(inferred.failed)
+    rate = inferred.messages / max(result.seconds, 1e-9)
+    click.echo(f"wrote {target}: {total} invariants: {summary}")
+    click.echo(
+        f"from {good} bag{'s' * (good != 1)}, {inferred.messages:,} messages in "
+        f"{result.seconds:.1f} s ({rate:,.0f} msg/s)"
+    )
+    skipped = sorted({d.path for d in result.diagnostics if d.code == "bag-error"})
+    if skipped:
+        click.echo(f"skipped {len(skipped)} bag{'s' * (len(skipped) != 1)}: {', '.join(skipped)}")
+    for message in result.skipped_points:
+        click.echo(f"skipped {message}")
+    if inferred.discovered:
+        shown = ", ".join(sorted({d.key for d in inferred.discovered}))
+        click.echo(f"conditions found: {shown}")
+    sys.exit(EXIT_ERRORS if has_errors(result.diagnostics) else EXIT_CLEAN)
+
+
+@main.command("export-daikon")
+@click.argument("config", type=click.Path(path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path))
+@click.option(
+    "--graph", "graph_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--bags", multiple=True, type=click.Path(path_type=Path), help="Instead of <detect>'s."
+)
+def export_daikon(
+    config: Path, output: Path, graph_files: tuple[Path, ...], bags: tuple[Path, ...]
+) -> None:
+    """Write the program points of CONFIG's bags as Daikon .decls/.dtrace files."""
+    from imrosc.detect import prepare
+    from imrosc.export_daikon import export
+
+    prepared, diagnostics = prepare(config, graph_files=graph_files, bags=list(bags) or None)
+    _report(diagnostics, "text")
+    if prepared is None:
+        sys.exit(EXIT_ERRORS)
+    catalog = prepared.catalog
+    for path in export(prepared.specs, prepared.layouts, catalog.callerids, catalog.bags, output):
+        click.echo(f"wrote {path}")
+    sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
+
+
+@main.command()
+@click.argument("inv", type=click.Path(path_type=Path))
+@click.option("--family", "families", multiple=True, help="Only this family (repeatable).")
+@click.option("--point", "points", multiple=True, help="Only this program point (repeatable).")
+@click.option("--ids", is_flag=True, help="Prefix each invariant with its id.")
+def show(inv: Path, families: tuple[str, ...], points: tuple[str, ...], ids: bool) -> None:
+    """Print an invariants file, Daikon style, grouped by program point."""
+    from imrosc.invariants import InvariantsFileError, load
+    from imrosc.show import render
+
+    try:
+        doc = load(inv)
+    except InvariantsFileError as error:
+        click.echo(f"imrosc show: {error}", err=True)
+        sys.exit(EXIT_ERRORS)
+    click.echo(render(doc, families=families, points=points, ids=ids), nl=False)
+
+
+@main.command()
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("imrosc-demo"),
+    show_default=True,
+    help="Where the demo writes its bags and outputs.",
+)
+@click.option("--runs", type=click.IntRange(min=2), default=6, show_default=True)
+@click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
+def demo(output: Path, runs: int, jobs: int | None) -> None:
+    """Run the pipeline on the embedded example: a simulated UAV landing system."""
     from imrosc.demo import run_demo
 
-    sys.exit(run_demo())
+    sys.exit(run_demo(output, runs, jobs))

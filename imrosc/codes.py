@@ -132,6 +132,12 @@ CODES: tuple[Code, ...] = (
     Code("graph-syntax", _E, "graph", "A graph file is not valid YAML."),
     Code("graph-invalid", _E, "graph", "A graph file does not follow the graph file format."),
     Code("bag-error", _E, "graph", "A bag cannot be opened or read; it is skipped."),
+    Code(
+        "bag-empty",
+        _W,
+        "translate",
+        "A bag has no message on the configured topics; it adds no samples.",
+    ),
     # Lowering (imrosc build).
     Code(
         "relative-without-graph",

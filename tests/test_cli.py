@@ -86,8 +86,20 @@ def test_github_format_escapes_properties() -> None:
     assert ",title=imrosc bad-violation::violation must read POINTS -> ACTIONS" in annotation
 
 
-def test_demo_checks_the_embedded_examples() -> None:
-    code, output = invoke("demo")
+def test_demo_runs_check_build_and_infer_on_the_simulated_system(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    code, output = invoke("demo", "-o", str(out), "--runs", "2", "-j", "1")
     assert code == 0, output
-    assert "Success: no issues found in 3 files" in output
-    assert "imrosc infer" in output
+    assert "Success: no issues found" in output
+    assert f"wrote {out / 'build' / 'plan' / 'plan.json'}" in output
+    assert f"wrote {out / 'landing_sim.inv'}" in output
+    assert json.loads((out / "landing_sim.inv").read_text())["format"] == "imrosc-invariants"
+    assert (out / "bags" / "nominal" / "nominal_mcap" / "metadata.yaml").exists()
+
+
+def test_demo_refuses_a_folder_it_did_not_make(tmp_path: Path) -> None:
+    (tmp_path / "mine.txt").write_text("keep me\n")
+    code, output = invoke("demo", "-o", str(tmp_path))
+    assert code == 2
+    assert "was not made by imrosc demo" in output
+    assert (tmp_path / "mine.txt").read_text() == "keep me\n"

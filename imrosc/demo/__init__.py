@@ -1,27 +1,35 @@
-"""``imrosc demo``: the pipeline on the embedded example configurations.
+"""``imrosc demo``: the pipeline on the embedded example system.
 
-For now the demo checks the three example configurations shipped in the package (the
-thesis' water sampling, UAV landing and crop surveying systems) and says what each later
-stage of the pipeline will do with them.
+The example is the thesis' landing system (section 5.1), simulated by :mod:`imrosc.sim`: the
+demo writes nominal runs as bags (ROS 1, and one as a ROS 2 MCAP bag), runs that succeed and
+runs with a fault for the check stage, then runs ``check``, ``build --backend plan`` and
+``infer`` on ``examples/landing_sim.xml``, and says where each output is.
 """
 
 from __future__ import annotations
 
 import importlib.resources
+import shutil
 from pathlib import Path
 
 import click
 
+from imrosc.build import build, write_files
 from imrosc.check import check_files
+from imrosc.detect import run_detect
 from imrosc.diagnostics import has_errors, render_text
+from imrosc.infer.engine import default_workers
+from imrosc.invariants import dumps
+from imrosc.show import render
+from imrosc.sim import ScenarioKind
 
-STAGES = (
-    ("check", "validate each configuration against grammar/imros.xsd and its semantics", True),
-    ("build --backend plan", "lower it to the IR and write the translator plan and job", True),
-    ("infer", "translate the bags into program points and infer the invariants", False),
-    ("classify", "score each invariant on successful and failed runs, keep the useful", False),
-    ("build --backend ros1|ros2", "render a monitor package that checks them live", False),
-    ("replay", "run the monitor's engine over a faulty run and show the violations", False),
+MARKER = ".imrosc-demo"
+CONFIG = "landing_sim.xml"
+FAULTS: tuple[ScenarioKind, ...] = ("slowed", "spoofed", "stuck", "tilt")
+COMING = (
+    ("classify", "score each invariant on successful and failed runs, keep the useful"),
+    ("build --backend ros1|ros2", "render a monitor package that checks them live"),
+    ("replay", "run the monitor's engine over a faulty run and show the violations"),
 )
 
 
@@ -31,17 +39,79 @@ def example_configs() -> list[Path]:
     return sorted(Path(str(entry)) for entry in folder.iterdir() if entry.name.endswith(".xml"))
 
 
-def run_demo() -> int:
-    """Run the stages that exist on the embedded examples; return the exit status."""
-    configs = example_configs()
-    click.echo(f"imrosc demo: {len(configs)} example configurations")
-    for config in configs:
-        click.echo(f"  {config}")
-    diagnostics = check_files(configs)
-    click.echo("\n$ imrosc check " + " ".join(c.name for c in configs))
-    click.echo(render_text(diagnostics, len(configs)), nl=False)
-    click.echo("\nPipeline stages:")
-    for command, what, ready in STAGES:
-        state = "ready" if ready else "coming"
-        click.echo(f"  [{state:>6}] imrosc {command}: {what}")
-    return 1 if has_errors(diagnostics) else 0
+def _prepare(out: Path) -> bool:
+    """Create ``out`` for the demo; refuse a non-empty folder the demo did not make."""
+    if out.exists() and any(out.iterdir()) and not (out / MARKER).exists():
+        click.echo(
+            f"imrosc demo: {out} exists and was not made by imrosc demo; choose -o", err=True
+        )
+        return False
+    if (out / MARKER).exists():
+        for child in ("bags", "build"):
+            shutil.rmtree(out / child, ignore_errors=True)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text("made by imrosc demo; it may delete bags/ and build/ here\n")
+    return True
+
+
+def _write_bags(out: Path, runs: int) -> None:
+    from imrosc.sim import Scenario, write_run, write_runs
+
+    nominal = out / "bags" / "nominal"
+    write_runs(nominal, runs=max(runs - 1, 1), seed=0, fmt="ros1")
+    write_run(nominal / "nominal_mcap", seed=runs, fmt="mcap")
+    write_runs(out / "bags" / "success", runs=2, seed=100, fmt="ros1")
+    for offset, kind in enumerate(FAULTS):
+        write_run(
+            out / "bags" / "fail" / f"{kind}.bag",
+            seed=200 + offset,
+            fmt="ros1",
+            scenario=Scenario(kind),
+        )
+
+
+def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None = None) -> int:
+    """Simulate, check, build and infer; return the exit status."""
+    if not _prepare(out):
+        return 2
+    source = next(p for p in example_configs() if p.name == CONFIG)
+    config = out / CONFIG
+    shutil.copyfile(source, config)
+    click.echo(f"1. simulating the landing system of thesis section 5.1 into {out / 'bags'}")
+    _write_bags(out, runs)
+    click.echo(
+        f"   {runs} nominal runs (one as a ROS 2 MCAP bag), 2 successful, {len(FAULTS)} faulty"
+    )
+
+    click.echo(f"\n2. imrosc check {config}  (and the thesis' example configurations)")
+    diagnostics = check_files([config, *(p for p in example_configs() if p.name != CONFIG)])
+    click.echo(render_text(diagnostics, len(example_configs())), nl=False)
+    if has_errors(diagnostics):
+        return 1
+
+    click.echo(f"\n3. imrosc build {config} --backend plan --bags {out / 'bags' / 'nominal'}")
+    built = build(config, "plan", bags=[out / "bags" / "nominal"])
+    if not built.ok:
+        click.echo(render_text(built.diagnostics, 1), nl=False)
+        return 1
+    for path in write_files(out / "build" / "plan", built.files, force=True):
+        click.echo(f"   wrote {path}")
+
+    click.echo(f"\n4. imrosc infer {config}")
+    result = run_detect(config, workers=workers or default_workers())
+    if result.document is None or result.output is None:
+        click.echo(render_text(result.diagnostics, 1), nl=False)
+        return 1
+    write_files(
+        result.output.parent, {result.output.name: dumps(result.document).encode()}, force=True
+    )
+    counts = ", ".join(f"{n} {group}" for group, n in result.counts().items())
+    click.echo(f"   wrote {result.output}: {sum(result.counts().values())} invariants: {counts}")
+    click.echo(f"   ({result.seconds:.1f} s; see them all with: imrosc show {result.output})")
+    sample = render(result.document, points=["v"]).splitlines()[:12]
+    click.echo("\n".join("   " + line for line in sample))
+
+    click.echo("\nComing in later stages:")
+    for command, what in COMING:
+        click.echo(f"   imrosc {command}: {what}")
+    return 0

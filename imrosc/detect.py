@@ -1,0 +1,181 @@
+"""The detect stage (``imrosc infer``): configuration and bags in, invariants file out.
+
+1. check the configuration; 2. catalog the ``<detect>`` bags (bad bags are reported and
+skipped); 3. compile the configuration with the bags as graph and type sources (the plan and
+job of ``imrosc build --backend plan``, in memory); 4. infer over the good bags in worker
+processes; 5. write the invariants file next to the configuration.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from imrosc import ir
+from imrosc.backends.plan import render_job, render_plan
+from imrosc.backends.registry import BuildInputs, TopicType
+from imrosc.build import load_graph
+from imrosc.check import check_loaded
+from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
+from imrosc.infer.engine import InferenceResult, Progress, default_workers, infer
+from imrosc.infer.registry import FAMILY_GROUPS, group_of
+from imrosc.invariants import PointInfo, document
+from imrosc.lower import lower
+from imrosc.passes.context import PassContext
+from imrosc.passes.pipeline import run_passes
+from imrosc.schema.loader import load_config
+from imrosc.translate.catalog import Catalog, build_catalog
+from imrosc.translate.layout import TopicLayout
+from imrosc.translate.points import PointSpec, point_specs
+
+
+@dataclass
+class DetectResult:
+    """Everything ``imrosc infer`` reports."""
+
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+    document: dict[str, Any] | None = None
+    output: Path | None = None
+    catalog: Catalog | None = None
+    result: InferenceResult | None = None
+    skipped_points: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return self.document is not None and not has_errors(self.diagnostics)
+
+    def counts(self) -> dict[str, int]:
+        """Invariants per summary group, in the thesis' order."""
+        found = dict.fromkeys(FAMILY_GROUPS, 0)
+        for invariant in (self.document or {}).get("invariants", ()):
+            group = group_of(invariant["family"])
+            found[group] = found.get(group, 0) + 1
+        return found
+
+
+def _compile(
+    lowered: ir.Project, path: str, graph_files: Sequence[Path], catalog: Catalog
+) -> tuple[ir.Project, dict[str, Any], dict[str, Any], list[Diagnostic]]:
+    graph, found = load_graph(graph_files, catalog.bags)
+    problems = [d for d in found if d.code != "bag-error"]  # the catalog reported bad bags
+    context = PassContext(path=path, graph=graph)
+    project = run_passes(lowered, context)
+    problems += context.diagnostics
+    types = {t: TopicType(m, f) for t, (m, f) in catalog.types.items()}
+    inputs = BuildInputs(project, tuple(str(b) for b in catalog.bags), types)
+    return project, render_plan(inputs), render_job(inputs), problems
+
+
+def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointInfo]:
+    infos = []
+    conditions = {d.key: d.text for d in result.discovered}
+    for key, state in result.states.items():
+        spec = state.spec
+        condition = spec.condition.id if spec.condition else conditions.get(key)
+        infos.append(
+            PointInfo(
+                key, spec.kind, spec.trigger, condition, state.samples, state.runs, spec.variables
+            )
+        )
+    return infos
+
+
+@dataclass
+class Prepared:
+    """A checked, compiled configuration and its catalogued bags, ready to translate."""
+
+    project: ir.Project
+    base: Path
+    catalog: Catalog
+    specs: list[PointSpec]
+    layouts: dict[str, TopicLayout]
+    skipped_points: list[str]
+
+
+def prepare(
+    config_path: Path, *, graph_files: Sequence[Path] = (), bags: Sequence[Path] | None = None
+) -> tuple[Prepared | None, list[Diagnostic]]:
+    """Check and compile the configuration against its bags (or ``bags``)."""
+    config, problems = load_config(config_path)
+    if config is not None:
+        problems += check_loaded(config)
+    if config is None or has_errors(problems):
+        return None, finalize(problems)
+    lowered = lower(config)
+    base = config_path.parent
+    if bags is None:
+        bags = [base / b for b in lowered.detect.bags] if lowered.detect else []
+    catalog = build_catalog(bags)
+    project, plan, job, found = _compile(lowered, config.path, graph_files, catalog)
+    problems = finalize(problems + found + catalog.diagnostics)
+    if has_errors(found):
+        return None, problems
+    specs, skipped, layouts = point_specs(plan, job, catalog)
+    return Prepared(project, base, catalog, specs, layouts, skipped), problems
+
+
+def run_detect(
+    config_path: Path,
+    *,
+    workers: int | None = None,
+    graph_files: Sequence[Path] = (),
+    bags: Sequence[Path] | None = None,
+    progress_factory: Callable[[int], Progress] | None = None,
+) -> DetectResult:
+    """Run the detect stage; the invariants document is returned, not yet written."""
+    started = time.monotonic()
+    out = DetectResult()
+    prepared, out.diagnostics = prepare(config_path, graph_files=graph_files, bags=bags)
+    if prepared is None:
+        return out
+    project, catalog, specs, layouts = (
+        prepared.project,
+        prepared.catalog,
+        prepared.specs,
+        prepared.layouts,
+    )
+    out.catalog, out.skipped_points = catalog, prepared.skipped_points
+    tunables = project.detect.tunables if project.detect else ir.Tunables()
+    progress = progress_factory(len(catalog.bags)) if progress_factory else None
+    result = infer(
+        catalog.bags,
+        specs,
+        layouts,
+        catalog.callerids,
+        tunables,
+        workers=workers or default_workers(),
+        progress=progress,
+    )
+    out.result = result
+    for bag, reason in sorted(result.failed.items()):
+        out.diagnostics.append(make(str(bag), 1, 1, "bag-error", reason))
+    for bag in result.empty:
+        message = "no message on the configured topics; the bag adds no samples"
+        out.diagnostics.append(make(str(bag), 1, 1, "bag-empty", message))
+    topics = {
+        topic: {
+            "type": layout.msgtype,
+            "variables": [
+                {"name": v.name, "path": v.path, "type": v.type, "derived": v.derived}
+                for v in layout.variables
+            ],
+        }
+        for topic, layout in layouts.items()
+    }
+    out.document = document(
+        project=project.name,
+        source=str(config_path),
+        bags=[str(b) for b in catalog.bags if b not in result.failed],
+        tunables=ir.to_json(tunables),
+        topics=topics,
+        points=_points(specs, result),
+        invariants=result.invariants(tunables),
+    )
+    inv = project.detect.inv if project.detect else f"{project.name}.inv"
+    out.output = prepared.base / inv
+    out.seconds = time.monotonic() - started
+    return out

@@ -1,0 +1,1 @@
+"""Inference: program-point samples to invariants (thesis chapter 3)."""

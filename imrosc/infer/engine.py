@@ -1,0 +1,349 @@
+"""The inference engine: bags to per-point family states, merged in bag order, finalized.
+
+Each bag is one run. A worker translates one bag and updates fresh states of every point;
+the parent merges the bags' states in sorted bag order. ``-j 1`` runs the very same per-bag
+work in-process, so the result is the same whatever the number of workers; that merging
+equals one sequential pass is each family's own guarantee (tested per family).
+
+Conditional invariants (thesis 3.6): declared conditions are points of the plan already;
+discrete variables (integers, bools, strings with 2 to ``discrete`` values over all runs)
+are found in the first pass, and a second pass over the points that have them infers one
+conditional point per value (``a?state==4``).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from imrosc.bags import BagError
+from imrosc.infer.core import FamilyState, FinalizeContext, Invariant, Samples, Variable
+from imrosc.infer.registry import make_point_states
+from imrosc.ir import Tunables
+from imrosc.translate.layout import TopicLayout
+from imrosc.translate.points import PointSpec
+from imrosc.translate.stream import BagTranslator
+
+
+@dataclass
+class DiscreteValues:
+    """The values of a point's discrete variables, up to ``limit + 1`` each (mergeable)."""
+
+    limit: int
+    values: dict[str, set[Any]] = field(default_factory=dict)
+
+    def update(self, samples: Samples) -> None:
+        for variable in samples.variables:
+            if not variable.discrete:
+                continue
+            seen = self.values.setdefault(variable.name, set())
+            if len(seen) > self.limit:
+                continue
+            column = samples.column(variable.name)
+            kept = column if column.dtype == object else column[~np.isnan(column)]
+            seen.update(np.unique(kept[: 4 * (self.limit + 1)]).tolist())
+            if len(seen) <= self.limit:
+                seen.update(np.unique(kept).tolist())
+
+    def merge(self, other: DiscreteValues) -> None:
+        for name, values in other.values.items():
+            self.values.setdefault(name, set()).update(values)
+
+    def conditions(self) -> list[tuple[str, Any]]:
+        """(variable, value) for each variable with 2 to ``limit`` values."""
+        return [
+            (name, value)
+            for name, values in sorted(self.values.items())
+            if 2 <= len(values) <= self.limit
+            for value in sorted(values, key=repr)
+        ]
+
+
+@dataclass
+class PointState:
+    """The family states of one point and its support."""
+
+    spec: PointSpec
+    states: list[FamilyState]
+    samples: int = 0
+    runs: int = 0
+    discrete: DiscreteValues | None = None
+    _in_run: bool = False
+
+    def update(self, samples: Samples) -> None:
+        self.samples += len(samples)
+        self._in_run = True
+        for state in self.states:
+            state.update(samples)
+        if self.discrete is not None:
+            self.discrete.update(samples)
+
+    def end_run(self) -> None:
+        self.runs += int(self._in_run)
+        self._in_run = False
+        for state in self.states:
+            state.end_run()
+
+    def merge(self, other: PointState) -> None:
+        self.samples += other.samples
+        self.runs += other.runs
+        for mine, theirs in zip(self.states, other.states, strict=True):
+            mine.merge(theirs)
+        if self.discrete is not None and other.discrete is not None:
+            self.discrete.merge(other.discrete)
+
+    def finalize(self, tunables: Tunables, condition: str | None) -> list[Invariant]:
+        context = FinalizeContext(
+            tunables, self.spec.variables, self.spec.key, condition, self.runs
+        )
+        found: list[Invariant] = []
+        for state in self.states:
+            found += state.finalize(context)
+        return suppress_implied(found)
+
+
+def suppress_implied(found: list[Invariant]) -> list[Invariant]:
+    """Drop what another family's invariant implies: a constant has no variance and no rate.
+
+    >>> from imrosc.infer.core import Invariant
+    >>> c = Invariant("one-of", "one-of", "a", ("x",), {"values": [0.0]}, "x == 0", 9, 0.99)
+    >>> r = Invariant("rate", "range", "a", ("x",), {"min": 0.0, "max": 0.0}, "", 9, 0.99)
+    >>> [i.family for i in suppress_implied([c, r])]
+    ['one-of']
+    """
+    constants = {
+        invariant.variables[0]
+        for invariant in found
+        if invariant.family in ("one-of", "string-one-of")
+        and len(invariant.params.get("values", ())) == 1
+    }
+    kept: list[Invariant] = []
+    languages: set[str] = set()
+    for invariant in found:
+        if invariant.family in ("variance", "rate") and set(invariant.variables) <= constants:
+            continue
+        if invariant.family == "pattern":  # one language, however its placeholders were bound
+            machine = repr((invariant.params.get("transitions"), invariant.params.get("accepting")))
+            if machine in languages:
+                continue
+            languages.add(machine)
+        kept.append(invariant)
+    return kept
+
+
+def new_states(
+    specs: Sequence[PointSpec], tunables: Tunables, *, discover: bool
+) -> dict[str, PointState]:
+    """Fresh states for every spec."""
+    states = {}
+    for spec in specs:
+        tracker = None
+        if (
+            discover
+            and tunables.discrete > 0
+            and spec.condition is None
+            and spec.kind in ("publish", "call")
+        ):
+            tracker = DiscreteValues(tunables.discrete)
+        states[spec.key] = PointState(spec, make_point_states(spec, tunables), discrete=tracker)
+    return states
+
+
+@dataclass(frozen=True)
+class Discovered:
+    """A condition found in the first pass: ``variable == value`` at ``point``."""
+
+    point: str
+    variable: str
+    value: Any
+
+    @property
+    def text(self) -> str:
+        """The condition as an expression: ``subject_ctrl_state.data==4``."""
+        shown = f"'{self.value}'" if isinstance(self.value, str) else _number_text(self.value)
+        return f"{self.variable}=={shown}"
+
+    @property
+    def key(self) -> str:
+        return f"{self.point}?{self.text}"
+
+
+def _number_text(value: Any) -> str:
+    number = float(value)
+    return str(int(number)) if number.is_integer() else repr(number)
+
+
+@dataclass(frozen=True)
+class BagJob:
+    """What a worker needs to translate and infer one bag."""
+
+    bag: Path
+    run: int
+    specs: tuple[PointSpec, ...]
+    layouts: Mapping[str, TopicLayout]
+    callerids: Mapping[str, frozenset[str]]
+    tunables: Tunables
+    discovered: tuple[Discovered, ...] = ()
+    discover: bool = True
+
+
+@dataclass
+class BagResult:
+    """A worker's answer: the states of every point for one bag, or why the bag failed."""
+
+    bag: Path
+    states: dict[str, PointState] = field(default_factory=dict)
+    messages: int = 0
+    error: str | None = None
+    skipped: dict[str, int] = field(default_factory=dict)
+
+
+def run_bag(job: BagJob) -> BagResult:
+    """Translate one bag and update fresh states (the work of one worker)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    second_pass = bool(job.discovered)
+    states = {} if second_pass else new_states(job.specs, job.tunables, discover=job.discover)
+    split = _conditional_states(job)
+    callerids = {k: set(v) for k, v in job.callerids.items()}
+    translator = BagTranslator(job.specs, job.layouts, callerids)
+    try:
+        for samples in translator.translate(job.bag, job.run):
+            if not second_pass:
+                states[samples.point].update(samples)
+            for discovered, state in split.get(samples.point, ()):
+                column = samples.column(discovered.variable)
+                state.update(samples.select(column == discovered.value))
+    except BagError as error:
+        return BagResult(job.bag, error=error.message)
+    for state in states.values():
+        state.end_run()
+    for pairs in split.values():
+        for discovered, state in pairs:
+            state.end_run()
+            states[discovered.key] = state
+    return BagResult(job.bag, states, translator.messages, skipped=translator.skipped)
+
+
+def _conditional_states(job: BagJob) -> dict[str, list[tuple[Discovered, PointState]]]:
+    by_key = {spec.key: spec for spec in job.specs}
+    split: dict[str, list[tuple[Discovered, PointState]]] = {}
+    for discovered in job.discovered:
+        spec = replace(by_key[discovered.point], key=discovered.key)
+        state = PointState(spec, make_point_states(spec, job.tunables))
+        split.setdefault(discovered.point, []).append((discovered, state))
+    return split
+
+
+@dataclass
+class InferenceResult:
+    """Merged states of all bags, and what went wrong on the way."""
+
+    states: dict[str, PointState]
+    bags: list[Path]
+    failed: dict[Path, str]
+    messages: int
+    discovered: tuple[Discovered, ...] = ()
+    empty: tuple[Path, ...] = ()
+
+    def invariants(self, tunables: Tunables) -> list[Invariant]:
+        conditions = {d.key: d.text for d in self.discovered}
+        found: list[Invariant] = []
+        for key, state in self.states.items():
+            condition = state.spec.condition.id if state.spec.condition else conditions.get(key)
+            found += state.finalize(tunables, condition)
+        return found
+
+
+Progress = Callable[[Path, int], None]
+
+
+def _map(jobs: Sequence[BagJob], workers: int, progress: Progress | None) -> list[BagResult]:
+    results: list[BagResult] = []
+    if workers <= 1 or len(jobs) <= 1:
+        for job in jobs:
+            results.append(run_bag(job))
+            if progress:
+                progress(job.bag, results[-1].messages)
+        return results
+    context = multiprocessing.get_context("fork")
+    with context.Pool(min(workers, len(jobs))) as pool:
+        for result in pool.imap(run_bag, jobs):
+            results.append(result)
+            if progress:
+                progress(result.bag, result.messages)
+    return results
+
+
+def _merge(
+    results: Iterable[BagResult], specs: Sequence[PointSpec], tunables: Tunables
+) -> tuple[dict[str, PointState], dict[Path, str], int, tuple[Path, ...]]:
+    merged: dict[str, PointState] | None = None
+    failed: dict[Path, str] = {}
+    empty: list[Path] = []
+    messages = 0
+    for result in results:
+        if result.error is not None:
+            failed[result.bag] = result.error
+            continue
+        if not result.messages:
+            empty.append(result.bag)
+        messages += result.messages
+        if merged is None:
+            merged = result.states
+            continue
+        for key, state in result.states.items():
+            merged[key].merge(state)
+    if merged is None:
+        merged = new_states(specs, tunables, discover=False)
+    return merged, failed, messages, tuple(empty)
+
+
+def infer(
+    bags: Sequence[Path],
+    specs: Sequence[PointSpec],
+    layouts: Mapping[str, TopicLayout],
+    callerids: Mapping[str, set[str]],
+    tunables: Tunables,
+    *,
+    workers: int = 1,
+    progress: Progress | None = None,
+) -> InferenceResult:
+    """Infer over ``bags`` (sorted; one run each) with ``workers`` processes."""
+    ordered = sorted(bags)
+    frozen = {topic: frozenset(names) for topic, names in callerids.items()}
+    jobs = [BagJob(b, i, tuple(specs), layouts, frozen, tunables) for i, b in enumerate(ordered)]
+    first, failed, messages, empty = _merge(_map(jobs, workers, progress), specs, tunables)
+    discovered = tuple(
+        Discovered(key, variable, value)
+        for key, state in first.items()
+        if state.discrete is not None
+        for variable, value in state.discrete.conditions()
+    )
+    if not discovered:
+        return InferenceResult(first, ordered, failed, messages, empty=empty)
+    points = {d.point for d in discovered}
+    second_specs = tuple(s for s in specs if s.key in points)
+    good = [b for b in ordered if b not in failed]
+    second = [
+        BagJob(b, ordered.index(b), second_specs, layouts, frozen, tunables, discovered, False)
+        for b in good
+    ]
+    extra, _, _, _ = _merge(_map(second, workers, None), second_specs, tunables)
+    first.update(extra)
+    return InferenceResult(first, ordered, failed, messages, discovered, empty)
+
+
+def default_workers() -> int:
+    """The core count (at least 1)."""
+    return max(1, os.cpu_count() or 1)
+
+
+def variables_of(states: Mapping[str, PointState]) -> dict[str, tuple[Variable, ...]]:
+    """Each point's variables."""
+    return {key: state.spec.variables for key, state in states.items()}

@@ -1,0 +1,304 @@
+"""Conservative shapes inside each pair's current hull, used to discard samples cheaply.
+
+For a pair whose hull ``H`` has at least three vertices, the guide keeps (recomputed only
+when ``H`` changes):
+
+* axis-aligned boxes certified strictly inside ``H`` (every corner passes Shewchuk's float
+  orientation test against every edge): the largest *square-ish* box, and *wide* boxes
+  (a fixed fraction of ``H``'s height, as wide as ``H`` allows) and *tall* boxes (the
+  transpose); a wide and a tall box together form a cross;
+* a center ``c`` strictly inside ``H`` and ``H``'s bounding-box spans ``(sx, sy)``, which
+  define normalised coordinates ``u = (x - cx) / sx``, ``v = (y - cy) / sy``;
+* a polar table: the plane around ``c`` cut into ``BUCKETS`` sectors (equal steps of the
+  "diamond angle", a cheap monotone stand-in for the angle); per sector the chord joining
+  the points of ``H``'s boundary on the sector's two bounding rays, each pulled towards ``c`` by ``1e-7`` of its radius (far more than any rounding of
+  the lookup), so the triangle it closes with ``c`` lies strictly inside ``H``.
+
+A sample inside a box, or on the inner side of its sector's chord, is strictly inside
+``H``, hence no vertex of any later hull. Pairs without a guide keep every sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from imrosc.infer.core import FloatArray
+from imrosc.infer.polygon.hull import GroupSet, IntArray
+from imrosc.infer.polygon.predicates import surely_left
+
+BoolArray = npt.NDArray[np.bool_]
+
+BUCKETS = 256
+FRACTIONS = (0.3, 0.55, 0.8)
+"""Heights of the wide boxes (widths of the tall ones) as fractions of the hull's span."""
+
+_SHRINK = 1e-7
+_UNIT8 = 8 * 2.0**-53
+
+
+def _empty_boxes(*shape: int) -> FloatArray:
+    box = np.empty((*shape[:-1], 4, shape[-1]))
+    box[..., 0::2, :] = np.inf
+    box[..., 1::2, :] = -np.inf
+    return box
+
+
+def _padded(hull: GroupSet, pairs: IntArray) -> tuple[FloatArray, FloatArray, IntArray]:
+    """The hull vertices of ``pairs`` as ``(pairs, width)`` arrays (NaN padded), counts."""
+    top = max(int(hull.group.max()) + 1 if len(hull) else 0, int(pairs.max()) + 1)
+    slot = np.full(top, -1, np.int64)
+    slot[pairs] = np.arange(len(pairs))
+    mine = np.flatnonzero(slot[hull.group] >= 0)
+    rows = slot[hull.group[mine]]
+    count = np.bincount(rows, minlength=len(pairs)).astype(np.int64)
+    width = max(int(count.max()) if len(count) else 0, 1)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]])
+    col = np.arange(len(mine)) - np.repeat(first, count)
+    vx = np.full((len(pairs), width), np.nan)
+    vy = np.full((len(pairs), width), np.nan)
+    vx[rows, col] = hull.x[mine]
+    vy[rows, col] = hull.y[mine]
+    return vx, vy, count
+
+
+class _Polygons:
+    """Padded convex polygons (counter-clockwise) with their edges."""
+
+    def __init__(self, vx: FloatArray, vy: FloatArray, count: IntArray) -> None:
+        self.vx, self.vy, self.count = vx, vy, count
+        col = np.arange(vx.shape[1])[None, :]
+        self.real = col < count[:, None]
+        nxt = np.where(col + 1 < count[:, None], col + 1, 0)
+        self.wx = np.take_along_axis(vx, nxt, axis=1)
+        self.wy = np.take_along_axis(vy, nxt, axis=1)
+
+    def strictly_inside(self, x: FloatArray, y: FloatArray) -> BoolArray:
+        """Whether each pair's point ``(x, y)`` is certainly strictly inside its polygon."""
+        left = surely_left(self.vx, self.vy, self.wx, self.wy, x[:, None], y[:, None])
+        inside: BoolArray = (left | ~self.real).all(axis=1)
+        return inside
+
+    def certified(self, box: FloatArray, ok: BoolArray) -> FloatArray:
+        """``box`` where its four corners are certainly strictly inside, else empty."""
+        good = ok & np.isfinite(box).all(axis=0) & (box[0] <= box[1]) & (box[2] <= box[3])
+        for bx, by in ((box[0], box[2]), (box[0], box[3]), (box[1], box[2]), (box[1], box[3])):
+            good &= self.strictly_inside(bx, by)
+        out = box.copy()
+        out[0::2, ~good] = np.inf
+        out[1::2, ~good] = -np.inf
+        return out
+
+    def span(self, low: FloatArray, high: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """A ``[left, right]`` with ``[left, right] x [low, high]`` strictly inside.
+
+        Each edge bounds ``x`` at both heights; the bound is moved inwards by eight units
+        of rounding of its terms, which exceeds the error of computing it (the rounded
+        edge direction included), so no corner needs a separate certificate.
+        """
+        dx = self.wx - self.vx
+        dy = self.wy - self.vy
+        left = np.full(len(low), -np.inf)
+        right = np.full(len(low), np.inf)
+        for y in (low, high):
+            shift = dx * (y[:, None] - self.vy) / dy
+            at = self.vx + shift
+            slack = _UNIT8 * (np.abs(shift) + np.abs(at) + np.abs(self.vx))
+            up = self.real & (dy > 0) & np.isfinite(at)
+            down = self.real & (dy < 0) & np.isfinite(at)
+            right = np.minimum(right, np.where(up, at - slack, np.inf).min(axis=1))
+            left = np.maximum(left, np.where(down, at + slack, -np.inf).max(axis=1))
+            flat = self.real & (dy == 0)
+            blocked = flat & (dx * (y[:, None] - self.vy) <= 0)
+            left = np.where(blocked.any(axis=1) | ~np.isfinite(y), np.inf, left)
+        return left, right
+
+
+class Guide:
+    """Per-pair filters derived from the current hulls (a cache: not part of the state)."""
+
+    def __init__(self, npairs: int) -> None:
+        self.ok = np.zeros(npairs, bool)
+        self.stamp = np.zeros(npairs, np.int64)
+        self.version = 0
+        self.square = _empty_boxes(npairs)
+        self.wide = _empty_boxes(len(FRACTIONS), npairs)
+        self.tall = _empty_boxes(len(FRACTIONS), npairs)
+        self.cx = np.zeros(npairs)
+        self.cy = np.zeros(npairs)
+        self.sx = np.ones(npairs)
+        self.sy = np.ones(npairs)
+        self.table = np.zeros((npairs, BUCKETS, 3))
+        self.table[:, :, 2] = -np.inf
+
+    def refresh(self, hull: GroupSet, pairs: IntArray) -> None:
+        """Recompute the guide of ``pairs`` from their current hull vertices."""
+        if not len(pairs):
+            return
+        self.version += 1
+        self.stamp[pairs] = self.version
+        vx, vy, count = _padded(hull, pairs)
+        poly = _Polygons(vx, vy, count)
+        with np.errstate(all="ignore"):
+            lo_x, hi_x = np.nanmin(vx, axis=1), np.nanmax(vx, axis=1)
+            lo_y, hi_y = np.nanmin(vy, axis=1), np.nanmax(vy, axis=1)
+            sx, sy = hi_x - lo_x, hi_y - lo_y
+            ok = (count >= 3) & (sx > 0) & (sy > 0) & np.isfinite(sx * sy)
+            cx = np.where(ok, np.nanmean(vx, axis=1), 0.0)
+            cy = np.where(ok, np.nanmean(vy, axis=1), 0.0)
+            ok &= poly.strictly_inside(cx, cy)
+            self.square[:, pairs] = self._square(poly, ok, lo_x, hi_x, lo_y, hi_y)
+            mid_x, mid_y = (lo_x + hi_x) / 2, (lo_y + hi_y) / 2
+            # the transposed polygon (x and y swapped, order reversed to stay CCW)
+            flipped = _Polygons(
+                _roll_real(vy[:, ::-1], count), _roll_real(vx[:, ::-1], count), count
+            )
+            for k, fraction in enumerate(FRACTIONS):
+                low, high = mid_y - fraction * sy / 2, mid_y + fraction * sy / 2
+                left, right = poly.span(low, high)
+                self.wide[k][:, pairs] = _valid(np.stack([left, right, low, high]), ok)
+                low, high = mid_x - fraction * sx / 2, mid_x + fraction * sx / 2
+                bottom, top = flipped.span(low, high)
+                self.tall[k][:, pairs] = _valid(np.stack([low, high, bottom, top]), ok)
+            table = self._table(poly, ok, cx, cy, sx, sy)
+        self.ok[pairs] = ok
+        self.cx[pairs] = cx
+        self.cy[pairs] = cy
+        self.sx[pairs] = np.where(ok, sx, 1.0)
+        self.sy[pairs] = np.where(ok, sy, 1.0)
+        self.table[pairs] = table
+
+    @staticmethod
+    def _square(
+        poly: _Polygons,
+        ok: BoolArray,
+        lo_x: FloatArray,
+        hi_x: FloatArray,
+        lo_y: FloatArray,
+        hi_y: FloatArray,
+    ) -> FloatArray:
+        """The larger certified box of the hull's shape about two centres, ``(4, pairs)``."""
+        vx, vy, wx, wy = poly.vx, poly.vy, poly.wx, poly.wy
+        dx = wx - vx
+        dy = wy - vy
+        hx = (hi_x - lo_x) / 2
+        hy = (hi_y - lo_y) / 2
+        room = np.abs(dx) * hy[:, None] + np.abs(dy) * hx[:, None]
+        centres = (((lo_x + hi_x) / 2, (lo_y + hi_y) / 2), (np.nanmean(vx, 1), np.nanmean(vy, 1)))
+        best = _empty_boxes(vx.shape[0])
+        best_area = np.zeros(vx.shape[0])
+        for cx, cy in centres:
+            reach = dx * (cy[:, None] - vy) - dy * (cx[:, None] - vx)
+            scale = np.where(poly.real, reach / room, np.inf).min(axis=1)
+            good = ok & np.isfinite(scale) & (scale > 0)
+            scale = np.where(good, scale * (1 - 1e-6), 0.0)
+            box = np.stack([cx - scale * hx, cx + scale * hx, cy - scale * hy, cy + scale * hy])
+            box = poly.certified(box, good)
+            area = np.where(box[0] <= box[1], (box[1] - box[0]) * (box[3] - box[2]), 0.0)
+            better = area > best_area
+            best[:, better] = box[:, better]
+            best_area = np.where(better, area, best_area)
+        return best
+
+    @staticmethod
+    def _table(
+        poly: _Polygons, ok: BoolArray, cx: FloatArray, cy: FloatArray, sx: FloatArray, sy: FloatArray
+    ) -> FloatArray:
+        m, width = poly.vx.shape
+        tables = np.zeros((m, BUCKETS, 3))
+        tables[:, :, 2] = -np.inf
+        rows = np.flatnonzero(ok)
+        if not len(rows):
+            return tables
+        k = len(rows)
+        cnt = poly.count[rows]
+        real = poly.real[rows]
+        au = (poly.vx[rows] - cx[rows, None]) / sx[rows, None]
+        av = (poly.vy[rows] - cy[rows, None]) / sy[rows, None]
+        angle = np.where(real, diamond(au, av), np.inf)
+        order = np.argsort(angle, axis=1)
+        angle = np.take_along_axis(angle, order, axis=1)
+        au = np.take_along_axis(au, order, axis=1)
+        av = np.take_along_axis(av, order, axis=1)
+        col = np.arange(width)[None, :]
+        nxt = np.where(col + 1 < cnt[:, None], col + 1, 0)
+        # outward normal of each edge (not normalised) and its offset from c
+        nu = np.take_along_axis(av, nxt, axis=1) - av
+        nv = au - np.take_along_axis(au, nxt, axis=1)
+        offset = au * nu + av * nv
+        # the edge each sector bound crosses: bound j belongs to the last vertex at or
+        # before it (wrapping round to the last vertex)
+        first_bound = np.clip(np.ceil(angle * (BUCKETS / 4)), 0, BUCKETS).astype(np.int64)
+        marks = np.zeros((k, BUCKETS + 1), np.int64)
+        rr, cc = np.nonzero(real)
+        np.add.at(marks, (rr, first_bound[rr, cc]), 1)
+        edge = np.cumsum(marks[:, :BUCKETS], axis=1) - 1
+        edge = np.where(edge < 0, (cnt - 1)[:, None], edge)
+        flat = (np.arange(k) * width)[:, None] + edge
+        ray_u, ray_v = _RAYS
+        e_nu = nu.ravel()[flat]
+        e_nv = nv.ravel()[flat]
+        across = e_nu * ray_u + e_nv * ray_v
+        reach = np.where(across > 0, offset.ravel()[flat] / across, 0.0) * (1 - _SHRINK)
+        # chords between consecutive bounds (pulled inwards by the shrink)
+        px = reach * ray_u
+        py = reach * ray_v
+        qx = np.roll(px, -1, axis=1)
+        qy = np.roll(py, -1, axis=1)
+        tx = qy - py
+        ty = px - qx
+        level = tx * px + ty * py
+        usable = (reach > 0) & (np.roll(reach, -1, axis=1) > 0) & np.isfinite(level)
+        tables[rows, :, 0] = np.where(usable, tx, 0.0)
+        tables[rows, :, 1] = np.where(usable, ty, 0.0)
+        tables[rows, :, 2] = np.where(usable, level, -np.inf)
+        return tables
+
+    def inside(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
+        """Where the sample ``(x, y)`` of ``pair`` is certainly strictly inside its hull."""
+        with np.errstate(all="ignore"):
+            u = (x - self.cx[pair]) / self.sx[pair]
+            v = (y - self.cy[pair]) / self.sy[pair]
+            bucket = (diamond(u, v) * (BUCKETS / 4)).astype(np.int64)
+            np.clip(bucket, 0, BUCKETS - 1, out=bucket)
+            cell = self.table.reshape(-1, 3)[pair * BUCKETS + bucket]
+            result: BoolArray = cell[:, 0] * u + cell[:, 1] * v < cell[:, 2]
+        return result
+
+
+def diamond(u: FloatArray, v: FloatArray) -> FloatArray:
+    """The "diamond angle" of ``(u, v)`` in ``[0, 4)``: monotone in the angle, no trig."""
+    with np.errstate(all="ignore"):
+        p = v / (np.abs(u) + np.abs(v))
+        out: FloatArray = np.where(u >= 0, np.where(p >= 0, p, 4 + p), 2 - p)
+    return out
+
+
+def _rays() -> tuple[FloatArray, FloatArray]:
+    """Directions of the sector bounds: the "diamond angle" ``4 * j / BUCKETS``."""
+    d = 4.0 * np.arange(BUCKETS) / BUCKETS
+    quarter = np.floor(d)
+    f = d - quarter
+    u = np.select([quarter == 0, quarter == 1, quarter == 2], [1 - f, -f, f - 1], f)
+    v = np.select([quarter == 0, quarter == 1, quarter == 2], [f, 1 - f, -f], f - 1)
+    return u, v
+
+
+_RAYS = _rays()
+
+
+def _valid(box: FloatArray, ok: BoolArray) -> FloatArray:
+    """``box`` where it is a proper box of a guided pair, else empty."""
+    good = ok & np.isfinite(box).all(axis=0) & (box[0] <= box[1]) & (box[2] <= box[3])
+    out = box.copy()
+    out[0::2, ~good] = np.inf
+    out[1::2, ~good] = -np.inf
+    return out
+
+
+def _roll_real(values: FloatArray, count: IntArray) -> FloatArray:
+    """Shift each row's first ``count`` entries so that the reversed padding comes last."""
+    width = values.shape[1]
+    col = np.arange(width)[None, :]
+    source = (col + (width - count)[:, None]) % width
+    return np.take_along_axis(values, source, axis=1)

@@ -1,0 +1,266 @@
+"""The polygon family (thesis 3.4.2, Algorithms 5, 6 and 10): a convex hull per variable pair.
+
+State per pair: the strict vertices of the convex hull of every sample seen so far (exact
+predicates; collinear points on edges are not vertices), each with the position of its
+first occurrence among the pair's samples, and the number of samples. Samples where either
+variable is NaN or infinite are skipped. Because the vertex set is a function of the point
+set, folding chunks, re-chunking and merging states of runs processed apart all give the
+same vertices bit for bit; the first occurrences are bookkept the same way, so the samples
+since the hull last changed are exact too (the hull last changed at the first occurrence
+of its latest final vertex).
+
+Finalize (Algorithm 10 plus the confidence rule of section 3.5): a pair yields a polygon
+when its hull has at least 3 vertices and a non-negligible area (``area / box_area >
+1e-9``; thinner hulls are lines, which the linear family covers), when ``area / box_area``
+does not exceed ``drop_ratio`` (independent variables fill their bounding box, and the
+bounds family already says as much), and when ``1 - 2**-n`` exceeds the confidence limit,
+``n`` being the samples since the hull last changed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from typing import Any
+
+import numpy as np
+
+from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
+from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, seeds
+from imrosc.infer.polygon.guide import Guide
+from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
+from imrosc.ir import Tunables
+
+_REFRESH_AT = 16
+_EXTREMES = 32
+_STRIDE = 8
+
+THIN_RATIO = 1e-9
+"""Hulls whose area is at most this fraction of their bounding box are lines, not polygons."""
+
+_UNIT = 2.0**-53
+
+
+def polygon_variables(variables: Sequence[Variable]) -> tuple[Variable, ...]:
+    """Numeric, non-derived variables, the trigger topic's and the input topics' alike.
+
+    Time-typed variables (stamps) are left out: their hull spans the recording's clock.
+    """
+    return tuple(v for v in variables if v.numeric and v.derived is None and v.type != "time")
+
+
+def _short(value: float) -> str:
+    """Three significant digits, but never fewer than the integer digits."""
+    if value == 0:
+        return "0"
+    if math.isfinite(value) and 1e3 <= abs(value) < 1e15:
+        return str(round(value))
+    return f"{value:.3g}"
+
+
+def _term(coefficient: float, name: str, first: bool) -> str:
+    magnitude = abs(coefficient)
+    body = name if magnitude == 1 else f"{_short(magnitude)}*{name}"
+    if first:
+        return body if coefficient > 0 else f"-{body}"
+    return f" + {body}" if coefficient > 0 else f" - {body}"
+
+
+def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``(A, b)`` with ``A @ p <= b`` for every point of the hull of counter-clockwise
+    ``vertices``, one row per edge, each row scaled so its larger coefficient is +-1.
+
+    ``b`` includes a margin of ``2**-50 * (|a| max|x| + |b| max|y|)``, more than the
+    rounding of ``a * x + b * y`` for any point of the hull, so every sample passes the
+    float64 check with no further tolerance.
+    """
+    nxt = np.roll(vertices, -1, axis=0)
+    a = nxt[:, 1] - vertices[:, 1]
+    b = vertices[:, 0] - nxt[:, 0]
+    scale = np.maximum(np.abs(a), np.abs(b))
+    a = a / scale
+    b = b / scale
+    reach = a[:, None] * vertices[None, :, 0] + b[:, None] * vertices[None, :, 1]
+    top = reach.max(axis=1)
+    magnitude = np.abs(a) * np.abs(vertices[:, 0]).max() + np.abs(b) * np.abs(vertices[:, 1]).max()
+    return np.stack([a, b], axis=1), top + 8 * _UNIT * magnitude
+
+
+def polygon_text(x: str, y: str, A: FloatArray, b: FloatArray) -> str:
+    """The thesis' form: ``x + 0.0554*y >= -1.89 ∩ ...`` (coefficients to 3 digits)."""
+    parts: list[str] = []
+    for (ca, cb), c in zip(A.tolist(), b.tolist(), strict=True):
+        unit = ca if abs(ca) >= abs(cb) else cb
+        flip = unit < 0
+        sa, sb, sc = (-ca, -cb, -c) if flip else (ca, cb, c)
+        terms = ""
+        if sa != 0:
+            terms += _term(sa, x, True)
+        if sb != 0:
+            terms += _term(sb, y, not terms)
+        parts.append(f"{terms} {'>=' if flip else '<='} {_short(sc)}")
+    return " ∩ ".join(parts)
+
+
+def _changed(before: GroupSet, after: GroupSet, groups: IntArray) -> IntArray:
+    """Which of ``groups`` have other vertices in ``after`` than in ``before``."""
+    if not len(groups):
+        return groups
+    size = int(groups.max()) + 1
+    differ = np.bincount(before.group, minlength=size) != np.bincount(after.group, minlength=size)
+    # groups of equal size line up row for row (both sets are sorted by group)
+    rb = np.flatnonzero(~differ[before.group])
+    ra = np.flatnonzero(~differ[after.group])
+    mismatch = (
+        (before.x[rb] != after.x[ra])
+        | (before.y[rb] != after.y[ra])
+        | (before.at[rb] != after.at[ra])
+    )
+    differ[after.group[ra][mismatch]] = True
+    return groups[differ[groups]]
+
+
+def _area(vertices: FloatArray) -> float:
+    x, y = vertices[:, 0], vertices[:, 1]
+    return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+class PolygonState:
+    """Convex hulls of every pair of a point's numeric variables."""
+
+    family = "polygon"
+
+    def __init__(self, variables: Sequence[Variable]) -> None:
+        self.variables = tuple(variables)
+        self.names = tuple(v.name for v in self.variables)
+        self.discrete = tuple(v.type in ("int", "uint", "bool") for v in self.variables)
+        first, second = np.triu_indices(len(self.names), 1)
+        self.pi: IntArray = first.astype(np.int64)
+        self.pj: IntArray = second.astype(np.int64)
+        self.count: IntArray = np.zeros(len(self.pi), np.int64)
+        self.hull = GroupSet.empty()
+        self.guide = Guide(len(self.pi))
+        self.stale = np.zeros(len(self.pi), np.int64)
+
+    def _matrix(self, samples: Samples) -> FloatArray:
+        values = np.empty((len(self.names), len(samples)))
+        for k, name in enumerate(self.names):
+            values[k] = samples.column(name)
+        values[~np.isfinite(values)] = np.nan
+        return values
+
+    def _absorb(self, extra: GroupSet, added: IntArray) -> None:
+        """Fold ``extra`` (``at`` relative to the old counts) into the hulls."""
+        if len(extra):
+            extra.at = extra.at + self.count[extra.group]
+            touched = np.zeros(len(self.pi), bool)
+            touched[extra.group] = True
+            mine = touched[self.hull.group]
+            before = self.hull.take(np.flatnonzero(mine))
+            kept = self.hull.take(np.flatnonzero(~mine))
+            fresh = hulls(GroupSet.concat([before, extra]))
+            self.hull = GroupSet.concat([kept, fresh])
+            changed = _changed(before, fresh, np.flatnonzero(touched))
+            # a guide from an older hull stays valid (it lies inside the new one): refresh
+            # it only where it lets many samples through or has gone stale
+            self.stale[changed] += 1
+            many = np.bincount(extra.group, minlength=len(self.pi)) > _REFRESH_AT
+            redo = changed[many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= 4)]
+            self.guide.refresh(self.hull, redo)
+            self.stale[redo] = 0
+        self.count += added
+
+    def update(self, samples: Samples) -> None:
+        """Fold a chunk: prefilter, then the exact hull of the survivors and the vertices.
+
+        Pairs whose guide fits the chunk badly (no hull yet, or a variable drifting into
+        new ground) first absorb likely vertices (the rows of each variable's extreme
+        values and a sample), then, at the start, every 8th row: that hull, inside the
+        final one, refines their guide before the whole chunk is filtered.
+        """
+        if len(samples) == 0 or not len(self.pi):
+            return
+        chunk = Chunk(self._matrix(samples), self.discrete)
+        nothing = np.zeros(len(self.pi), np.int64)
+        todo = expanding(chunk, self.pi, self.pj, self.guide)
+        if todo.any():
+            found = seeds(chunk, self.pi, self.pj, self.guide, todo, _EXTREMES)
+            found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
+            self._absorb(found, nothing)
+            todo &= expanding(chunk, self.pi, self.pj, self.guide)
+        if todo.any() and chunk.rows >= 32 * _STRIDE:
+            part = chunk.every(_STRIDE)
+            found = candidates(part, self.pi, self.pj, self.guide, cross=False, only=todo)
+            found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at * _STRIDE)
+            self._absorb(found, nothing)
+        found = candidates(chunk, self.pi, self.pj, self.guide)
+        found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
+        self._absorb(found, chunk.valid_counts(self.pi, self.pj))
+
+    def end_run(self) -> None:
+        """Hulls do not depend on runs."""
+
+    def merge(self, other: Any) -> None:
+        """Absorb a state whose runs all come after ours."""
+        if not isinstance(other, PolygonState) or other.names != self.names:
+            raise TypeError("can only merge polygon states of the same variables")
+        extra = GroupSet(other.hull.group, other.hull.x, other.hull.y, other.hull.at.copy())
+        self._absorb(extra, other.count)
+
+    def finalize(self, context: FinalizeContext) -> list[Invariant]:
+        """The polygons that pass Algorithm 10 and the confidence rule."""
+        found: list[Invariant] = []
+        groups, starts, ends = self.hull.bounds()
+        for group, lo, hi in zip(groups.tolist(), starts.tolist(), ends.tolist(), strict=True):
+            if hi - lo < 3:
+                continue
+            vertices = np.stack([self.hull.x[lo:hi], self.hull.y[lo:hi]], axis=1)
+            area = _area(vertices)
+            span = vertices.max(axis=0) - vertices.min(axis=0)
+            box_area = float(span[0] * span[1])
+            if not (area > 0 and box_area > 0 and math.isfinite(area / box_area)):
+                continue
+            ratio = area / box_area
+            if ratio <= THIN_RATIO or ratio > context.tunables.drop_ratio:
+                continue
+            n = int(self.count[group] - self.hull.at[lo:hi].max())
+            if not context.justified(n):
+                continue
+            x = self.names[int(self.pi[group])]
+            y = self.names[int(self.pj[group])]
+            A, b = half_planes(vertices)
+            found.append(
+                Invariant(
+                    family=self.family,
+                    kind="hull",
+                    point=context.point,
+                    variables=(x, y),
+                    params={
+                        "x": x,
+                        "y": y,
+                        "vertices": vertices.tolist(),
+                        "A": A.tolist(),
+                        "b": b.tolist(),
+                        "area": area,
+                        "box_area": box_area,
+                        "ratio": ratio,
+                    },
+                    text=polygon_text(x, y, A, b),
+                    samples=int(self.count[group]),
+                    confidence=confidence(n),
+                    condition=context.condition,
+                    runs=context.runs,
+                )
+            )
+        return found
+
+
+def make_states(
+    variables: Sequence[Variable], tunables: Tunables, families: Collection[str]
+) -> list[PolygonState]:
+    """The polygon state of one point, if enabled and the point has two numeric variables."""
+    del tunables  # the chunk size of Algorithm 6 does not change the (exact) result
+    chosen = polygon_variables(variables)
+    if "polygon" not in set(families) or len(chosen) < 2:
+        return []
+    return [PolygonState(chosen)]

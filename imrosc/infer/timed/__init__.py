@@ -1,0 +1,34 @@
+"""Time-related invariants (thesis 3.4.1): message frequency, windowed variance, change rate.
+
+``make_states(variables, tunables, families)`` builds the enabled states of one program
+point; :mod:`imrosc.infer.timed.windows` defines exactly what a window is and how a
+window's variance is computed (the live monitor must compute the same).
+"""
+
+from __future__ import annotations
+
+from imrosc.infer.timed.families import (
+    FrequencyState,
+    RateState,
+    VarianceState,
+    make_states,
+)
+from imrosc.infer.timed.windows import (
+    TIME_EPSILON,
+    effective_width,
+    window_starts,
+    window_variance,
+    windowed_variances,
+)
+
+__all__ = [
+    "TIME_EPSILON",
+    "FrequencyState",
+    "RateState",
+    "VarianceState",
+    "effective_width",
+    "make_states",
+    "window_starts",
+    "window_variance",
+    "windowed_variances",
+]

@@ -1,0 +1,191 @@
+"""The time-related template families (thesis 3.4.1, Algorithms 2-4, errata fixed).
+
+* ``frequency``: messages per second of the point's trigger topic, ``|window| / window``;
+* ``variance``: the fixed-algorithm sample variance of each numeric, non-derived trigger
+  variable over the window (see :mod:`imrosc.infer.timed.windows`);
+* ``rate``: ``(v_last - v_first) / (t_last - t_first)`` over the window, for the same
+  variables (Algorithm 4 with ``rate_min`` tracking the minimum and ``-inf`` as the
+  initial maximum).
+
+Each keeps, per variable, the minimum and maximum over all defined windows with the
+position of their first occurrence (:class:`~imrosc.infer.timed.windows.Extremes`), so
+merging states of runs processed apart is exact. A window value that is not finite (a NaN
+or infinite sample in the window, or two messages with the same time for ``rate``) is
+skipped. Each family reports ``lower <= f(x) <= upper`` with params
+``{"min": lower, "max": upper, "window": seconds}`` when ``1 - 2**-n`` exceeds the
+confidence limit, ``n`` being the defined windows since either bound last changed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from typing import Any
+
+import numpy as np
+
+from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
+from imrosc.infer.timed.windows import Extremes, WindowTracker, windowed_variances
+from imrosc.ir import Tunables
+
+
+def format_bound(value: float) -> str:
+    """A bound as text: six significant digits, integers without a fraction."""
+    if math.isfinite(value) and value == int(value) and abs(value) < 1e15:
+        return str(int(value))
+    return f"{value:.6g}"
+
+
+def tracked(variables: Sequence[Variable]) -> tuple[Variable, ...]:
+    """The variables variance and rate follow: numeric, not derived, on the trigger topic."""
+    return tuple(v for v in variables if v.numeric and v.derived is None and v.trigger)
+
+
+def trigger_topic(variables: Sequence[Variable]) -> str:
+    """The point's own topic, as its trigger variables name it ("" if none does)."""
+    for variable in variables:
+        if variable.trigger and variable.topic:
+            return variable.topic
+    return ""
+
+
+class _Timed:
+    """Shared machinery: the window carried across chunks, the extremes, finalize."""
+
+    family = ""
+    label = ""
+
+    def __init__(self, names: Sequence[str], window: float) -> None:
+        self.names = tuple(names)
+        self.window = float(window)
+        self.tracker = WindowTracker(self.window, len(self.names))
+        self.extremes = Extremes(max(len(self.names), 1))
+
+    def end_run(self) -> None:
+        """Windows never span runs."""
+        self.tracker.reset()
+
+    def merge(self, other: Any) -> None:
+        """Absorb a state whose runs all come after ours."""
+        if not isinstance(other, type(self)) or other.names != self.names:
+            raise TypeError(f"cannot merge {type(other).__name__} into {type(self).__name__}")
+        if other.window != self.window:
+            raise ValueError("cannot merge time-related states with different windows")
+        self.extremes.merge(other.extremes)
+        self.tracker.adopt(other.tracker)
+
+    def _values(self, samples: Samples) -> FloatArray:
+        if not self.names:
+            return np.empty((len(samples), 0))
+        return np.stack(
+            [np.asarray(samples.column(name), dtype=np.float64) for name in self.names], axis=1
+        )
+
+    def _subjects(self, context: FinalizeContext) -> list[tuple[str, tuple[str, ...]]]:
+        """``(text of f(x), variables)`` per column of the extremes."""
+        return [(f"{self.label}({name})", (name,)) for name in self.names]
+
+    def _params(self, context: FinalizeContext) -> dict[str, Any]:
+        return {"window": self.window}
+
+    def finalize(self, context: FinalizeContext) -> list[Invariant]:
+        """One ``lower <= f(x) <= upper`` invariant per justified variable."""
+        found: list[Invariant] = []
+        since = self.extremes.since_change()
+        for col, (subject, variables) in enumerate(self._subjects(context)):
+            n = int(since[col])
+            if not context.justified(n):
+                continue
+            low = float(self.extremes.low[col])
+            high = float(self.extremes.high[col])
+            params: dict[str, Any] = {"min": low, "max": high, **self._params(context)}
+            found.append(
+                Invariant(
+                    family=self.family,
+                    kind="range",
+                    point=context.point,
+                    variables=variables,
+                    params=params,
+                    text=f"{format_bound(low)} <= {subject} <= {format_bound(high)}",
+                    samples=int(self.extremes.count[col]),
+                    confidence=confidence(n),
+                    condition=context.condition,
+                    runs=context.runs,
+                )
+            )
+        return found
+
+
+class FrequencyState(_Timed):
+    """Algorithm 2: ``freq_min <= messages per second <= freq_max`` over full windows."""
+
+    family = "frequency"
+    label = "freq"
+
+    def __init__(self, topic: str, window: float) -> None:
+        super().__init__((), window)
+        self.topic = topic
+
+    def update(self, samples: Samples) -> None:
+        """Count the messages of every defined window of the chunk."""
+        _, _, ends, starts = self.tracker.advance(np.asarray(samples.time, dtype=np.float64))
+        freq = ((ends - starts + 1) / self.window)[:, None]
+        self.extremes.add(freq, np.ones(freq.shape, bool))
+
+    def _subjects(self, context: FinalizeContext) -> list[tuple[str, tuple[str, ...]]]:
+        return [(f"freq({self.topic or context.point})", ())]
+
+    def _params(self, context: FinalizeContext) -> dict[str, Any]:
+        return {"window": self.window, "topic": self.topic or context.point}
+
+
+class VarianceState(_Timed):
+    """Algorithm 3: ``var_min <= window variance <= var_max`` per trigger variable."""
+
+    family = "variance"
+    label = "var"
+
+    def update(self, samples: Samples) -> None:
+        """Evaluate the variance of every defined window of at least two messages."""
+        _, values, ends, starts = self.tracker.advance(
+            np.asarray(samples.time, dtype=np.float64), self._values(samples)
+        )
+        length = ends - starts + 1
+        keep = length >= 2
+        var = windowed_variances(values, starts[keep], length[keep])
+        self.extremes.add(var, np.isfinite(var))
+
+
+class RateState(_Timed):
+    """Algorithm 4 (errata fixed): ``rate_min <= window change rate <= rate_max``."""
+
+    family = "rate"
+    label = "rate"
+
+    def update(self, samples: Samples) -> None:
+        """``(last - first) / (t_last - t_first)`` of every defined window."""
+        time, values, ends, starts = self.tracker.advance(
+            np.asarray(samples.time, dtype=np.float64), self._values(samples)
+        )
+        dt = time[ends] - time[starts]
+        keep = dt > 0
+        ends, starts = ends[keep], starts[keep]
+        with np.errstate(all="ignore"):
+            rate = (values[ends] - values[starts]) / dt[keep][:, None]
+        self.extremes.add(rate, np.isfinite(rate))
+
+
+def make_states(
+    variables: Sequence[Variable], tunables: Tunables, families: Collection[str]
+) -> list[FrequencyState | VarianceState | RateState]:
+    """The enabled time-related states of one point (``frequency``, ``variance``, ``rate``)."""
+    enabled = set(families)
+    states: list[FrequencyState | VarianceState | RateState] = []
+    names = tuple(v.name for v in tracked(variables))
+    if "frequency" in enabled:
+        states.append(FrequencyState(trigger_topic(variables), tunables.window))
+    if "variance" in enabled and names:
+        states.append(VarianceState(names, tunables.window))
+    if "rate" in enabled and names:
+        states.append(RateState(names, tunables.window))
+    return states

@@ -1,0 +1,158 @@
+"""The invariants file (``detect/@inv``): versioned JSON that every later stage reads.
+
+It holds, per invariant, a stable id, the family, program point, condition, variables,
+parameters, support (samples, runs) and confidence; per point its kind, trigger and
+variables; and per topic its message type and variable layout (the monitor backends generate
+their flatteners from it). Ids are stable: the same invariant (point, family, kind,
+variables) gets the same id in every run, so ``/m/clear_inv`` and reports can name it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from imrosc import __version__
+from imrosc.backends.registry import GENERATED_MARK
+from imrosc.infer.core import Invariant, Variable
+
+FORMAT = "imrosc-invariants"
+VERSION = 1
+MAX_BYTES = 512 << 20
+
+
+class InvariantsFileError(ValueError):
+    """An invariants file that cannot be read: the message names the file and the problem."""
+
+
+def invariant_id(invariant: Invariant) -> str:
+    """A stable id: a short hash of what the invariant is about (not of its values)."""
+    subject = "\0".join([invariant.point, invariant.family, invariant.kind, *invariant.variables])
+    return "i" + hashlib.sha1(subject.encode(), usedforsecurity=False).hexdigest()[:11]
+
+
+def _variable(variable: Variable) -> dict[str, Any]:
+    return {
+        "name": variable.name,
+        "type": variable.type,
+        "topic": variable.topic,
+        "path": variable.path,
+        "derived": variable.derived,
+        "trigger": variable.trigger,
+    }
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if value in (float("inf"), float("-inf")):
+            return "inf" if value > 0 else "-inf"
+        return value
+    if isinstance(value, Mapping):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | set | frozenset):
+        items = [_json_safe(v) for v in value]
+        return sorted(items, key=repr) if isinstance(value, set | frozenset) else items
+    if hasattr(value, "item"):  # numpy scalars
+        return _json_safe(value.item())
+    return value
+
+
+@dataclass(frozen=True)
+class PointInfo:
+    """What the file says about one program point."""
+
+    key: str
+    kind: str
+    trigger: str
+    condition: str | None
+    samples: int
+    runs: int
+    variables: tuple[Variable, ...]
+
+
+def document(
+    *,
+    project: str,
+    source: str,
+    bags: Sequence[str],
+    tunables: Mapping[str, Any],
+    topics: Mapping[str, Mapping[str, Any]],
+    points: Sequence[PointInfo],
+    invariants: Sequence[Invariant],
+) -> dict[str, Any]:
+    """The JSON document of an invariants file."""
+    ordered = sorted(invariants, key=lambda i: (i.point, i.family, i.kind, i.variables))
+    return {
+        "$comment": f"{GENERATED_MARK} {__version__} (imrosc infer) from {source}",
+        "format": FORMAT,
+        "version": VERSION,
+        "project": project,
+        "source": source,
+        "bags": list(bags),
+        "tunables": dict(tunables),
+        "topics": {name: dict(info) for name, info in sorted(topics.items())},
+        "points": {
+            p.key: {
+                "kind": p.kind,
+                "trigger": p.trigger,
+                "condition": p.condition,
+                "support": {"samples": p.samples, "runs": p.runs},
+                "variables": [_variable(v) for v in p.variables],
+            }
+            for p in points
+        },
+        "invariants": [
+            {
+                "id": invariant_id(i),
+                "family": i.family,
+                "kind": i.kind,
+                "point": i.point,
+                "condition": i.condition,
+                "variables": list(i.variables),
+                "params": _json_safe(i.params),
+                "text": i.text,
+                "support": {"samples": i.samples, "runs": i.runs},
+                "confidence": i.confidence,
+            }
+            for i in ordered
+        ],
+    }
+
+
+def dumps(doc: Mapping[str, Any]) -> str:
+    """Deterministic JSON text."""
+    return json.dumps(doc, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def load(path: Path) -> dict[str, Any]:
+    """Read and check an invariants file; raise :class:`InvariantsFileError` with the reason."""
+    try:
+        size = path.stat().st_size
+        if size > MAX_BYTES:
+            raise InvariantsFileError(f"{path}: {size} bytes, over the {MAX_BYTES}-byte cap")
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise InvariantsFileError(f"{path}: cannot read: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise InvariantsFileError(f"{path}: not UTF-8 text") from None
+    except json.JSONDecodeError as error:
+        raise InvariantsFileError(
+            f"{path}:{error.lineno}:{error.colno}: not JSON: {error.msg}"
+        ) from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise InvariantsFileError(f"{path}: not an imrosc invariants file")
+    if data.get("version") != VERSION:
+        raise InvariantsFileError(
+            f"{path}: invariants file version {data.get('version')!r}; this imrosc reads {VERSION}"
+        )
+    for key in ("points", "invariants", "topics"):
+        if key not in data:
+            raise InvariantsFileError(f"{path}: missing '{key}'")
+    return data

@@ -1,0 +1,1 @@
+"""Translation: bags to program-point samples, following the translator plan (thesis 3.3)."""
