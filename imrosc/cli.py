@@ -18,6 +18,20 @@ from imrosc.graph.command import graph_command
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 
+graph_option = click.option(
+    "--graph",
+    "graph_files",
+    multiple=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="A graph file (YAML) saying who publishes, subscribes and serves what.",
+)
+bags_option = click.option(
+    "--bags",
+    multiple=True,
+    type=click.Path(path_type=Path),
+    help="Bags or folders to read (instead of the <detect> bags, where there are some).",
+)
+
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="imrosc")
@@ -69,19 +83,8 @@ def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
     type=click.Path(file_okay=False, path_type=Path),
     help="Output directory [default: build/PROJECT-BACKEND].",
 )
-@click.option(
-    "--graph",
-    "graph_files",
-    multiple=True,
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="A graph file (YAML) saying who publishes, subscribes and serves what.",
-)
-@click.option(
-    "--bags",
-    multiple=True,
-    type=click.Path(path_type=Path),
-    help="Bags (or folders) to read the graph and the message types from.",
-)
+@graph_option
+@bags_option
 @click.option("--emit-ir", is_flag=True, help="Print the IR after the passes; write nothing.")
 @click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
 @click.option(
@@ -168,19 +171,8 @@ class _BagProgress:
 @main.command()
 @click.argument("config", type=click.Path(path_type=Path))
 @click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
-@click.option(
-    "--graph",
-    "graph_files",
-    multiple=True,
-    type=click.Path(dir_okay=False, path_type=Path),
-    help="A graph file, for relative grouping when the bags hold no architecture records.",
-)
-@click.option(
-    "--bags",
-    multiple=True,
-    type=click.Path(path_type=Path),
-    help="Bags or folders to read instead of the <detect> bags.",
-)
+@graph_option
+@bags_option
 @click.option(
     "-o",
     "--output",
@@ -253,12 +245,8 @@ def infer(
 @main.command("export-daikon")
 @click.argument("config", type=click.Path(path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path))
-@click.option(
-    "--graph", "graph_files", multiple=True, type=click.Path(dir_okay=False, path_type=Path)
-)
-@click.option(
-    "--bags", multiple=True, type=click.Path(path_type=Path), help="Instead of <detect>'s."
-)
+@graph_option
+@bags_option
 def export_daikon(
     config: Path, output: Path, graph_files: tuple[Path, ...], bags: tuple[Path, ...]
 ) -> None:

@@ -115,7 +115,20 @@ def prepare(
     if has_errors(found):
         return None, problems
     specs, skipped, layouts = point_specs(plan, job, catalog)
-    return Prepared(project, base, catalog, specs, layouts, skipped), problems
+    used = {name for point in plan["points"] for name in _topics_of(point)}
+    for topic, (bag, message) in sorted(catalog.unusable.items()):
+        if topic in used:
+            problems.append(make(str(bag), 1, 1, "bag-error", message))
+    return Prepared(project, base, catalog, specs, layouts, skipped), finalize(problems)
+
+
+def _topics_of(point: dict[str, Any]) -> set[str]:
+    """Every topic a plan point reads."""
+    topics = {i["topic"] for i in point.get("inputs", ())}
+    topics |= {point["trigger"].get("topic", "")} | {e["name"] for e in point.get("events", ())}
+    if point.get("condition"):
+        topics.add(point["condition"]["topic"])
+    return topics - {""}
 
 
 def run_detect(

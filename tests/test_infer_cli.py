@@ -137,3 +137,22 @@ def test_bag_empty_fixture_points_where_it_says(tmp_path: Path) -> None:
     (diagnostic,) = result.diagnostics
     got = [f"{diagnostic.line}:", f"{diagnostic.severity.value}:", f"[{diagnostic.code}]"]
     assert got == expected
+
+
+TALKER = SHARED / "fixtures/rosbag2/rosbag2_py/test/resources/sqlite3/talker"
+
+
+@pytest.mark.skipif(not TALKER.exists(), reason="shared data missing")
+def test_a_type_referring_to_an_unknown_type_is_reported_only_when_used(tmp_path: Path) -> None:
+    """/parameter_events refers to rcl_interfaces/msg/Parameter, which the bag does not define."""
+    config = tmp_path / "t.xml"
+    for topic, reported in (("/topic", False), ("/parameter_events", True)):
+        config.write_text(
+            f'<imROS project="t"><scope><publish id="a">{topic}</publish></scope>'
+            f'<detect inv="t.inv"><bag>{TALKER}</bag></detect></imROS>'
+        )
+        result = run_detect(config, workers=1)
+        messages = [d.message for d in result.diagnostics if d.code == "bag-error"]
+        assert bool(messages) == reported
+        if reported:
+            assert "unknown message type rcl_interfaces/msg/Parameter" in messages[0]

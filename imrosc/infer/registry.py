@@ -2,25 +2,14 @@
 
 from __future__ import annotations
 
+from imrosc.backends.families import DAIKON, TIME
 from imrosc.infer import arch, daikon, polygon, temporal, timed
 from imrosc.infer.core import FamilyState
 from imrosc.ir import Tunables
 from imrosc.translate.points import PointSpec
 
-DAIKON_FAMILIES = frozenset(
-    {
-        "bounds",
-        "one-of",
-        "non-zero",
-        "equality",
-        "order",
-        "linear",
-        "ternary",
-        "string-one-of",
-        "array",
-    }
-)
-TIME_FAMILIES = frozenset({"frequency", "variance", "rate"})
+DAIKON_FAMILIES = frozenset(DAIKON)
+TIME_FAMILIES = frozenset(TIME)
 FAMILY_GROUPS = {
     "default": DAIKON_FAMILIES,
     "time-related": TIME_FAMILIES,

@@ -57,6 +57,9 @@ class Catalog:
         default_factory=lambda: {"pub": set(), "sub": set(), "srv": set()}
     )
     has_records: set[Path] = field(default_factory=set)
+    unusable: dict[str, tuple[Path, str]] = field(default_factory=dict)
+    """Topics whose type cannot be decoded, with the first bag and the reason; reported only
+    for topics a configuration uses."""
     messages: dict[Path, int] = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
 
@@ -126,15 +129,23 @@ def _note_bag(catalog: Catalog, bag: Path) -> None:
             if connection.topic in records.RECORD_TOPICS:
                 continue
             known = catalog.types.get(connection.topic)
-            if connection.msgtype not in reader.typestore.fielddefs:
+            if known is not None and connection.msgtype not in reader.typestore.fielddefs:
                 message = (
-                    f"topic {connection.topic}: unknown message type {connection.msgtype} (the bag "
-                    f"stores no definition of it); the topic is skipped"
+                    f"topic {connection.topic}: unknown message type {connection.msgtype} in "
+                    f"this bag (it stores no definition of it); its messages are skipped"
                 )
                 catalog.diagnostics.append(make(str(bag), 1, 1, "bag-error", message))
                 continue
             if known is None:
-                fields = flatten(reader.typestore, connection.msgtype)
+                try:
+                    fields = flatten(reader.typestore, connection.msgtype)
+                except KeyError as missing:
+                    message = (
+                        f"topic {connection.topic}: unknown message type {missing.args[0]} (the "
+                        f"bag stores no definition of it); the topic is skipped"
+                    )
+                    catalog.unusable.setdefault(connection.topic, (bag, message))
+                    continue
                 fields = _observed_lengths(reader, connection, fields)
                 catalog.types[connection.topic] = (connection.msgtype, fields)
             elif known[0] != connection.msgtype:

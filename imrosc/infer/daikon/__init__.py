@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from imrosc.backends.families import DAIKON
 from imrosc.infer.core import FamilyState, Variable
 from imrosc.infer.daikon.array import ArrayState
 from imrosc.infer.daikon.bounds import BoundsState
@@ -32,17 +33,7 @@ from imrosc.infer.daikon.string_one_of import StringOneOfState
 from imrosc.infer.daikon.ternary import TernaryState
 from imrosc.ir import Tunables
 
-FAMILIES = (
-    "bounds",
-    "one-of",
-    "non-zero",
-    "equality",
-    "order",
-    "linear",
-    "ternary",
-    "string-one-of",
-    "array",
-)
+FAMILIES = DAIKON
 """The families this package builds, in the order ``make_states`` returns them."""
 
 __all__ = ["FAMILIES", "make_states"]

@@ -35,11 +35,17 @@ BoolArray = npt.NDArray[np.bool_]
 FEW_VALUES = 16
 """A discrete (int/uint/bool) column with at most this many values in a chunk is grouped."""
 
-SAMPLE = 256
+SAMPLE = 1024
 """Rows per chunk whose sorted values estimate how many rows a guide lets through."""
 
 EXPANDING = 0.05
 """A guide letting more than this fraction of a chunk through calls for a head start."""
+
+_SCAN = 0.75
+"""Pairs whose cross would enumerate this fraction of the rows are scanned row by row."""
+
+_BLOCK = 1 << 15
+"""Samples filtered together (keeps the temporaries in cache)."""
 
 
 def ragged_arange(starts: IntArray, lengths: IntArray) -> IntArray:
@@ -67,12 +73,12 @@ class Chunk:
     def __post_init__(self) -> None:
         self.rows = self.values.shape[1]
         self.nan = np.isnan(self.values)
-        self.has_nan = self.nan.any(axis=1)
+        self.has_nan: BoolArray = np.asarray(self.nan.any(axis=1), dtype=bool)
         with np.errstate(all="ignore"):
             self.low = np.fmin.reduce(self.values, axis=1) if self.rows else np.full(0, np.nan)
             self.high = np.fmax.reduce(self.values, axis=1) if self.rows else np.full(0, np.nan)
         self.empty = np.isnan(self.low)
-        self._nan_rows: dict[int, IntArray] = {}
+        self._before: IntArray | None = None
         self._sorted_sample: dict[int, FloatArray] | None = None
         self.classes: tuple[list[tuple[int, IntArray]], IntArray, IntArray] | None = None
         self.plan: _Plan | None = None
@@ -83,17 +89,13 @@ class Chunk:
         return Chunk(np.ascontiguousarray(self.values[:, ::stride]), self.discrete)
 
     def extreme_rows(self, count: int) -> IntArray:
-        """Per variable, rows of its ``count`` least and ``count`` greatest present values
-        (``(variables, 2 * count)``; NaN rows stand in where too few are present)."""
-        count = min(count, max(self.rows // 2, 1))
-        low = np.where(np.isnan(self.values), np.inf, self.values)
-        high = np.where(np.isnan(self.values), -np.inf, self.values)
+        """Per variable, rows of its ``count`` least and ``count`` greatest values
+        (``(variables, 2 * count)``; rows of missing values may stand among the greatest)."""
         if 2 * count >= self.rows:
             rows = np.broadcast_to(np.arange(self.rows), (self.values.shape[0], self.rows))
             return np.ascontiguousarray(rows).astype(np.int64)
-        least = np.argpartition(low, count, axis=1)[:, :count]
-        most = np.argpartition(-high, count, axis=1)[:, :count]
-        return np.concatenate([least, most], axis=1).astype(np.int64)
+        split = np.argpartition(self.values, (count, self.rows - count - 1), axis=1)
+        return np.concatenate([split[:, :count], split[:, -count:]], axis=1).astype(np.int64)
 
     def sample_size(self) -> int:
         """Rows in the estimation sample."""
@@ -109,35 +111,45 @@ class Chunk:
                 self._sorted_sample[var] = np.sort(column[~np.isnan(column)])
         return self._sorted_sample
 
-    def nan_rows(self, var: int) -> IntArray:
-        """Rows where ``var`` is missing (sorted)."""
-        if var not in self._nan_rows:
-            self._nan_rows[var] = np.flatnonzero(self.nan[var]).astype(np.int64)
-        return self._nan_rows[var]
-
     def valid_counts(self, pi: IntArray, pj: IntArray) -> IntArray:
         """Rows where both variables of each pair are present."""
         counts = np.full(len(pi), self.rows, np.int64)
-        for p in np.flatnonzero(self.has_nan[pi] | self.has_nan[pj]).tolist():
-            counts[p] = int(np.count_nonzero(~(self.nan[pi[p]] | self.nan[pj[p]])))
-        return counts
+        gaps = np.flatnonzero(self.has_nan)
+        if not len(gaps):
+            return counts
+        missing = self.nan[gaps].astype(np.float64)
+        both = missing @ missing.T  # exact: integer counts far below 2**53
+        slot = np.full(len(self.has_nan), -1, np.int64)
+        slot[gaps] = np.arange(len(gaps))
+        a, b = slot[pi], slot[pj]
+        single = np.diag(both)
+        lost = np.where(a >= 0, single[np.maximum(a, 0)], 0) + np.where(
+            b >= 0, single[np.maximum(b, 0)], 0
+        )
+        lost -= np.where((a >= 0) & (b >= 0), both[np.maximum(a, 0), np.maximum(b, 0)], 0)
+        return counts - lost.astype(np.int64)
 
     def valid_rank(self, pi: IntArray, pj: IntArray, pair: IntArray, row: IntArray) -> IntArray:
         """Position of ``row`` among the rows where pair ``pair`` is present."""
-        rank = row.astype(np.int64).copy()
-        touched = self.has_nan[pi[pair]] | self.has_nan[pj[pair]]
-        if not touched.any():
+        rank: IntArray = row.astype(np.int64).copy()
+        if not self.has_nan.any() or not len(row):
             return rank
-        sel = np.flatnonzero(touched)
-        for p in np.unique(pair[sel]).tolist():
-            mine = sel[pair[sel] == p]
-            missing = np.union1d(self.nan_rows(int(pi[p])), self.nan_rows(int(pj[p])))
-            rank[mine] -= np.searchsorted(missing, row[mine])
+        if self._before is None:
+            self._before = np.zeros((self.values.shape[0], self.rows + 1), np.int64)
+            np.cumsum(self.nan, axis=1, out=self._before[:, 1:])
+        i, j = pi[pair], pj[pair]
+        rank -= self._before[i, row] + self._before[j, row]
+        both = self.has_nan[i] & self.has_nan[j]
+        for p in np.unique(pair[both]).tolist():
+            mine = np.flatnonzero(both & (pair == p))
+            shared = np.zeros(self.rows + 1, np.int64)
+            np.cumsum(self.nan[pi[p]] & self.nan[pj[p]], out=shared[1:])
+            rank[mine] += shared[row[mine]]
         return rank
 
 
 def _few_valued(chunk: Chunk) -> BoolArray:
-    few = (chunk.low == chunk.high) & ~chunk.empty
+    few: BoolArray = np.asarray((chunk.low == chunk.high) & ~chunk.empty, dtype=bool)
     for var in np.flatnonzero(~few & ~chunk.empty & np.asarray(chunk.discrete, bool)).tolist():
         column = chunk.values[var][~chunk.nan[var]]
         if len(np.unique(column)) <= FEW_VALUES:
@@ -248,7 +260,9 @@ def _plan(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guid
 
 
 def _take_plan(plan: _Plan, pairs: IntArray) -> _Plan:
-    return _Plan(plan.a[:, pairs], plan.b[:, pairs], plan.c[:, pairs], plan.c_on_x[pairs], plan.cost[pairs])
+    return _Plan(
+        plan.a[:, pairs], plan.b[:, pairs], plan.c[:, pairs], plan.c_on_x[pairs], plan.cost[pairs]
+    )
 
 
 def _make_plan(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide) -> _Plan:
@@ -268,19 +282,41 @@ def _make_plan(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide:
     cy = np.concatenate(
         [np.full((1, 2, len(pairs)), [[-np.inf], [np.inf]]), np.repeat(wide[:, 2:4], k, axis=0)]
     )
-    cost_a = _counts(sample, ox, ax[:, 0], ax[:, 1])
-    cost_b = _counts(sample, oy, by[:, 0], by[:, 1])
-    cost_cx = _counts(sample, ox, cx[:, 0], cx[:, 1])
-    cost_cy = _counts(sample, oy, cy[:, 0], cy[:, 1])
-    total = cost_a + cost_b + np.minimum(cost_cx, cost_cy)
-    best = np.argmin(total, axis=0)
     col = np.arange(len(pairs))
+    sides = ((ax, ox), (by, oy), (cx, ox), (cy, oy))
+    # a pair whose guide is unchanged keeps its choice: only that option is costed
+    kept = guide.choice_stamp[pairs] == guide.stamp[pairs]
+    best = np.where(kept, guide.choice[pairs], 0)
+    cost = np.zeros((4, len(pairs)))
+    fresh = np.flatnonzero(~kept)
+    if len(fresh):
+        parts = [
+            _counts(sample, owner[fresh], option[:, 0, fresh], option[:, 1, fresh])
+            for option, owner in sides
+        ]
+        choice = np.argmin(parts[0] + parts[1] + np.minimum(parts[2], parts[3]), axis=0)
+        best[fresh] = choice
+        guide.choice[pairs[fresh]] = choice
+        guide.choice_stamp[pairs[fresh]] = guide.stamp[pairs[fresh]]
+        cost[:, fresh] = np.stack([part[choice, np.arange(len(fresh))] for part in parts])
+    old = np.flatnonzero(kept)
+    if len(old):
+        pick = best[old]
+        cost[:, old] = np.stack(
+            [
+                _counts(sample, owner[old], option[pick, 0, old][None], option[pick, 1, old][None])[
+                    0
+                ]
+                for option, owner in sides
+            ]
+        )
+    total = cost[0] + cost[1] + np.minimum(cost[2], cost[3])
     return _Plan(
         a=ax[best, :, col].T,
         b=by[best, :, col].T,
         c=np.concatenate([cx[best, :, col].T, cy[best, :, col].T]),
-        c_on_x=cost_cx[best, col] <= cost_cy[best, col],
-        cost=total[best, col] / size,
+        c_on_x=cost[2] <= cost[3],
+        cost=total / size,
     )
 
 
@@ -298,16 +334,17 @@ def _general(
     c_lo = np.where(plan.c_on_x, plan.c[0], plan.c[2])
     c_hi = np.where(plan.c_on_x, plan.c[1], plan.c[3])
     parts = ((ox, plan.a[0], plan.a[1]), (oy, plan.b[0], plan.b[1]), (c_owner, c_lo, c_hi))
+    scan = plan.cost >= _SCAN
     need_lo = np.full(nvar, -np.inf)
     need_hi = np.full(nvar, np.inf)
     for owner, lo, hi in parts:
-        np.maximum.at(need_lo, owner, lo)
-        np.minimum.at(need_hi, owner, hi)
+        np.maximum.at(need_lo, owner[~scan], lo[~scan])
+        np.minimum.at(need_hi, owner[~scan], hi[~scan])
     sorted_values: dict[int, FloatArray] = {}
     sorted_rows: list[IntArray] = []
     offsets = np.zeros(nvar, np.int64)
     total = 0
-    for var in np.union1d(ox, oy).tolist():
+    for var in np.union1d(ox[~scan], oy[~scan]).tolist():
         column = chunk.values[var]
         with np.errstate(invalid="ignore"):
             rows = np.flatnonzero((column < need_lo[var]) | (column > need_hi[var]))
@@ -319,12 +356,15 @@ def _general(
     flat_rows = np.concatenate(sorted_rows) if sorted_rows else np.empty(0, np.int64)
     values = chunk.values.ravel()
     width = chunk.rows
+    gaps = bool(chunk.has_nan.any())
+    other_lo = np.where(plan.c_on_x, plan.c[2], plan.c[0])
+    other_hi = np.where(plan.c_on_x, plan.c[3], plan.c[1])
     found: list[GroupSet] = []
     for part, (owner, lo, hi) in enumerate(parts):
         starts = np.zeros((len(pairs), 2), np.int64)
         lengths = np.zeros((len(pairs), 2), np.int64)
-        for var in np.unique(owner).tolist():
-            mine = np.flatnonzero(owner == var)
+        for var in np.unique(owner[~scan]).tolist():
+            mine = np.flatnonzero((owner == var) & ~scan)
             vals = sorted_values[var]
             below = np.searchsorted(vals, lo[mine], side="left")
             above = np.maximum(np.searchsorted(vals, hi[mine], side="right"), below)
@@ -332,25 +372,41 @@ def _general(
             lengths[mine, 0] = below
             starts[mine, 1] = offsets[var] + above
             lengths[mine, 1] = len(vals) - above
-        row = flat_rows[ragged_arange(starts.ravel(), lengths.ravel())]
-        slot = np.repeat(np.arange(len(pairs)), lengths.sum(axis=1))
-        x = values[ox[slot] * width + row]
-        y = values[oy[slot] * width + row]
-        with np.errstate(invalid="ignore"):
-            keep = ~(np.isnan(x) | np.isnan(y))
-            if part == 1:  # rows of A come from A
-                keep &= (x >= plan.a[0][slot]) & (x <= plan.a[1][slot])
-            elif part == 2:  # corners: outside the cross on the other axis too
-                other = np.where(plan.c_on_x[slot], y, x)
-                other_lo = np.where(plan.c_on_x, plan.c[2], plan.c[0])
-                other_hi = np.where(plan.c_on_x, plan.c[3], plan.c[1])
-                keep &= (other < other_lo[slot]) | (other > other_hi[slot])
-        sel = np.flatnonzero(keep)
-        slot, row, x, y = slot[sel], row[sel], x[sel], y[sel]
-        pair = pairs[slot]
-        sel = np.flatnonzero(~guide.inside(pair, x, y))
-        found.append(GroupSet(pair[sel].astype(np.int64), x[sel], y[sel], row[sel]))
+        all_rows = flat_rows[ragged_arange(starts.ravel(), lengths.ravel())]
+        all_slots = np.repeat(np.arange(len(pairs)), lengths.sum(axis=1))
+        for first in range(0, len(all_rows), _BLOCK):
+            row = all_rows[first : first + _BLOCK]
+            slot = all_slots[first : first + _BLOCK]
+            x = values[ox[slot] * width + row]
+            y = values[oy[slot] * width + row]
+            pair = pairs[slot]
+            with np.errstate(invalid="ignore"):
+                if part == 2:  # corners: outside the cross on the other axis too
+                    other = np.where(plan.c_on_x[slot], y, x)
+                    sel = np.flatnonzero((other < other_lo[slot]) | (other > other_hi[slot]))
+                    slot, row, x, y, pair = slot[sel], row[sel], x[sel], y[sel], pair[sel]
+                keep = ~guide.inside(pair, x, y)
+                if gaps:  # a NaN compares false everywhere: drop it explicitly
+                    keep &= ~(np.isnan(x) | np.isnan(y))
+                if part == 1:  # rows of A come from A
+                    keep &= (x >= plan.a[0][slot]) & (x <= plan.a[1][slot])
+            sel = np.flatnonzero(keep)
+            found.append(GroupSet(pair[sel].astype(np.int64), x[sel], y[sel], row[sel]))
+    # pairs no cross fits (bands along a diagonal, no hull yet): every row, by blocks
+    rows_all = np.arange(width, dtype=np.int64)
+    for slot in np.flatnonzero(scan).tolist():
+        x = chunk.values[ox[slot]]
+        y = chunk.values[oy[slot]]
+        sel = np.flatnonzero(~(np.isnan(x) | np.isnan(y)))
+        pair = np.full(len(sel), pairs[slot], np.int64)
+        found.append(_outside(guide, pair, x[sel], y[sel], rows_all[sel]))
     return GroupSet.concat(found)
+
+
+def _outside(guide: Guide, pair: IntArray, x: FloatArray, y: FloatArray, row: IntArray) -> GroupSet:
+    """The samples the guide cannot place strictly inside their pair's hull."""
+    sel = np.flatnonzero(~guide.inside(pair, x, y))
+    return GroupSet(pair[sel].astype(np.int64), x[sel], y[sel], row[sel])
 
 
 def _square_plan(pairs: IntArray, guide: Guide) -> _Plan:

@@ -11,8 +11,11 @@ when ``H`` changes):
   define normalised coordinates ``u = (x - cx) / sx``, ``v = (y - cy) / sy``;
 * a polar table: the plane around ``c`` cut into ``BUCKETS`` sectors (equal steps of the
   "diamond angle", a cheap monotone stand-in for the angle); per sector the chord joining
-  the points of ``H``'s boundary on the sector's two bounding rays, each pulled towards ``c`` by ``1e-7`` of its radius (far more than any rounding of
-  the lookup), so the triangle it closes with ``c`` lies strictly inside ``H``.
+  the points of ``H``'s boundary on the sector's two bounding rays, each pulled towards
+  ``c`` by ``1e-7`` of its radius (far more than any rounding of the lookup), so the
+  triangle it closes with ``c`` lies strictly inside ``H``. Hulls with an edge passing
+  within ``1e-6`` (normalised) of ``c`` get no table: a ray grazing a vertex could meet
+  a nearly radial edge far away.
 
 A sample inside a box, or on the inner side of its sector's chord, is strictly inside
 ``H``, hence no vertex of any later hull. Pairs without a guide keep every sample.
@@ -34,6 +37,9 @@ FRACTIONS = (0.3, 0.55, 0.8)
 """Heights of the wide boxes (widths of the tall ones) as fractions of the hull's span."""
 
 _SHRINK = 1e-7
+_CLEAR = 1e-6
+_TINY = 2.0**-800
+_HUGE = 2.0**800
 _UNIT8 = 8 * 2.0**-53
 
 
@@ -76,7 +82,7 @@ class _Polygons:
     def strictly_inside(self, x: FloatArray, y: FloatArray) -> BoolArray:
         """Whether each pair's point ``(x, y)`` is certainly strictly inside its polygon."""
         left = surely_left(self.vx, self.vy, self.wx, self.wy, x[:, None], y[:, None])
-        inside: BoolArray = (left | ~self.real).all(axis=1)
+        inside: BoolArray = np.asarray((left | ~self.real).all(axis=1), dtype=bool)
         return inside
 
     def certified(self, box: FloatArray, ok: BoolArray) -> FloatArray:
@@ -84,7 +90,7 @@ class _Polygons:
         good = ok & np.isfinite(box).all(axis=0) & (box[0] <= box[1]) & (box[2] <= box[3])
         for bx, by in ((box[0], box[2]), (box[0], box[3]), (box[1], box[2]), (box[1], box[3])):
             good &= self.strictly_inside(bx, by)
-        out = box.copy()
+        out: FloatArray = box.copy()
         out[0::2, ~good] = np.inf
         out[1::2, ~good] = -np.inf
         return out
@@ -121,6 +127,9 @@ class Guide:
         self.ok = np.zeros(npairs, bool)
         self.stamp = np.zeros(npairs, np.int64)
         self.version = 0
+        # which box (square, or wide and tall) filtered each pair best, and for which guide
+        self.choice = np.zeros(npairs, np.int64)
+        self.choice_stamp = np.full(npairs, -1, np.int64)
         self.square = _empty_boxes(npairs)
         self.wide = _empty_boxes(len(FRACTIONS), npairs)
         self.tall = _empty_boxes(len(FRACTIONS), npairs)
@@ -128,8 +137,14 @@ class Guide:
         self.cy = np.zeros(npairs)
         self.sx = np.ones(npairs)
         self.sy = np.ones(npairs)
-        self.table = np.zeros((npairs, BUCKETS, 3))
-        self.table[:, :, 2] = -np.inf
+        self.ix = np.ones(npairs)
+        self.iy = np.ones(npairs)
+        # per pair and sector, the chord: inside when nx * u + ny * v < level
+        self.planes = (
+            np.zeros(npairs * BUCKETS),
+            np.zeros(npairs * BUCKETS),
+            np.full(npairs * BUCKETS, -np.inf),
+        )
 
     def refresh(self, hull: GroupSet, pairs: IntArray) -> None:
         """Recompute the guide of ``pairs`` from their current hull vertices."""
@@ -143,7 +158,9 @@ class Guide:
             lo_x, hi_x = np.nanmin(vx, axis=1), np.nanmax(vx, axis=1)
             lo_y, hi_y = np.nanmin(vy, axis=1), np.nanmax(vy, axis=1)
             sx, sy = hi_x - lo_x, hi_y - lo_y
-            ok = (count >= 3) & (sx > 0) & (sy > 0) & np.isfinite(sx * sy)
+            # far from underflow and overflow, where the float bounds below hold
+            top = np.maximum(np.nanmax(np.abs(vx), axis=1), np.nanmax(np.abs(vy), axis=1))
+            ok = (count >= 3) & (sx > _TINY) & (sy > _TINY) & (top < _HUGE)
             cx = np.where(ok, np.nanmean(vx, axis=1), 0.0)
             cy = np.where(ok, np.nanmean(vy, axis=1), 0.0)
             ok &= poly.strictly_inside(cx, cy)
@@ -166,7 +183,10 @@ class Guide:
         self.cy[pairs] = cy
         self.sx[pairs] = np.where(ok, sx, 1.0)
         self.sy[pairs] = np.where(ok, sy, 1.0)
-        self.table[pairs] = table
+        self.ix[pairs] = 1 / self.sx[pairs]
+        self.iy[pairs] = 1 / self.sy[pairs]
+        for plane, values in zip(self.planes, table, strict=True):
+            plane.reshape(-1, BUCKETS)[pairs] = values
 
     @staticmethod
     def _square(
@@ -202,19 +222,24 @@ class Guide:
 
     @staticmethod
     def _table(
-        poly: _Polygons, ok: BoolArray, cx: FloatArray, cy: FloatArray, sx: FloatArray, sy: FloatArray
+        poly: _Polygons,
+        ok: BoolArray,
+        cx: FloatArray,
+        cy: FloatArray,
+        sx: FloatArray,
+        sy: FloatArray,
     ) -> FloatArray:
         m, width = poly.vx.shape
-        tables = np.zeros((m, BUCKETS, 3))
-        tables[:, :, 2] = -np.inf
+        tables = np.zeros((3, m, BUCKETS))
+        tables[2] = -np.inf
         rows = np.flatnonzero(ok)
         if not len(rows):
             return tables
         k = len(rows)
         cnt = poly.count[rows]
         real = poly.real[rows]
-        au = (poly.vx[rows] - cx[rows, None]) / sx[rows, None]
-        av = (poly.vy[rows] - cy[rows, None]) / sy[rows, None]
+        au = (poly.vx[rows] - cx[rows, None]) * (1 / sx[rows, None])
+        av = (poly.vy[rows] - cy[rows, None]) * (1 / sy[rows, None])
         angle = np.where(real, diamond(au, av), np.inf)
         order = np.argsort(angle, axis=1)
         angle = np.take_along_axis(angle, order, axis=1)
@@ -234,12 +259,20 @@ class Guide:
         np.add.at(marks, (rr, first_bound[rr, cc]), 1)
         edge = np.cumsum(marks[:, :BUCKETS], axis=1) - 1
         edge = np.where(edge < 0, (cnt - 1)[:, None], edge)
-        flat = (np.arange(k) * width)[:, None] + edge
+        # every edge line supports the polygon, so a ray leaves it at the nearest one; the
+        # bound's own edge and both neighbours cover an assignment off by one at a vertex
         ray_u, ray_v = _RAYS
-        e_nu = nu.ravel()[flat]
-        e_nv = nv.ravel()[flat]
-        across = e_nu * ray_u + e_nv * ray_v
-        reach = np.where(across > 0, offset.ravel()[flat] / across, 0.0) * (1 - _SHRINK)
+        reach = np.full((k, BUCKETS), np.inf)
+        for shift in (-1, 0, 1):
+            near = (edge + shift) % cnt[:, None]
+            flat = (np.arange(k) * width)[:, None] + near
+            across = nu.ravel()[flat] * ray_u + nv.ravel()[flat] * ray_v
+            hit = np.where(across > 0, offset.ravel()[flat] / across, np.inf)
+            reach = np.minimum(reach, hit)
+        # only for hulls whose edges all keep clear of c (in normalised units): then a
+        # ray grazing a vertex meets the neighbouring edge right there, never far away
+        clear = np.where(real, offset / np.hypot(nu, nv), np.inf).min(axis=1) >= _CLEAR
+        reach = np.where(clear[:, None] & np.isfinite(reach), reach, 0.0) * (1 - _SHRINK)
         # chords between consecutive bounds (pulled inwards by the shrink)
         px = reach * ray_u
         py = reach * ray_v
@@ -249,20 +282,26 @@ class Guide:
         ty = px - qx
         level = tx * px + ty * py
         usable = (reach > 0) & (np.roll(reach, -1, axis=1) > 0) & np.isfinite(level)
-        tables[rows, :, 0] = np.where(usable, tx, 0.0)
-        tables[rows, :, 1] = np.where(usable, ty, 0.0)
-        tables[rows, :, 2] = np.where(usable, level, -np.inf)
+        tables[0, rows] = np.where(usable, tx, 0.0)
+        tables[1, rows] = np.where(usable, ty, 0.0)
+        tables[2, rows] = np.where(usable, level, -np.inf)
         return tables
 
     def inside(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
         """Where the sample ``(x, y)`` of ``pair`` is certainly strictly inside its hull."""
         with np.errstate(all="ignore"):
-            u = (x - self.cx[pair]) / self.sx[pair]
-            v = (y - self.cy[pair]) / self.sy[pair]
-            bucket = (diamond(u, v) * (BUCKETS / 4)).astype(np.int64)
-            np.clip(bucket, 0, BUCKETS - 1, out=bucket)
-            cell = self.table.reshape(-1, 3)[pair * BUCKETS + bucket]
-            result: BoolArray = cell[:, 0] * u + cell[:, 1] * v < cell[:, 2]
+            u = (x - self.cx.take(pair)) * self.ix.take(pair)
+            v = (y - self.cy.take(pair)) * self.iy.take(pair)
+            # the diamond angle, shifted by 4 to stay positive, wrapped to a sector
+            p = v / (np.abs(u) + np.abs(v))
+            turn = np.where(u >= 0, p, 2 - p)
+            turn += 4
+            turn *= BUCKETS / 4
+            cell = turn.astype(np.int64)
+            cell &= BUCKETS - 1
+            cell += pair * BUCKETS
+            nx, ny, level = self.planes
+            result: BoolArray = nx.take(cell) * u + ny.take(cell) * v < level.take(cell)
         return result
 
 
@@ -290,7 +329,7 @@ _RAYS = _rays()
 def _valid(box: FloatArray, ok: BoolArray) -> FloatArray:
     """``box`` where it is a proper box of a guided pair, else empty."""
     good = ok & np.isfinite(box).all(axis=0) & (box[0] <= box[1]) & (box[2] <= box[3])
-    out = box.copy()
+    out: FloatArray = box.copy()
     out[0::2, ~good] = np.inf
     out[1::2, ~good] = -np.inf
     return out

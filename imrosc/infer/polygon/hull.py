@@ -30,6 +30,7 @@ from imrosc.infer.polygon.predicates import orientation
 IntArray = npt.NDArray[np.int64]
 _BIG = np.iinfo(np.int64).max
 _ERR = 8 * 2.0**-53
+_TINY = 2.0**-900
 
 
 @dataclass
@@ -158,7 +159,7 @@ def _quickhull(pts: GroupSet) -> tuple[GroupSet, IntArray, IntArray]:
         # could another point be at least as far? then the pick may be no vertex
         other = (px != qx) | (py != qy)
         rival = np.maximum.reduceat(np.where(other, dist + err, -np.inf), seg)
-        suspect[pgroup[pick][rival >= far - err[pick]]] = True
+        suspect[pgroup[pick][(rival >= far - err[pick]) | (far < _TINY)]] = True
         found.append(GroupSet(pgroup[pick], cx, cy, pat[pick]))
         found_stage.append(chain[pick])
         first = orientation(sx, sy, qx, qy, px, py) < 0

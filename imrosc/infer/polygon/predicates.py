@@ -6,7 +6,8 @@ counter-clockwise, ``-1`` clockwise, ``0`` collinear. Stage A is the float deter
 with Shewchuk's error bound; the elements it cannot decide go to stages B and C (products
 and differences as exact two-term expansions, with their bounds); what is still undecided
 (in practice: exactly collinear points whose differences round) is settled with exact
-rational arithmetic. Inputs must be finite.
+rational arithmetic, as is everything so small that a product may have underflowed
+(Shewchuk's bounds assume it does not). Inputs must be finite.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ _RESULT_ERR = (3.0 + 8.0 * _EPS) * _EPS
 _CCW_ERR_A = (3.0 + 16.0 * _EPS) * _EPS
 _CCW_ERR_B = (2.0 + 12.0 * _EPS) * _EPS
 _CCW_ERR_C = (9.0 + 64.0 * _EPS) * _EPS * _EPS
+_TINY = 2.0**-900
+"""Below this, products may have underflowed: the float stages prove nothing there."""
 
 
 def _two_sum(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -89,6 +92,7 @@ def _adaptive(
 ) -> SignArray:
     """Stages B, C (vectorised) and D (exact) for the elements stage A left open."""
     out = np.zeros(len(ax), np.int8)
+    big = detsum >= _TINY
     with np.errstate(all="ignore"):
         acx, bcx = ax - cx, bx - cx
         acy, bcy = ay - cy, by - cy
@@ -109,7 +113,7 @@ def _adaptive(
         use_c = ~decided & (np.abs(det_c) >= bound) & np.isfinite(det_c)
         sign = np.where(use_c, np.sign(det_c), np.sign(det))
         decided |= use_c
-        decided &= np.isfinite(sign)
+        decided &= np.isfinite(sign) & big
     out[decided] = sign[decided].astype(np.int8)
     for k in np.flatnonzero(~decided).tolist():
         out[k] = _exact_sign(
@@ -123,12 +127,17 @@ def orientation(
 ) -> SignArray:
     """The exact sign of ``orient2d(a, b, c)`` elementwise (arrays of one shape, 1-D)."""
     with np.errstate(all="ignore"):
-        left = (ax - cx) * (by - cy)
-        right = (ay - cy) * (bx - cx)
+        acx, bcx, acy, bcy = ax - cx, bx - cx, ay - cy, by - cy
+        left = acx * bcy
+        right = acy * bcx
         det = left - right
         detsum = np.abs(left) + np.abs(right)
         sure = np.abs(det) >= _CCW_ERR_A * detsum
         sure &= np.isfinite(det)
+        # Shewchuk's bounds assume no underflow: tiny products prove nothing, unless a
+        # factor of each is exactly zero (then the determinant is exactly zero)
+        zero = ((acx == 0) | (bcy == 0)) & ((acy == 0) | (bcx == 0))
+        sure &= (detsum >= _TINY) | zero
     out = np.sign(det, where=sure, out=np.zeros(det.shape)).astype(np.int8)
     open_ = np.flatnonzero(~sure)
     if len(open_):
@@ -150,5 +159,6 @@ def surely_left(
         left = (ax - cx) * (by - cy)
         right = (ay - cy) * (bx - cx)
         det = left - right
-        result: npt.NDArray[np.bool_] = det > _CCW_ERR_A * (np.abs(left) + np.abs(right))
+        detsum = np.abs(left) + np.abs(right)
+        result: npt.NDArray[np.bool_] = (det > _CCW_ERR_A * detsum) & (detsum >= _TINY)
     return result

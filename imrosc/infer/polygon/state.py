@@ -31,7 +31,7 @@ from imrosc.infer.polygon.guide import Guide
 from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
 from imrosc.ir import Tunables
 
-_REFRESH_AT = 16
+_REFRESH_AT = 32
 _EXTREMES = 32
 _STRIDE = 8
 
@@ -66,13 +66,14 @@ def _term(coefficient: float, name: str, first: bool) -> str:
     return f" + {body}" if coefficient > 0 else f" - {body}"
 
 
-def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``(A, b)`` with ``A @ p <= b`` for every point of the hull of counter-clockwise
-    ``vertices``, one row per edge, each row scaled so its larger coefficient is +-1.
+def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(A, b, tight)`` with ``A @ p <= b`` for every point of the hull of
+    counter-clockwise ``vertices``, one row per edge, each row scaled so its larger
+    coefficient is +-1.
 
     ``b`` includes a margin of ``2**-50 * (|a| max|x| + |b| max|y|)``, more than the
     rounding of ``a * x + b * y`` for any point of the hull, so every sample passes the
-    float64 check with no further tolerance.
+    float64 check with no further tolerance; ``tight`` is ``b`` without it (for text).
     """
     nxt = np.roll(vertices, -1, axis=0)
     a = nxt[:, 1] - vertices[:, 1]
@@ -83,13 +84,13 @@ def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray]:
     reach = a[:, None] * vertices[None, :, 0] + b[:, None] * vertices[None, :, 1]
     top = reach.max(axis=1)
     magnitude = np.abs(a) * np.abs(vertices[:, 0]).max() + np.abs(b) * np.abs(vertices[:, 1]).max()
-    return np.stack([a, b], axis=1), top + 8 * _UNIT * magnitude
+    return np.stack([a, b], axis=1), top + 8 * _UNIT * magnitude, top
 
 
-def polygon_text(x: str, y: str, A: FloatArray, b: FloatArray) -> str:
+def polygon_text(x: str, y: str, normals: FloatArray, offsets: FloatArray) -> str:
     """The thesis' form: ``x + 0.0554*y >= -1.89 ∩ ...`` (coefficients to 3 digits)."""
     parts: list[str] = []
-    for (ca, cb), c in zip(A.tolist(), b.tolist(), strict=True):
+    for (ca, cb), c in zip(normals.tolist(), offsets.tolist(), strict=True):
         unit = ca if abs(ca) >= abs(cb) else cb
         flip = unit < 0
         sa, sb, sc = (-ca, -cb, -c) if flip else (ca, cb, c)
@@ -117,12 +118,8 @@ def _changed(before: GroupSet, after: GroupSet, groups: IntArray) -> IntArray:
         | (before.at[rb] != after.at[ra])
     )
     differ[after.group[ra][mismatch]] = True
-    return groups[differ[groups]]
-
-
-def _area(vertices: FloatArray) -> float:
-    x, y = vertices[:, 0], vertices[:, 1]
-    return float(0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    changed: IntArray = groups[differ[groups]]
+    return changed
 
 
 class PolygonState:
@@ -165,7 +162,7 @@ class PolygonState:
             # it only where it lets many samples through or has gone stale
             self.stale[changed] += 1
             many = np.bincount(extra.group, minlength=len(self.pi)) > _REFRESH_AT
-            redo = changed[many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= 4)]
+            redo = changed[many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= 8)]
             self.guide.refresh(self.hull, redo)
             self.stale[redo] = 0
         self.count += added
@@ -174,17 +171,17 @@ class PolygonState:
         """Fold a chunk: prefilter, then the exact hull of the survivors and the vertices.
 
         Pairs whose guide fits the chunk badly (no hull yet, or a variable drifting into
-        new ground) first absorb likely vertices (the rows of each variable's extreme
-        values and a sample), then, at the start, every 8th row: that hull, inside the
-        final one, refines their guide before the whole chunk is filtered.
+        new ground) first absorb likely vertices (for pairs without a hull: the rows of
+        each variable's extreme values and a sample), then every 8th row: that hull,
+        inside the final one, refines their guide before the whole chunk is filtered.
         """
         if len(samples) == 0 or not len(self.pi):
             return
         chunk = Chunk(self._matrix(samples), self.discrete)
         nothing = np.zeros(len(self.pi), np.int64)
         todo = expanding(chunk, self.pi, self.pj, self.guide)
-        if todo.any():
-            found = seeds(chunk, self.pi, self.pj, self.guide, todo, _EXTREMES)
+        if (todo & ~self.guide.ok).any():
+            found = seeds(chunk, self.pi, self.pj, self.guide, todo & ~self.guide.ok, _EXTREMES)
             found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
             self._absorb(found, nothing)
             todo &= expanding(chunk, self.pi, self.pj, self.guide)
@@ -211,24 +208,30 @@ class PolygonState:
         """The polygons that pass Algorithm 10 and the confidence rule."""
         found: list[Invariant] = []
         groups, starts, ends = self.hull.bounds()
-        for group, lo, hi in zip(groups.tolist(), starts.tolist(), ends.tolist(), strict=True):
-            if hi - lo < 3:
-                continue
-            vertices = np.stack([self.hull.x[lo:hi], self.hull.y[lo:hi]], axis=1)
-            area = _area(vertices)
-            span = vertices.max(axis=0) - vertices.min(axis=0)
-            box_area = float(span[0] * span[1])
-            if not (area > 0 and box_area > 0 and math.isfinite(area / box_area)):
-                continue
+        if not len(groups):
+            return found
+        hull = self.hull
+        nxt = np.arange(1, len(hull) + 1)
+        nxt[ends - 1] = starts
+        with np.errstate(all="ignore"):
+            twice = np.add.reduceat(hull.x * hull.y[nxt] - hull.y * hull.x[nxt], starts)
+            area = 0.5 * np.abs(twice)
+            box_area = (
+                np.maximum.reduceat(hull.x, starts) - np.minimum.reduceat(hull.x, starts)
+            ) * (np.maximum.reduceat(hull.y, starts) - np.minimum.reduceat(hull.y, starts))
             ratio = area / box_area
-            if ratio <= THIN_RATIO or ratio > context.tunables.drop_ratio:
-                continue
-            n = int(self.count[group] - self.hull.at[lo:hi].max())
+        since = self.count[groups] - np.maximum.reduceat(hull.at, starts)
+        keep = (ends - starts >= 3) & (area > 0) & (box_area > 0) & np.isfinite(ratio)
+        keep &= (ratio > THIN_RATIO) & (ratio <= context.tunables.drop_ratio)
+        for k in np.flatnonzero(keep).tolist():
+            n = int(since[k])
             if not context.justified(n):
                 continue
+            group, lo, hi = int(groups[k]), int(starts[k]), int(ends[k])
+            vertices = np.stack([hull.x[lo:hi], hull.y[lo:hi]], axis=1)
             x = self.names[int(self.pi[group])]
             y = self.names[int(self.pj[group])]
-            A, b = half_planes(vertices)
+            normals, offsets, tight = half_planes(vertices)
             found.append(
                 Invariant(
                     family=self.family,
@@ -239,13 +242,13 @@ class PolygonState:
                         "x": x,
                         "y": y,
                         "vertices": vertices.tolist(),
-                        "A": A.tolist(),
-                        "b": b.tolist(),
-                        "area": area,
-                        "box_area": box_area,
-                        "ratio": ratio,
+                        "A": normals.tolist(),
+                        "b": offsets.tolist(),
+                        "area": float(area[k]),
+                        "box_area": float(box_area[k]),
+                        "ratio": float(ratio[k]),
                     },
-                    text=polygon_text(x, y, A, b),
+                    text=polygon_text(x, y, normals, tight),
                     samples=int(self.count[group]),
                     confidence=confidence(n),
                     condition=context.condition,

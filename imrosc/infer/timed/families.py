@@ -19,6 +19,7 @@ confidence limit, ``n`` being the defined windows since either bound last change
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Collection, Sequence
 from typing import Any
 
@@ -27,6 +28,28 @@ import numpy as np
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
 from imrosc.infer.timed.windows import Extremes, WindowTracker, windowed_variances
 from imrosc.ir import Tunables
+
+_last: tuple[weakref.ref[Samples], tuple[str, ...], FloatArray] | None = None
+
+
+def stacked(samples: Samples, names: tuple[str, ...]) -> FloatArray:
+    """The columns ``names`` as one ``(rows, variables)`` array.
+
+    Variance and rate read the same columns of the same chunk: the last stack is kept
+    (for that very chunk object only) so the second family does not copy them again.
+    """
+    global _last  # noqa: PLW0603
+    if _last is not None and _last[0]() is samples and _last[1] == names:
+        return _last[2]
+    if names:
+        values = np.stack(
+            [np.asarray(samples.column(name), dtype=np.float64) for name in names], axis=1
+        )
+    else:
+        values = np.empty((len(samples), 0))
+    values.flags.writeable = False
+    _last = (weakref.ref(samples), names, values)
+    return values
 
 
 def format_bound(value: float) -> str:
@@ -75,11 +98,7 @@ class _Timed:
         self.tracker.adopt(other.tracker)
 
     def _values(self, samples: Samples) -> FloatArray:
-        if not self.names:
-            return np.empty((len(samples), 0))
-        return np.stack(
-            [np.asarray(samples.column(name), dtype=np.float64) for name in self.names], axis=1
-        )
+        return stacked(samples, self.names)
 
     def _subjects(self, context: FinalizeContext) -> list[tuple[str, tuple[str, ...]]]:
         """``(text of f(x), variables)`` per column of the extremes."""

@@ -1,0 +1,1 @@
+"""Tests of the polygon family (exact convex hulls of variable pairs)."""

@@ -1,0 +1,1 @@
+"""Tests of the time-related families (frequency, windowed variance, change rate)."""
