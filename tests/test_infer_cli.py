@@ -26,8 +26,7 @@ CONFIG = """<imROS project="bad">
     <publish id="a"><topic>/out</topic><topic>/in</topic></publish>
   </scope>
   <detect inv="bad.inv">
-    <bag>bags</bag>
-    <bag>{wrong}</bag>
+    <bag>bags</bag>{wrong}
   </detect>
 </imROS>
 """
@@ -70,7 +69,8 @@ def project(tmp_path: Path) -> Path:
     shutil.copyfile(FIXTURES / "bags" / "bag-empty.bag", bags / "empty.bag")
     unknown_type_bag(bags / "unknown_types")
     config = tmp_path / "bad.xml"
-    config.write_text(CONFIG.format(wrong=WRONG_RMW))
+    wrong = f"\n    <bag>{WRONG_RMW}</bag>" if WRONG_RMW.exists() else ""
+    config.write_text(CONFIG.format(wrong=wrong))
     return config
 
 
@@ -80,15 +80,18 @@ def test_bad_bags_are_reported_by_name_and_the_good_ones_still_used(project: Pat
     assert result.exit_code == 1  # bad bags are errors, but the file is written
     output = result.output
     bags = project.parent / "bags"
-    for name, problem in [
+    expected = [
         (bags / "truncated.bag", "error"),
         (bags / "notes.txt", "error"),
-        (WRONG_RMW, "error"),
         (bags / "unknown_types", "error"),
         (bags / "empty.bag", "warning"),
-    ]:
+    ]
+    if WRONG_RMW.exists():  # rosbag2's own bag of an unsupported serialization
+        expected.append((WRONG_RMW, "error"))
+        assert "serialization format" in output
+    for name, problem in expected:
         assert f"{name}:1:1: {problem}:" in output, name
-    assert "serialization format" in output and "unknown message type my_pkg/msg/Thing" in output
+    assert "unknown message type my_pkg/msg/Thing" in output
     assert "skipped" in output and "truncated.bag" in output.split("skipped", 1)[1]
     document = json.loads((project.parent / "bad.inv").read_text())
     assert document["points"]["a"]["support"]["runs"] == 2  # run1 and run2
