@@ -372,26 +372,28 @@ def _general(
             lengths[mine, 0] = below
             starts[mine, 1] = offsets[var] + above
             lengths[mine, 1] = len(vals) - above
-        all_rows = flat_rows[ragged_arange(starts.ravel(), lengths.ravel())]
+        all_rows = flat_rows.take(ragged_arange(starts.ravel(), lengths.ravel()))
         all_slots = np.repeat(np.arange(len(pairs)), lengths.sum(axis=1))
         for first in range(0, len(all_rows), _BLOCK):
             row = all_rows[first : first + _BLOCK]
             slot = all_slots[first : first + _BLOCK]
-            x = values[ox[slot] * width + row]
-            y = values[oy[slot] * width + row]
-            pair = pairs[slot]
+            x = values.take(ox.take(slot) * width + row)
+            y = values.take(oy.take(slot) * width + row)
+            pair = pairs.take(slot)
             with np.errstate(invalid="ignore"):
                 if part == 2:  # corners: outside the cross on the other axis too
-                    other = np.where(plan.c_on_x[slot], y, x)
-                    sel = np.flatnonzero((other < other_lo[slot]) | (other > other_hi[slot]))
-                    slot, row, x, y, pair = slot[sel], row[sel], x[sel], y[sel], pair[sel]
+                    other = np.where(plan.c_on_x.take(slot), y, x)
+                    out = (other < other_lo.take(slot)) | (other > other_hi.take(slot))
+                    sel = np.flatnonzero(out)
+                    slot, row, pair = slot.take(sel), row.take(sel), pair.take(sel)
+                    x, y = x.take(sel), y.take(sel)
                 keep = ~guide.inside(pair, x, y)
                 if gaps:  # a NaN compares false everywhere: drop it explicitly
                     keep &= ~(np.isnan(x) | np.isnan(y))
                 if part == 1:  # rows of A come from A
-                    keep &= (x >= plan.a[0][slot]) & (x <= plan.a[1][slot])
+                    keep &= (x >= plan.a[0].take(slot)) & (x <= plan.a[1].take(slot))
             sel = np.flatnonzero(keep)
-            found.append(GroupSet(pair[sel].astype(np.int64), x[sel], y[sel], row[sel]))
+            found.append(GroupSet(pair.take(sel), x.take(sel), y.take(sel), row.take(sel)))
     # pairs no cross fits (bands along a diagonal, no hull yet): every row, by blocks
     rows_all = np.arange(width, dtype=np.int64)
     for slot in np.flatnonzero(scan).tolist():

@@ -141,8 +141,14 @@ def _quickhull(pts: GroupSet) -> tuple[GroupSet, IntArray, IntArray]:
     found_stage: list[IntArray] = []
     while len(key):
         order = np.argsort(key, kind="stable")
-        key, sx, sy, ex, ey = key[order], sx[order], sy[order], ex[order], ey[order]
-        px, py, pat, pgroup, chain = px[order], py[order], pat[order], pgroup[order], chain[order]
+        key, pat, pgroup, chain = (
+            key.take(order),
+            pat.take(order),
+            pgroup.take(order),
+            chain.take(order),
+        )
+        sx, sy, ex, ey = sx.take(order), sy.take(order), ex.take(order), ey.take(order)
+        px, py = px.take(order), py.take(order)
         seg, seg_run = _segments(key)
         with np.errstate(all="ignore"):
             t1 = (sy - py) * (ex - px)
@@ -154,8 +160,8 @@ def _quickhull(pts: GroupSet) -> tuple[GroupSet, IntArray, IntArray]:
         best = np.minimum.reduceat(np.where(top, pat, _BIG), seg)
         top &= pat == best[seg_run]
         pick = np.minimum.reduceat(np.where(top, np.arange(len(pat)), _BIG), seg)
-        cx, cy = px[pick], py[pick]
-        qx, qy = cx[seg_run], cy[seg_run]
+        cx, cy = px.take(pick), py.take(pick)
+        qx, qy = cx.take(seg_run), cy.take(seg_run)
         # could another point be at least as far? then the pick may be no vertex
         other = (px != qx) | (py != qy)
         rival = np.maximum.reduceat(np.where(other, dist + err, -np.inf), seg)
@@ -170,14 +176,18 @@ def _quickhull(pts: GroupSet) -> tuple[GroupSet, IntArray, IntArray]:
                 orientation(qx[rest], qy[rest], ex[rest], ey[rest], px[rest], py[rest]) < 0
             )
         live = np.flatnonzero(first | second)
-        f = first[live]
-        key = 2 * seg_run[live] + np.where(f, 0, 1)
-        nsx = np.where(f, sx[live], qx[live])
-        nsy = np.where(f, sy[live], qy[live])
-        nex = np.where(f, qx[live], ex[live])
-        ney = np.where(f, qy[live], ey[live])
-        sx, sy, ex, ey = nsx, nsy, nex, ney
-        px, py, pat, pgroup, chain = px[live], py[live], pat[live], pgroup[live], chain[live]
+        f = first.take(live)
+        key = 2 * seg_run.take(live) + np.where(f, 0, 1)
+        sx, sy, ex, ey = sx.take(live), sy.take(live), ex.take(live), ey.take(live)
+        qx, qy = qx.take(live), qy.take(live)
+        sx, sy, ex, ey = (
+            np.where(f, sx, qx),
+            np.where(f, sy, qy),
+            np.where(f, qx, ex),
+            np.where(f, qy, ey),
+        )
+        px, py, pat, pgroup = px.take(live), py.take(live), pat.take(live), pgroup.take(live)
+        chain = chain.take(live)
     out = [pts.take(np.concatenate(keep)), *found]
     stage = np.concatenate(stages + found_stage)
     merged = GroupSet(
