@@ -5,10 +5,14 @@ every pair costs pairs x rows work (1,540 x 160,000 on the benchmark), so a chun
 reduced without touching most (pair, row) combinations, using the shapes the
 :class:`~imrosc.infer.polygon.guide.Guide` keeps strictly inside each current hull:
 
-* the rows outside a pair's inscribed box are read from per-variable sorted tails (one
-  sort per variable per chunk serves all its pairs), so the cost follows the number of
-  samples near the boundary, not pairs x rows;
-* those are then tested against the pair's polar table (a sector lookup and a compare);
+* per pair, the square box or the cheapest cross (a wide and a tall box) is chosen by
+  costing each on a sample of the chunk; the rows outside it are read from per-variable
+  sorted tails (one sort per variable per chunk serves all its pairs): part A, the rows
+  left or right of the cross; part B, above or below it; part C, its corners, read from
+  the smaller of the two tails and filtered by the other coordinate. The cost follows the
+  number of samples near the boundary, not pairs x rows;
+* pairs no cross fits (a band along a diagonal) are scanned row by row;
+* every row so found is tested against the pair's polar table (a sector lookup, a compare);
 * pairs where a variable takes few values (constants, flags, modes) keep, per value, only
   the rows with the least and greatest partner value; pairs of identical columns keep
   their two end points; pairs without a guide (no hull yet, or a degenerate one) keep all.
@@ -149,6 +153,7 @@ class Chunk:
 
 
 def _few_valued(chunk: Chunk) -> BoolArray:
+    """Constant variables, and discrete ones with at most ``FEW_VALUES`` values here."""
     few: BoolArray = np.asarray((chunk.low == chunk.high) & ~chunk.empty, dtype=bool)
     for var in np.flatnonzero(~few & ~chunk.empty & np.asarray(chunk.discrete, bool)).tolist():
         column = chunk.values[var][~chunk.nan[var]]

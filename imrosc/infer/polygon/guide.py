@@ -23,6 +23,8 @@ A sample inside a box, or on the inner side of its sector's chord, is strictly i
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import numpy.typing as npt
 
@@ -33,6 +35,10 @@ from imrosc.infer.polygon.predicates import surely_left
 BoolArray = npt.NDArray[np.bool_]
 
 BUCKETS = 256
+"""Sectors of the polar table, at most (fewer when there are many pairs, see ``_TABLE``)."""
+
+_TABLE = 64 * 2**20
+"""Bytes the polar tables of one point may take (three float64 planes)."""
 FRACTIONS = (0.3, 0.55, 0.8)
 """Heights of the wide boxes (widths of the tall ones) as fractions of the hull's span."""
 
@@ -140,10 +146,11 @@ class Guide:
         self.ix = np.ones(npairs)
         self.iy = np.ones(npairs)
         # per pair and sector, the chord: inside when nx * u + ny * v < level
+        self.buckets = _buckets(npairs)
         self.planes = (
-            np.zeros(npairs * BUCKETS),
-            np.zeros(npairs * BUCKETS),
-            np.full(npairs * BUCKETS, -np.inf),
+            np.zeros(npairs * self.buckets),
+            np.zeros(npairs * self.buckets),
+            np.full(npairs * self.buckets, -np.inf),
         )
 
     def refresh(self, hull: GroupSet, pairs: IntArray) -> None:
@@ -177,7 +184,7 @@ class Guide:
                 low, high = mid_x - fraction * sx / 2, mid_x + fraction * sx / 2
                 bottom, top = flipped.span(low, high)
                 self.tall[k][:, pairs] = _valid(np.stack([low, high, bottom, top]), ok)
-            table = self._table(poly, ok, cx, cy, sx, sy)
+            table = self._table(poly, ok, cx, cy, sx, sy, self.buckets)
         self.ok[pairs] = ok
         self.cx[pairs] = cx
         self.cy[pairs] = cy
@@ -186,7 +193,7 @@ class Guide:
         self.ix[pairs] = 1 / self.sx[pairs]
         self.iy[pairs] = 1 / self.sy[pairs]
         for plane, values in zip(self.planes, table, strict=True):
-            plane.reshape(-1, BUCKETS)[pairs] = values
+            plane.reshape(-1, self.buckets)[pairs] = values
 
     @staticmethod
     def _square(
@@ -228,9 +235,10 @@ class Guide:
         cy: FloatArray,
         sx: FloatArray,
         sy: FloatArray,
+        buckets: int,
     ) -> FloatArray:
         m, width = poly.vx.shape
-        tables = np.zeros((3, m, BUCKETS))
+        tables = np.zeros((3, m, buckets))
         tables[2] = -np.inf
         rows = np.flatnonzero(ok)
         if not len(rows):
@@ -253,16 +261,16 @@ class Guide:
         offset = au * nu + av * nv
         # the edge each sector bound crosses: bound j belongs to the last vertex at or
         # before it (wrapping round to the last vertex)
-        first_bound = np.clip(np.ceil(angle * (BUCKETS / 4)), 0, BUCKETS).astype(np.int64)
-        marks = np.zeros((k, BUCKETS + 1), np.int64)
+        first_bound = np.clip(np.ceil(angle * (buckets / 4)), 0, buckets).astype(np.int64)
+        marks = np.zeros((k, buckets + 1), np.int64)
         rr, cc = np.nonzero(real)
         np.add.at(marks, (rr, first_bound[rr, cc]), 1)
-        edge = np.cumsum(marks[:, :BUCKETS], axis=1) - 1
+        edge = np.cumsum(marks[:, :buckets], axis=1) - 1
         edge = np.where(edge < 0, (cnt - 1)[:, None], edge)
         # every edge line supports the polygon, so a ray leaves it at the nearest one; the
         # bound's own edge and both neighbours cover an assignment off by one at a vertex
-        ray_u, ray_v = _RAYS
-        reach = np.full((k, BUCKETS), np.inf)
+        ray_u, ray_v = _rays(buckets)
+        reach = np.full((k, buckets), np.inf)
         for shift in (-1, 0, 1):
             near = (edge + shift) % cnt[:, None]
             flat = (np.arange(k) * width)[:, None] + near
@@ -296,10 +304,10 @@ class Guide:
             p = v / (np.abs(u) + np.abs(v))
             turn = np.where(u >= 0, p, 2 - p)
             turn += 4
-            turn *= BUCKETS / 4
+            turn *= self.buckets / 4
             cell = turn.astype(np.int64)
-            cell &= BUCKETS - 1
-            cell += pair * BUCKETS
+            cell &= self.buckets - 1
+            cell += pair * self.buckets
             nx, ny, level = self.planes
             result: BoolArray = nx.take(cell) * u + ny.take(cell) * v < level.take(cell)
         return result
@@ -313,17 +321,23 @@ def diamond(u: FloatArray, v: FloatArray) -> FloatArray:
     return out
 
 
-def _rays() -> tuple[FloatArray, FloatArray]:
-    """Directions of the sector bounds: the "diamond angle" ``4 * j / BUCKETS``."""
-    d = 4.0 * np.arange(BUCKETS) / BUCKETS
+def _buckets(npairs: int) -> int:
+    """A power of two, at most ``BUCKETS``, at least 16, within the ``_TABLE`` budget."""
+    size = BUCKETS
+    while size > 16 and 24 * size * npairs > _TABLE:
+        size //= 2
+    return size
+
+
+@functools.cache
+def _rays(buckets: int) -> tuple[FloatArray, FloatArray]:
+    """Directions of the sector bounds: the "diamond angle" ``4 * j / buckets``."""
+    d = 4.0 * np.arange(buckets) / buckets
     quarter = np.floor(d)
     f = d - quarter
     u = np.select([quarter == 0, quarter == 1, quarter == 2], [1 - f, -f, f - 1], f)
     v = np.select([quarter == 0, quarter == 1, quarter == 2], [f, 1 - f, -f], f - 1)
     return u, v
-
-
-_RAYS = _rays()
 
 
 def _valid(box: FloatArray, ok: BoolArray) -> FloatArray:

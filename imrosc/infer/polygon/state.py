@@ -32,8 +32,13 @@ from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
 from imrosc.ir import Tunables
 
 _REFRESH_AT = 32
+"""A guide letting more candidates than this through is rebuilt from the new hull."""
+_STALE = 8
+"""A guide is rebuilt after its hull changed this many times."""
 _EXTREMES = 32
+"""Rows of each variable's least and greatest values that seed a pair without a hull."""
 _STRIDE = 8
+"""Every how many rows a pair whose guide fits badly gets a head start."""
 
 THIN_RATIO = 1e-9
 """Hulls whose area is at most this fraction of their bounding box are lines, not polygons."""
@@ -162,7 +167,9 @@ class PolygonState:
             # it only where it lets many samples through or has gone stale
             self.stale[changed] += 1
             many = np.bincount(extra.group, minlength=len(self.pi)) > _REFRESH_AT
-            redo = changed[many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= 8)]
+            redo = changed[
+                many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= _STALE)
+            ]
             self.guide.refresh(self.hull, redo)
             self.stale[redo] = 0
         self.count += added

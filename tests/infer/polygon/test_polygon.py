@@ -15,6 +15,7 @@ from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, V
 from imrosc.infer.polygon import (
     GroupSet,
     PolygonState,
+    guide,
     half_planes,
     hulls,
     make_states,
@@ -266,6 +267,27 @@ def test_discrete_and_identical_columns() -> None:
     for pair, (i, j) in enumerate(zip(state.pi.tolist(), state.pj.tolist(), strict=True)):
         points = list(zip(columns[names[i]].tolist(), columns[names[j]].tolist(), strict=True))
         assert vertices_of(state, pair) == hull_with_first(points)
+
+
+def test_few_polar_sectors_when_a_point_has_very_many_pairs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(guide, "BUCKETS", 16)
+    rng = np.random.default_rng(10)
+    t = rng.uniform(0, 2 * np.pi, 6000)
+    columns = {
+        "a": np.cos(t) * rng.uniform(0.9, 1, 6000),
+        "b": np.sin(t),
+        "c": rng.normal(size=6000),
+        "d": 0.5 * np.cos(t) + 0.01 * rng.normal(size=6000),
+    }
+    state = state_for(columns, chunk=997)
+    assert state.guide.buckets == 16
+    names = list(columns)
+    for pair, (i, j) in enumerate(zip(state.pi.tolist(), state.pj.tolist(), strict=True)):
+        points = list(zip(columns[names[i]].tolist(), columns[names[j]].tolist(), strict=True))
+        assert vertices_of(state, pair) == hull_with_first(points)
+    assert guide._buckets(10**6) == 16 and guide._buckets(1540) == 16
 
 
 # --- exactness -------------------------------------------------------------------------

@@ -299,7 +299,8 @@ def brute(time: FloatArray, values: FloatArray, window: float) -> dict[str, list
             if math.isfinite(var):
                 out["variance"].append(var)
             if time[i] > time[first]:
-                rate = (values[i] - values[first]) / (time[i] - time[first])
+                with np.errstate(invalid="ignore"):
+                    rate = (values[i] - values[first]) / (time[i] - time[first])
                 if math.isfinite(rate):
                     out["rate"].append(rate)
     return out
