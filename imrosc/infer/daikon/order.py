@@ -15,53 +15,27 @@ is on. ``!=`` between pairs is never reported (Daikon's float ``!=`` is mostly n
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
-from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable, confidence
-from imrosc.infer.daikon.chunk import view
-from imrosc.infer.daikon.common import Extremes, equality_classes, relation_variables
-from imrosc.infer.daikon.pairs import PairFlags
+from imrosc.infer.core import FinalizeContext, Invariant, Variable, confidence
+from imrosc.infer.daikon.pairs import PairRelationState
 
 
-class OrderState:
+class OrderState(PairRelationState):
     """Mergeable state of the order family at one point."""
 
     family = "order"
+    mode = "order"
 
     def __init__(self, variables: Sequence[Variable], *, bounds: bool) -> None:
-        self.variables = relation_variables(variables)
+        super().__init__(variables)
         self.bounds = bounds
-        self.extremes = Extremes(len(self.variables))
-        self.flags = PairFlags(len(self.variables), "order")
-
-    def update(self, samples: Samples) -> None:
-        """Consume one chunk."""
-        if not self.variables or len(samples) == 0:
-            return
-        chunk = view(samples)
-        names = [v.name for v in self.variables]
-        summaries = [chunk.summary(name) for name in names]
-        self.extremes.update(summaries)
-        self.flags.update(chunk.columns(names), summaries)
-
-    def end_run(self) -> None:
-        """Nothing spans runs."""
-
-    def merge(self, other: Any) -> None:
-        """Absorb a state whose samples come after ours."""
-        if not isinstance(other, OrderState):
-            raise TypeError(f"cannot merge {type(other).__name__} into order")
-        self.extremes.merge(other.extremes)
-        self.flags.merge(other.flags)
 
     def finalize(self, context: FinalizeContext) -> list[Invariant]:
         """The justified order relations."""
         size = len(self.variables)
-        constant = self.extremes.constant()
-        eligible = [not bool(constant[v]) for v in range(size)]
-        classes = equality_classes(size, self.flags.equal_pairs(context), eligible)
+        classes = self.classes(context)
         leaders = np.zeros(size, dtype=bool)
         for members in classes:
             leaders[members[0]] = True

@@ -16,12 +16,21 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
-from imrosc.infer.core import FinalizeContext, FloatArray
-from imrosc.infer.daikon.common import BoolArray, ColumnSummary, IntArray, window
+from imrosc.infer.core import FinalizeContext, FloatArray, Samples, Variable
+from imrosc.infer.daikon.chunk import view
+from imrosc.infer.daikon.common import (
+    BoolArray,
+    ColumnSummary,
+    Extremes,
+    IntArray,
+    equality_classes,
+    relation_variables,
+    window,
+)
 
 Mode = Literal["equality", "order"]
 _BLOCK = 64
@@ -124,3 +133,44 @@ class PairFlags:
             if context.justified(int(self.count[p])):
                 found.add((int(self.first[p]), int(self.second[p])))
         return found
+
+
+class PairRelationState:
+    """What the equality and order families share: exact pair flags and column extremes
+    over the relation variables, updated and merged alike. Subclasses set ``family`` and
+    ``mode`` and write ``finalize``."""
+
+    family = ""
+    mode: Literal["equality", "order"] = "equality"
+
+    def __init__(self, variables: Sequence[Variable]) -> None:
+        self.variables = relation_variables(variables)
+        self.extremes = Extremes(len(self.variables))
+        self.flags = PairFlags(len(self.variables), self.mode)
+
+    def update(self, samples: Samples) -> None:
+        """Consume one chunk."""
+        if not self.variables or len(samples) == 0:
+            return
+        chunk = view(samples)
+        names = [v.name for v in self.variables]
+        summaries = [chunk.summary(name) for name in names]
+        self.extremes.update(summaries)
+        self.flags.update(chunk.columns(names), summaries)
+
+    def end_run(self) -> None:
+        """Nothing spans runs."""
+
+    def merge(self, other: Any) -> None:
+        """Absorb a state whose samples come after ours."""
+        if type(other) is not type(self):
+            raise TypeError(f"cannot merge {type(other).__name__} into {self.family}")
+        self.extremes.merge(other.extremes)
+        self.flags.merge(other.flags)
+
+    def classes(self, context: FinalizeContext) -> list[list[int]]:
+        """Equality classes of the non-constant variables (leaders first)."""
+        size = len(self.variables)
+        constant = self.extremes.constant()
+        eligible = [not bool(constant[v]) for v in range(size)]
+        return equality_classes(size, self.flags.equal_pairs(context), eligible)
