@@ -5,13 +5,16 @@
 counter-clockwise, ``-1`` clockwise, ``0`` collinear. Stage A is the float determinant
 with Shewchuk's error bound; the elements it cannot decide go to stages B and C (products
 and differences as exact two-term expansions, with their bounds); what is still undecided
-(in practice: exactly collinear points whose differences round) is settled with exact
-rational arithmetic, as is everything so small that a product may have underflowed
-(Shewchuk's bounds assume it does not). Inputs must be finite.
+(in practice: exactly collinear points whose differences round) gets stage D: the
+determinant as sixteen floats whose sum is exact, summed with ``math.fsum`` (correctly
+rounded, so its sign is exact). Inputs of extreme magnitude, where a product could
+underflow or overflow (Shewchuk's bounds assume neither), get exact rational arithmetic.
+Inputs must be finite.
 """
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 
 import numpy as np
@@ -115,10 +118,69 @@ def _adaptive(
         decided |= use_c
         decided &= np.isfinite(sign) & big
     out[decided] = sign[decided].astype(np.int8)
-    for k in np.flatnonzero(~decided).tolist():
-        out[k] = _exact_sign(
-            float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
-        )
+    rest = np.flatnonzero(~decided)
+    if len(rest):
+        out[rest] = _stage_d(ax[rest], ay[rest], bx[rest], by[rest], cx[rest], cy[rest])
+    return out
+
+
+_SAFE_HIGH = 2.0**400
+_SAFE_LOW = 2.0**-400
+"""Inputs of magnitudes in ``[_SAFE_LOW, _SAFE_HIGH)`` (or zero) make every partial product
+of stage D a multiple of ``2**-904`` below ``2**810``: no underflow, no overflow, so
+Dekker's products are exact. Anything else goes to rational arithmetic."""
+
+
+def _stage_d(
+    ax: FloatArray,
+    ay: FloatArray,
+    bx: FloatArray,
+    by: FloatArray,
+    cx: FloatArray,
+    cy: FloatArray,
+) -> SignArray:
+    """The exact sign from the 16 floats whose sum is the determinant.
+
+    Each difference is exactly ``hi + tail``; each product of two such sums is exactly
+    eight floats (Dekker's product). ``math.fsum`` rounds their sum correctly, so its sign
+    is the exact sign. Where a product may have underflowed or a split overflowed, the
+    sign comes from rational arithmetic instead.
+    """
+    with np.errstate(all="ignore"):
+        acx, bcx = ax - cx, bx - cx
+        acy, bcy = ay - cy, by - cy
+        acx_t = _two_diff_tail(ax, cx, acx)
+        bcx_t = _two_diff_tail(bx, cx, bcx)
+        acy_t = _two_diff_tail(ay, cy, acy)
+        bcy_t = _two_diff_tail(by, cy, bcy)
+        terms = []
+        for p, q, sign in (
+            (acx, bcy, 1.0),
+            (acx, bcy_t, 1.0),
+            (acx_t, bcy, 1.0),
+            (acx_t, bcy_t, 1.0),
+            (acy, bcx, -1.0),
+            (acy, bcx_t, -1.0),
+            (acy_t, bcx, -1.0),
+            (acy_t, bcx_t, -1.0),
+        ):
+            high, low = _two_product(p, q)
+            terms.append(sign * high)
+            terms.append(sign * low)
+        stacked = np.stack(terms, axis=1)
+        safe = np.ones(len(ax), np.bool_)
+        for v in (ax, ay, bx, by, cx, cy):
+            size = np.abs(v)
+            safe &= (size == 0) | ((size >= _SAFE_LOW) & (size < _SAFE_HIGH))
+    out = np.zeros(len(ax), np.int8)
+    for k, row in enumerate(stacked.tolist()):
+        if safe[k]:
+            total = math.fsum(row)
+            out[k] = (total > 0) - (total < 0)
+        else:
+            out[k] = _exact_sign(
+                float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
+            )
     return out
 
 

@@ -296,8 +296,26 @@ def test_few_polar_sectors_when_a_point_has_very_many_pairs(
 coordinates = st.one_of(
     st.floats(-1e6, 1e6, allow_nan=False, width=64),
     st.sampled_from([0.0, 1.0, -1.0, 0.1, 0.2, 0.3, 1e-300, 3.0]),
+    # both sides of stage D's safe range [2**-400, 2**400)
+    st.sampled_from([1e200, -1e125, 2.0**400, 2.0**-400, -(2.0**-401), 1e-150, 7e119]),
     st.integers(-3, 3).map(float),
 )
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-1e3, 1e3, allow_nan=False, width=64), min_size=3, max_size=60))
+def test_orientation_is_exact_on_rounded_lines(xs: list[float]) -> None:
+    """Stage D's ground: points of ``y = 0.1 x + 0.7`` rounded to floats."""
+    x = np.array(xs)
+    y = 0.1 * x + 0.7
+    n = len(x)
+    a, b, c = np.arange(n), np.roll(np.arange(n), 1), np.roll(np.arange(n), 2)
+    got = orientation(x[a], y[a], x[b], y[b], x[c], y[c])
+    for k in range(n):
+        fx = [Fraction(x[i]) for i in (a[k], b[k], c[k])]
+        fy = [Fraction(y[i]) for i in (a[k], b[k], c[k])]
+        det = (fx[0] - fx[2]) * (fy[1] - fy[2]) - (fy[0] - fy[2]) * (fx[1] - fx[2])
+        assert got[k] == (det > 0) - (det < 0)
 
 
 @settings(max_examples=200, deadline=None)
