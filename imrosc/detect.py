@@ -20,7 +20,13 @@ from imrosc.backends.registry import BuildInputs, TopicType
 from imrosc.build import load_graph
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
-from imrosc.infer.engine import InferenceResult, Progress, default_workers, infer
+from imrosc.infer.engine import (
+    Discovered,
+    InferenceResult,
+    Progress,
+    default_workers,
+    infer,
+)
 from imrosc.infer.registry import FAMILY_GROUPS, group_of
 from imrosc.invariants import PointInfo, document
 from imrosc.lower import lower
@@ -70,15 +76,45 @@ def _compile(
     return project, render_plan(inputs), render_job(inputs), problems
 
 
+def _sources(spec: PointSpec, discovered: Discovered | None) -> dict[str, Any]:
+    """How the runtime engine rebuilds the point's samples (see ``imrosc.runtime``)."""
+    filters: list[dict[str, Any]] = []
+    if spec.condition is not None:
+        filters.append(
+            {
+                "id": spec.condition.id,
+                "topic": spec.condition.topic,
+                "expression": spec.condition.expression,
+                "fields": [[list(path), name] for path, name in spec.condition.fields.items()],
+            }
+        )
+    if discovered is not None:
+        filters.append({"variable": discovered.variable, "value": discovered.value})
+    return {
+        "inputs": list(spec.inputs),
+        "params": list(spec.params),
+        "events": [list(event) for event in spec.events],
+        "filter": filters,
+    }
+
+
 def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointInfo]:
     infos = []
-    conditions = {d.key: d.text for d in result.discovered}
+    discovered = {d.key: d for d in result.discovered}
     for key, state in result.states.items():
         spec = state.spec
-        condition = spec.condition.id if spec.condition else conditions.get(key)
+        found = discovered.get(key)
+        condition = spec.condition.id if spec.condition else (found.text if found else None)
         infos.append(
             PointInfo(
-                key, spec.kind, spec.trigger, condition, state.samples, state.runs, spec.variables
+                key,
+                spec.kind,
+                spec.trigger,
+                condition,
+                state.samples,
+                state.runs,
+                spec.variables,
+                _sources(spec, found),
             )
         )
     return infos

@@ -75,6 +75,9 @@ class PointInfo:
     samples: int
     runs: int
     variables: tuple[Variable, ...]
+    sources: Mapping[str, Any] | None = None
+    """What the runtime engine needs to rebuild the point's samples: ``inputs`` (topics),
+    ``params``, ``events`` (``[id, kind, name]``) and ``filter`` (its conditions)."""
 
 
 def document(
@@ -105,6 +108,7 @@ def document(
                 "condition": p.condition,
                 "support": {"samples": p.samples, "runs": p.runs},
                 "variables": [_variable(v) for v in p.variables],
+                **_json_safe(dict(p.sources or {})),
             }
             for p in points
         },

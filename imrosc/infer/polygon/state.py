@@ -192,11 +192,13 @@ class PolygonState:
             found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
             self._absorb(found, nothing)
             todo &= expanding(chunk, self.pi, self.pj, self.guide)
-        if todo.any() and chunk.rows >= 32 * _STRIDE:
-            part = chunk.every(_STRIDE)
-            found = candidates(part, self.pi, self.pj, self.guide, cross=False, only=todo)
-            found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at * _STRIDE)
-            self._absorb(found, nothing)
+        for stride in (64, 8):
+            if todo.any() and chunk.rows >= 32 * stride:
+                part = chunk.every(stride)
+                found = candidates(part, self.pi, self.pj, self.guide, cross=False, only=todo)
+                found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at * stride)
+                self._absorb(found, nothing)
+                todo &= expanding(chunk, self.pi, self.pj, self.guide)
         found = candidates(chunk, self.pi, self.pj, self.guide)
         found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
         self._absorb(found, chunk.valid_counts(self.pi, self.pj))

@@ -1,0 +1,438 @@
+"""The engine: program points rebuilt online from what happens, checked as it happens.
+
+A publish point's sample is its topic's message paired with the latest message of each
+input topic and the latest parameter values (Algorithm 1, online); a sample whose inputs
+have not all been seen yet is not checked, as inference did not learn from it. A call
+point's sample is a service call (request, response, delay), a parameter point's a
+parameter value, an architecture point's a graph snapshot (at every change and every
+second), a temporal point's an event. Conditional points check only the samples their
+conditions accept: a declared ``<condition>`` on its topic's latest message, a discovered
+``variable == value`` on the sample itself.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from imrosc.runtime.arch import ArchChecks, Snapshot
+from imrosc.runtime.checks import Checks, WindowChecks
+from imrosc.runtime.conditions import holds
+from imrosc.runtime.temporal import IntervalMachine, PatternMachine
+from imrosc.runtime.violation import Violation
+from imrosc.runtime.windows import Windows
+
+ARCH_PERIOD = 1.0
+"""Seconds between two checks of the architecture in force (inference samples it so)."""
+PARAMS = "@params"
+
+Found = List[Violation]
+Trace = Callable[[str, float, Any, Optional[float]], None]
+"""``trace(point, time, sample, frequency)``: called for every sample a point checks."""
+
+_NUMERIC = ("float", "int", "uint", "bool", "time")
+
+
+def _number(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+class _Filter:
+    """One condition of a conditional point."""
+
+    def __init__(self, spec: Mapping[str, Any]) -> None:
+        self.topic: Optional[str] = spec.get("topic")
+        self.expression: Mapping[str, Any] = spec.get("expression") or {}
+        self.fields: List[Tuple[Tuple[Any, ...], str]] = [
+            (tuple(path), name) for path, name in spec.get("fields", ())
+        ]
+        self.variable: Optional[str] = spec.get("variable")
+        self.value = spec.get("value")
+
+
+class _Point:
+    """One program point: where its values come from, its checks and its windows."""
+
+    def __init__(self, key: str, info: Mapping[str, Any], invariants: List[Mapping[str, Any]]):
+        self.key = key
+        self.kind: str = info["kind"]
+        self.trigger: str = info.get("trigger", "")
+        self.inputs: Tuple[str, ...] = tuple(info.get("inputs", ()))
+        self.params: Tuple[str, ...] = tuple(info.get("params", ()))
+        self.filters = [_Filter(f) for f in info.get("filter", ())]
+        variables = info["variables"]
+        self.variables = variables
+        numeric = [v for v in variables if v["type"] in _NUMERIC]
+        strings = [v for v in variables if v["type"] == "string"]
+        self.numeric_names = [v["name"] for v in numeric]
+        self.string_names = [v["name"] for v in strings]
+        index = {name: k for k, name in enumerate(self.numeric_names)}
+        string_index = {name: k for k, name in enumerate(self.string_names)}
+        stats = [v["name"] for v in numeric if v.get("derived") in ("avg", "std")]
+        self.invariants = invariants
+        self.checks = Checks(invariants, index, string_index, stats)
+        tracked = [
+            v["name"] for v in numeric if v.get("trigger", True) and v.get("derived") is None
+        ]
+        self.tracked_at = np.asarray([index[n] for n in tracked], dtype=np.int64)
+        self.window_checks = WindowChecks(invariants, tracked)
+        self.windows: Optional[Windows] = None
+        if self.window_checks.active:
+            self.windows = Windows(self.window_checks.window, len(tracked))
+        # a conditional point is silent whenever its condition does not hold: no timer
+        self.min_frequency = (
+            min([float(i["params"]["min"]) for i in self.window_checks.frequency] + [math.inf])
+            if not self.filters
+            else 0.0
+        )
+        self.silent = False
+        self.arch = ArchChecks(invariants, key) if self.kind == "arch" else None
+        self.intervals: List[IntervalMachine] = []
+        self.patterns: List[PatternMachine] = []
+        for inv in invariants:
+            if inv["family"] == "interval":
+                self.intervals.append(IntervalMachine(inv, key))
+            elif inv["family"] == "pattern":
+                self.patterns.append(PatternMachine(inv, key))
+        self.events: Dict[Tuple[str, str], str] = {
+            (kind, name): ident for ident, kind, name in info.get("events", ())
+        }
+
+    def reset(self) -> None:
+        if self.windows is not None:
+            self.windows.reset()
+        self.silent = False
+        if self.arch is not None:
+            self.arch.reset()
+        for machine in self.intervals:
+            machine.reset()
+        for pattern in self.patterns:
+            pattern.reset()
+
+    def accepts(self, row: Any, names: Mapping[str, int], latest: Mapping[str, Any]) -> bool:
+        """Whether every condition of the point holds for this sample."""
+        for condition in self.filters:
+            if condition.variable is not None:
+                if condition.variable in names:
+                    value = row[names[condition.variable]]
+                else:
+                    return False
+                if value != condition.value:
+                    return False
+            else:
+                message = latest.get(condition.topic or "")
+                if message is None:
+                    return False
+                fields = {path: message.get(name, math.nan) for path, name in condition.fields}
+                if not holds(condition.expression, fields):
+                    return False
+        return True
+
+    def sample(
+        self, time: float, row: Any, strings: Sequence[Any], trace: Optional[Trace]
+    ) -> Found:
+        """Check one sample that passed the point's conditions."""
+        found = self.checks.check(time, self.key, row, strings)
+        frequency: Optional[float] = None
+        if self.windows is not None:
+            self.silent = False
+            defined = self.windows.add(time, row[self.tracked_at])
+            windows = self.windows
+            frequency = windows.frequency()
+            if defined:
+
+                def derived(family: str) -> Any:
+                    return windows.variance() if family == "variance" else windows.rate()
+
+                found += self.window_checks.check(
+                    time, self.key, frequency, derived, self.checks.cleared
+                )
+            else:
+                frequency = None
+        if trace is not None:
+            trace(self.key, time, row, frequency)
+        return found
+
+    def tick(self, now: float) -> Found:
+        """Timers: a silent topic (frequency lower bound), intervals past their maximum."""
+        found: Found = []
+        windows = self.windows
+        if (
+            windows is not None
+            and not self.silent
+            and self.min_frequency > 0
+            and windows.defined_at(now)
+            and (windows.size_at(now) + 1) / windows.window < self.min_frequency
+        ):
+            self.silent = True
+            expected_at_most = (windows.size_at(now) + 1) / windows.window
+            for inv in self.window_checks.frequency:
+                lo = float(inv["params"]["min"])
+                if inv["id"] in self.checks.cleared or expected_at_most >= lo:
+                    continue
+                found.append(
+                    Violation(
+                        now,
+                        self.key,
+                        inv["id"],
+                        inv["family"],
+                        inv["kind"],
+                        inv["text"],
+                        windows.size_at(now) / windows.window,
+                        f"at least {lo} Hz (no message for {now - windows.last_time():.3g} s)",
+                    )
+                )
+        for machine in self.intervals:
+            found += machine.tick(now)
+        return found
+
+
+class Engine:
+    """Checks the invariants of an invariants document against what happens.
+
+    ``document`` is the parsed invariants file. ``trace`` (optional) sees every checked
+    sample (reports draw trajectories and frequencies with it).
+    """
+
+    def __init__(self, document: Mapping[str, Any], trace: Optional[Trace] = None) -> None:
+        self.document = document
+        self.trace = trace
+        self.layouts: Dict[str, List[Mapping[str, Any]]] = {
+            topic: list(info["variables"]) for topic, info in document["topics"].items()
+        }
+        by_point: Dict[str, List[Mapping[str, Any]]] = {}
+        for inv in document["invariants"]:
+            by_point.setdefault(inv["point"], []).append(inv)
+        self.points: Dict[str, _Point] = {
+            key: _Point(key, info, by_point.get(key, []))
+            for key, info in sorted(document["points"].items())
+        }
+        self.by_id: Dict[str, Tuple[_Point, Mapping[str, Any]]] = {
+            inv["id"]: (self.points[inv["point"]], inv)
+            for inv in document["invariants"]
+            if inv["point"] in self.points
+        }
+        # where each point's values come from, per source (a topic or the parameters)
+        self._numeric_at: Dict[str, Dict[str, int]] = {}
+        self._string_at: Dict[str, Dict[str, int]] = {}
+        for topic, variables in self.layouts.items():
+            numeric = [v["name"] for v in variables if v["type"] in _NUMERIC]
+            strings = [v["name"] for v in variables if v["type"] == "string"]
+            self._numeric_at[topic] = {name: k for k, name in enumerate(numeric)}
+            self._string_at[topic] = {name: k for k, name in enumerate(strings)}
+        self._publish: Dict[str, List[_Point]] = {}
+        self._calls: Dict[str, List[_Point]] = {}
+        self._param_points: List[_Point] = []
+        self._arch_points: List[_Point] = []
+        self._events: Dict[Tuple[str, str], List[_Point]] = {}
+        self._gather: Dict[str, Tuple[List[str], Any, Any]] = {}
+        self.condition_topics = set()
+        for point in self.points.values():
+            for condition in point.filters:
+                if condition.topic:
+                    self.condition_topics.add(condition.topic)
+            if point.kind == "publish":
+                self._publish.setdefault(point.trigger, []).append(point)
+                self._gather[point.key] = self._plan_gather(point)
+            elif point.kind == "call":
+                self._calls.setdefault(point.trigger, []).append(point)
+            elif point.kind == "param":
+                self._param_points.append(point)
+            elif point.kind == "arch":
+                self._arch_points.append(point)
+            for source in point.events:
+                self._events.setdefault(source, []).append(point)
+        self._timed = [
+            p for p in self.points.values() if p.intervals or (p.windows and p.min_frequency > 0)
+        ]
+        self.reset()
+
+    def _plan_gather(self, point: _Point) -> Tuple[List[str], Any, Any]:
+        """Sources of a publish point, and where each of its values sits in them."""
+        sources = [point.trigger] + [t for t in point.inputs if t != point.trigger]
+        offsets: Dict[str, int] = {}
+        size = 0
+        for source in sources:
+            offsets[source] = size
+            size += len(self._numeric_at.get(source, {}))
+        params_at = size
+        numeric: List[int] = []
+        for name in point.numeric_names:
+            for source in sources:
+                found = self._numeric_at.get(source, {}).get(name)
+                if found is not None:
+                    numeric.append(offsets[source] + found)
+                    break
+            else:  # a parameter (or a value the layout lacks): from the parameters, or NaN
+                numeric.append(params_at + point.params.index(name) if name in point.params else -1)
+        strings: List[Tuple[str, int]] = []
+        for name in point.string_names:
+            for source in sources:
+                found = self._string_at.get(source, {}).get(name)
+                if found is not None:
+                    strings.append((source, found))
+                    break
+            else:
+                strings.append((PARAMS if name in point.params else "", -1))
+        return sources, np.asarray(numeric, dtype=np.int64), strings
+
+    # -- what happens ------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """A new run (bag): forget the latest values, windows and machines."""
+        self.latest_numeric: Dict[str, Any] = {}
+        self.latest_strings: Dict[str, List[str]] = {}
+        self.latest_named: Dict[str, Dict[str, Any]] = {}
+        self.latest_params: Dict[str, Any] = {}
+        self.params_seen = False
+        self.snapshot: Optional[Snapshot] = None
+        self.snapshot_kinds: Sequence[str] = ("pub", "sub", "srv")
+        self.next_arch: Optional[float] = None
+        for point in self.points.values():
+            point.reset()
+
+    def clear(self, invariant: str) -> bool:
+        """Stop checking one invariant (``/m/clear_inv``); whether it was known."""
+        found = self.by_id.get(invariant)
+        if found is None:
+            return False
+        point, _ = found
+        point.checks.cleared.add(invariant)
+        point.invariants = [i for i in point.invariants if i["id"] != invariant]
+        point.intervals = [m for m in point.intervals if m.invariant["id"] != invariant]
+        point.patterns = [m for m in point.patterns if m.invariant["id"] != invariant]
+        if point.arch is not None:
+            point.arch.items = [item for item in point.arch.items if item[4]["id"] != invariant]
+        return True
+
+    def message(self, topic: str, time: float, values: Sequence[Any]) -> Found:
+        """A message on ``topic`` flattened in the order of its layout (the file's
+        ``topics[topic].variables``)."""
+        layout = self.layouts.get(topic)
+        found = self.advance(time)
+        if layout is not None:
+            numeric = [values[k] for k, v in enumerate(layout) if v["type"] in _NUMERIC]
+            try:
+                array = np.asarray(numeric, dtype=np.float64)
+            except (TypeError, ValueError):
+                array = np.asarray([_number(v) for v in numeric], dtype=np.float64)
+            self.latest_numeric[topic] = array
+            self.latest_strings[topic] = [
+                str(values[k]) for k, v in enumerate(layout) if v["type"] == "string"
+            ]
+            if topic in self.condition_topics:
+                self.latest_named[topic] = {v["name"]: values[k] for k, v in enumerate(layout)}
+            for point in self._publish.get(topic, ()):
+                found += self._publish_sample(point, time)
+        for point in self._events.get(("publish", topic), ()):
+            found += self._event(point, time, point.events[("publish", topic)])
+        return found
+
+    def _publish_sample(self, point: _Point, time: float) -> Found:
+        sources, gather, strings = self._gather[point.key]
+        parts = []
+        for source in sources:
+            part = self.latest_numeric.get(source)
+            if part is None:
+                return []
+            parts.append(part)
+        if point.params:
+            if not self.params_seen:
+                return []
+            parts.append(
+                np.asarray([_number(self.latest_params.get(p)) for p in point.params], np.float64)
+            )
+        parts.append(np.full(1, np.nan))  # index -1: a value no source has
+        row = np.concatenate(parts)[gather] if len(gather) else np.empty(0)
+        texts = [
+            self.latest_strings[source][at]
+            if source not in ("", PARAMS)
+            else str(self.latest_params.get(point.string_names[k], ""))
+            for k, (source, at) in enumerate(strings)
+        ]
+        return self._check(point, time, row, texts)
+
+    def _check(self, point: _Point, time: float, row: Any, texts: Sequence[Any]) -> Found:
+        names = {name: k for k, name in enumerate(point.numeric_names)} if point.filters else {}
+        if point.filters and not point.accepts(row, names, self.latest_named):
+            return []
+        return point.sample(time, row, texts, self.trace)
+
+    def call(self, service: str, time: float, values: Mapping[str, Any]) -> Found:
+        """A service call: ``values`` by field path (``request.a``, ``response.b``,
+        ``delay``)."""
+        found = self.advance(time)
+        for point in self._calls.get(service, ()):
+            if point.params and not self.params_seen:
+                continue
+            by_path = {v["name"]: values.get(v["path"]) for v in point.variables}
+            for name in point.params:
+                by_path[name] = self.latest_params.get(name)
+            row = np.asarray([_number(by_path.get(n)) for n in point.numeric_names], np.float64)
+            texts = ["" if by_path.get(n) is None else str(by_path[n]) for n in point.string_names]
+            found += self._check(point, time, row, texts)
+        for point in self._events.get(("call", service), ()):
+            found += self._event(point, time, point.events[("call", service)])
+        return found
+
+    def params(self, time: float, values: Mapping[str, Any]) -> Found:
+        """Parameter values (flattened: ``/node/gain``), the whole set in force."""
+        found = self.advance(time)
+        self.latest_params = dict(values)
+        self.params_seen = True
+        for point in self._param_points:
+            if point.trigger not in values:
+                continue
+            value = values[point.trigger]
+            if point.numeric_names:
+                row = np.asarray([_number(value)], np.float64)
+                found += self._check(point, time, row, [])
+            else:
+                found += self._check(point, time, np.empty(0), [str(value)])
+        return found
+
+    def graph(
+        self, time: float, snapshot: Snapshot, kinds: Sequence[str] = ("pub", "sub", "srv")
+    ) -> Found:
+        """The graph changed: ``snapshot`` maps ``pub``/``sub``/``srv`` to resource to
+        node names; ``kinds`` says which of them the source can tell."""
+        found = self.advance(time)
+        self.snapshot = snapshot
+        self.snapshot_kinds = tuple(kinds)
+        if self.next_arch is None:
+            self.next_arch = time + ARCH_PERIOD
+        return found + self._arch(time)
+
+    def _arch(self, time: float) -> Found:
+        found: Found = []
+        if self.snapshot is None:
+            return found
+        for point in self._arch_points:
+            assert point.arch is not None
+            if point.filters and not point.accepts(np.empty(0), {}, self.latest_named):
+                continue
+            found += point.arch.check(time, self.snapshot, self.snapshot_kinds)
+        return found
+
+    def _event(self, point: _Point, time: float, event: str) -> Found:
+        found: Found = []
+        for machine in point.intervals:
+            found += machine.event(time, event)
+        for pattern in point.patterns:
+            found += pattern.event(time, event)
+        return found
+
+    def advance(self, now: float) -> Found:
+        """The clock reached ``now``: run the timers that are due."""
+        found: Found = []
+        for point in self._timed:
+            found += point.tick(now)
+        while self.next_arch is not None and self.next_arch <= now:
+            found += self._arch(self.next_arch)
+            self.next_arch += ARCH_PERIOD
+        return found
