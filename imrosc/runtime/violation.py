@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import Any, Dict, NamedTuple
 
 
 class Violation(NamedTuple):
@@ -22,7 +22,7 @@ class Violation(NamedTuple):
     observed: Any
     expected: str
 
-    def as_json(self) -> dict[str, Any]:
+    def as_json(self) -> Dict[str, Any]:
         """A JSON-safe dict (non-finite numbers as strings)."""
         return {
             "time": self.time,
