@@ -298,3 +298,171 @@ def demo(output: Path, runs: int, jobs: int | None) -> None:
     from imrosc.demo import run_demo
 
     sys.exit(run_demo(output, runs, jobs))
+
+
+format_option = click.option(
+    "--format",
+    "output_format",
+    type=click.Choice(["text", "json", "html"]),
+    default="text",
+    show_default=True,
+    help="Report format (html: one self-contained file with plots).",
+)
+report_option = click.option(
+    "-o",
+    "--output",
+    "report_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Write the report to this file instead of standard output.",
+)
+
+
+def _emit(document: dict[str, object], output_format: str, path: Path | None, force: bool) -> None:
+    """Render a result document and print it or write it (never over a foreign file)."""
+    from imrosc.build import OverwriteRefusedError, write_files
+    from imrosc.report import render
+
+    text = render(document, output_format)  # type: ignore[arg-type]
+    if path is None:
+        click.echo(text, nl=False)
+        return
+    try:
+        write_files(path.parent, {path.name: text.encode()}, force=force)
+    except OverwriteRefusedError as refused:
+        click.echo(f"imrosc: {refused}", err=True)
+        sys.exit(EXIT_ERRORS)
+    click.echo(f"wrote {path}", err=True)
+
+
+@main.command()
+@click.argument("inv", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("bags", nargs=-1, required=True, type=click.Path(path_type=Path))
+@format_option
+@click.option("--json", "as_json", is_flag=True, help="Same as --format json.")
+@report_option
+@click.option("--no-plots", is_flag=True, help="Leave the plot data out (smaller reports).")
+@click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+def replay(
+    inv: Path,
+    bags: tuple[Path, ...],
+    output_format: str,
+    as_json: bool,
+    report_path: Path | None,
+    no_plots: bool,
+    force: bool,
+) -> None:
+    """Run the monitor's engine over BAGS as if live and print the violation timeline.
+
+    Exit status: 0 no violation, 1 violations (or a bag that could not be read).
+    """
+    from imrosc.bags import discover_bags
+    from imrosc.invariants import InvariantsFileError, load
+    from imrosc.replay import replay_document
+
+    try:
+        document = load(inv)
+    except InvariantsFileError as error:
+        click.echo(f"imrosc replay: {error}", err=True)
+        sys.exit(EXIT_ERRORS)
+    found: list[Path] = []
+    problems: list[Diagnostic] = []
+    for path in bags:
+        more, bad = discover_bags(path)
+        found += more
+        problems += bad
+    _report(problems, "text")
+    report, results = replay_document(inv, document, found, plots=not no_plots)
+    _emit(report, "json" if as_json else output_format, report_path, force)
+    broken = any(r.violations or r.error for r in results) or has_errors(problems)
+    sys.exit(EXIT_ERRORS if broken else EXIT_CLEAN)
+
+
+@main.command()
+@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
+@click.option(
+    "--inv",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Invariants file to check [default: check/@inv].",
+)
+@click.option(
+    "--refined",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Where to write the refined invariants [default: <inv>.refined.inv].",
+)
+@format_option
+@report_option
+@click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
+def classify(
+    config: Path,
+    jobs: int | None,
+    inv: Path | None,
+    refined: Path | None,
+    output_format: str,
+    report_path: Path | None,
+    force: bool,
+) -> None:
+    """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
+    useful ones."""
+    from imrosc.build import OverwriteRefusedError, write_files
+    from imrosc.classify import CheckStageError, run_check
+    from imrosc.invariants import dumps
+
+    try:
+        result = run_check(config, inv=inv, output=refined, workers=jobs)
+    except CheckStageError as error:
+        click.echo(f"imrosc classify: {error}", err=True)
+        sys.exit(EXIT_ERRORS)
+    _report(result.diagnostics, "text")
+    if not result.report:
+        sys.exit(EXIT_ERRORS)
+    if result.refined is not None and result.output is not None:
+        target = result.output
+        try:
+            write_files(target.parent, {target.name: dumps(result.refined).encode()}, force=force)
+        except OverwriteRefusedError as refused:
+            click.echo(f"imrosc classify: {refused}", err=True)
+            sys.exit(EXIT_ERRORS)
+        kept = len(result.refined["invariants"])
+        click.echo(f"wrote {target}: kept {kept} of {len(result.report['scores'])}", err=True)
+    _emit(result.report, output_format, report_path, force)
+    errors = has_errors(result.diagnostics) or bool(result.report.get("errors"))
+    sys.exit(EXIT_ERRORS if errors else EXIT_CLEAN)
+
+
+@main.command()
+@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@click.option(
+    "--folds",
+    type=click.IntRange(min=2),
+    help="Number of folds [default: one per bag, i.e. leave-one-out].",
+)
+@click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
+@bags_option
+@format_option
+@report_option
+@click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+def stability(
+    config: Path,
+    folds: int | None,
+    jobs: int | None,
+    bags: tuple[Path, ...],
+    output_format: str,
+    report_path: Path | None,
+    force: bool,
+) -> None:
+    """Cross-validate inference over CONFIG's <detect> bags: how many invariants learnt from
+    the other bags does each held-out bag violate (per family)?"""
+    from imrosc.classify import CheckStageError
+    from imrosc.stability import run_stability
+
+    try:
+        report, problems = run_stability(config, folds=folds, workers=jobs, bags=list(bags) or None)
+    except CheckStageError as error:
+        click.echo(f"imrosc stability: {error}", err=True)
+        sys.exit(EXIT_ERRORS)
+    _report(problems, "text")
+    if report is None:
+        sys.exit(EXIT_ERRORS)
+    _emit(report, output_format, report_path, force)
+    sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)

@@ -32,7 +32,13 @@ class InvariantsFileError(ValueError):
 
 def invariant_id(invariant: Invariant) -> str:
     """A stable id: a short hash of what the invariant is about (not of its values)."""
-    subject = "\0".join([invariant.point, invariant.family, invariant.kind, *invariant.variables])
+    parts = [invariant.point, invariant.family, invariant.kind, *invariant.variables]
+    params = invariant.params
+    if invariant.family == "interval":  # every ordered pair of a point has variables ("event",)
+        parts += [str(params["first"]), str(params["second"])]
+    elif invariant.family == "pattern":
+        parts.append(str(params["pattern"]))
+    subject = "\0".join(parts)
     return "i" + hashlib.sha1(subject.encode(), usedforsecurity=False).hexdigest()[:11]
 
 

@@ -19,6 +19,7 @@ from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
+from imrosc.runtime.violation import json_safe
 from imrosc.translate.catalog import flatten_json
 
 RECORDS = (records.PARAMS_TOPIC, records.SRVS_TOPIC, records.ARCH_TOPIC)
@@ -99,7 +100,6 @@ class Replayer:
                         found += engine.message(topic, time, flatten(message))
                     else:
                         found += self._record(topic, time, message)
-                found += engine.advance(result.end)
         except BagError as error:
             result.error = str(error)
         return result
@@ -127,3 +127,155 @@ def replay(document: Mapping[str, Any], bags: Iterable[Path]) -> list[RunResult]
     """Replay each bag as one run."""
     replayer = Replayer(document)
     return [replayer.run(bag) for bag in bags]
+
+
+EPISODE_GAP = 1.0
+"""Seconds: violations of one invariant closer than this form one episode of the timeline."""
+PLOT_POINTS = 4096
+"""Samples kept per point for plots (every k-th, k doubling as the run grows)."""
+
+
+def episodes(violations: Iterable[Violation]) -> list[dict[str, Any]]:
+    """The timeline: per invariant, runs of violations no more than EPISODE_GAP apart."""
+    open_: dict[str, dict[str, Any]] = {}
+    done: list[dict[str, Any]] = []
+    for v in violations:
+        current = open_.get(v.invariant)
+        if current is not None and v.time - current["last"] <= EPISODE_GAP:
+            current["last"] = v.time
+            current["count"] += 1
+            continue
+        if current is not None:
+            done.append(current)
+        open_[v.invariant] = {
+            "invariant": v.invariant,
+            "point": v.point,
+            "family": v.family,
+            "kind": v.kind,
+            "text": v.text,
+            "first": v.time,
+            "last": v.time,
+            "count": 1,
+            "observed": json_safe(v.observed),
+            "expected": v.expected,
+        }
+    done += open_.values()
+    return sorted(done, key=lambda e: (e["first"], e["invariant"]))
+
+
+class PlotTrace:
+    """Keeps a thinned copy of the samples of points with polygons or frequencies."""
+
+    def __init__(self, document: Mapping[str, Any]) -> None:
+        self.wanted = {
+            i["point"] for i in document["invariants"] if i["family"] in ("polygon", "frequency")
+        }
+        self.points = document["points"]
+        self.reset()
+
+    def reset(self) -> None:
+        self.samples: dict[str, list[tuple[float, Any, float | None]]] = {}
+        self.stride: dict[str, int] = {}
+        self.seen: dict[str, int] = {}
+
+    def __call__(self, point: str, time: float, row: Any, frequency: float | None) -> None:
+        if point not in self.wanted:
+            return
+        seen = self.seen.get(point, 0)
+        self.seen[point] = seen + 1
+        stride = self.stride.get(point, 1)
+        if seen % stride:
+            return
+        kept = self.samples.setdefault(point, [])
+        kept.append((time, row, frequency))
+        if len(kept) >= PLOT_POINTS:
+            self.samples[point] = kept[::2]
+            self.stride[point] = stride * 2
+
+    def plots(self, document: Mapping[str, Any], found: list[Violation]) -> dict[str, Any]:
+        """Plots of the violated polygons and frequencies of one run."""
+        broken: dict[str, list[Violation]] = {}
+        for v in found:
+            if v.family in ("polygon", "frequency"):
+                broken.setdefault(v.invariant, []).append(v)
+        polygons, frequencies = [], []
+        for inv in document["invariants"]:
+            hits = broken.get(inv["id"])
+            if not hits:
+                continue
+            samples = self.samples.get(inv["point"], [])
+            numeric = [
+                v["name"]
+                for v in self.points[inv["point"]]["variables"]
+                if v["type"] in ("float", "int", "uint", "bool", "time")
+            ]
+            if inv["family"] == "polygon":
+                xi, yi = (numeric.index(n) for n in inv["variables"])
+                polygons.append(
+                    {
+                        "invariant": inv["id"],
+                        "point": inv["point"],
+                        "text": inv["text"],
+                        "x": inv["variables"][0],
+                        "y": inv["variables"][1],
+                        "vertices": inv["params"]["vertices"],
+                        "trajectory": [
+                            [t, json_safe(float(r[xi])), json_safe(float(r[yi]))]
+                            for t, r, _ in samples
+                        ],
+                        "offending": [[v.time, *json_safe(list(v.observed))] for v in hits][
+                            :PLOT_POINTS
+                        ],
+                    }
+                )
+            else:
+                frequencies.append(
+                    {
+                        "invariant": inv["id"],
+                        "point": inv["point"],
+                        "topic": inv["params"].get("topic", inv["point"]),
+                        "min": inv["params"]["min"],
+                        "max": inv["params"]["max"],
+                        "series": [[t, f] for t, _, f in samples if f is not None],
+                    }
+                )
+        return {"polygons": polygons, "frequencies": frequencies}
+
+
+def replay_document(
+    inv: Path, document: Mapping[str, Any], bags: Iterable[Path], *, plots: bool = True
+) -> tuple[dict[str, Any], list[RunResult]]:
+    """Replay ``bags`` and describe each run: its timeline and, with ``plots``, the data
+    of its violated polygons and frequencies."""
+    trace = PlotTrace(document) if plots else None
+    replayer = Replayer(document, Engine(document, trace))
+    runs: list[dict[str, Any]] = []
+    results: list[RunResult] = []
+    for bag in bags:
+        if trace is not None:
+            trace.reset()
+        result = replayer.run(bag)
+        results.append(result)
+        runs.append(
+            {
+                "bag": str(bag),
+                "start": result.start,
+                "end": result.end,
+                "messages": result.messages,
+                "skipped": result.skipped,
+                "error": result.error,
+                "violations": len(result.violations),
+                "episodes": episodes(result.violations),
+                "plots": trace.plots(document, result.violations)
+                if trace is not None
+                else {"polygons": [], "frequencies": []},
+            }
+        )
+    out = {
+        "format": "imrosc-replay",
+        "version": 1,
+        "invariants": str(inv),
+        "project": document.get("project", ""),
+        "runs": runs,
+    }
+    return out, results

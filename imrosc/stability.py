@@ -1,0 +1,114 @@
+"""Stability (thesis Table 5.3): k-fold cross-validation of inference over the detect bags.
+
+The ``<detect>`` bags are cut into ``k`` folds (contiguous in sorted order; ``k`` equal to
+the number of bags is leave-one-out). For each fold the invariants are inferred from the
+other bags and replayed on the held-out ones; per family, the report counts the invariants
+and how many of them a held-out run violates. Stable invariants are rarely violated by a
+run of the same system they were not learnt from.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from imrosc.classify import CheckStageError, bags_of, load_project, violated_per_bag
+from imrosc.detect import run_detect
+from imrosc.diagnostics import Diagnostic, has_errors
+
+
+def folds_of(bags: Sequence[Path], folds: int) -> list[list[Path]]:
+    """``bags`` cut into ``folds`` contiguous groups of near-equal size.
+
+    >>> [len(f) for f in folds_of([Path(str(i)) for i in range(7)], 3)]
+    [3, 2, 2]
+    """
+    size, extra = divmod(len(bags), folds)
+    out, start = [], 0
+    for index in range(folds):
+        stop = start + size + (index < extra)
+        out.append(list(bags[start:stop]))
+        start = stop
+    return out
+
+
+def run_stability(
+    config_path: Path,
+    *,
+    folds: int | None = None,
+    workers: int | None = None,
+    bags: Sequence[Path] | None = None,
+) -> tuple[dict[str, Any] | None, list[Diagnostic]]:
+    """The stability report of ``config_path``'s detect bags, or of ``bags`` (``folds``
+    None: leave-one-out)."""
+    project, problems = load_project(config_path)
+    if project is None:
+        return None, problems
+    if project.detect is None:
+        raise CheckStageError(f"{config_path}: the configuration has no <detect> element")
+    if bags is None:
+        found_bags, found = bags_of(config_path.parent, project.detect.bags)
+    else:
+        found_bags, found = bags_of(Path.cwd(), [str(b) for b in bags])
+    bags = found_bags
+    problems += found
+    count = folds or len(bags)
+    if len(bags) < 2 or not 2 <= count <= len(bags):
+        raise CheckStageError(
+            f"{config_path}: {len(bags)} detect bag(s) cannot make {count} folds "
+            "(need at least 2 bags and 2 <= folds <= bags)"
+        )
+    rounds: list[dict[str, Any]] = []
+    totals: dict[str, list[int]] = {}
+    violations: dict[str, list[int]] = {}
+    for held_out in folds_of(bags, count):
+        train = [b for b in bags if b not in held_out]
+        detected = run_detect(config_path, workers=workers, bags=train)
+        problems += [d for d in detected.diagnostics if d.code in ("bag-error", "bag-empty")]
+        document = detected.document
+        if document is None or has_errors(detected.diagnostics):
+            problems += detected.diagnostics
+            return None, problems
+        violated = violated_per_bag(document, held_out, workers)
+        broken = set().union(*(ids for ids, _ in violated.values()))
+        total: dict[str, int] = {}
+        hit: dict[str, int] = {}
+        for inv in document["invariants"]:
+            family = inv["family"]
+            total[family] = total.get(family, 0) + 1
+            hit[family] = hit.get(family, 0) + int(inv["id"] in broken)
+        rounds.append(
+            {
+                "held_out": [str(b) for b in held_out],
+                "trained_on": [str(b) for b in train],
+                "invariants": len(document["invariants"]),
+                "errors": [
+                    {"bag": str(b), "error": e} for b, (_, e) in violated.items() if e is not None
+                ],
+                "violated": dict(sorted(hit.items())),
+                "total": dict(sorted(total.items())),
+            }
+        )
+        for family, number in total.items():
+            totals.setdefault(family, []).append(number)
+            violations.setdefault(family, []).append(hit[family])
+    families = {}
+    for family in sorted(totals):
+        mean_total = sum(totals[family]) / len(rounds)
+        mean_violated = sum(violations[family]) / len(rounds)
+        families[family] = {
+            "total_mean": round(mean_total, 3),
+            "violated_mean": round(mean_violated, 3),
+            "violated_ratio": round(mean_violated / mean_total, 4) if mean_total else 0.0,
+        }
+    report = {
+        "format": "imrosc-stability",
+        "version": 1,
+        "config": str(config_path),
+        "folds": count,
+        "bags": [str(b) for b in bags],
+        "rounds": rounds,
+        "families": families,
+    }
+    return report, problems
