@@ -292,6 +292,7 @@ def run_check(
     inv_path = inv or base / check.inv
     document = read_invariants(inv_path)
     report: dict[str, Any] = {
+        "$comment": f"{GENERATED_MARK} {__version__} (imrosc classify)",
         "format": "imrosc-classify",
         "version": 1,
         "config": str(config_path),

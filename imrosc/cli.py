@@ -12,6 +12,7 @@ from pathlib import Path
 import click
 
 from imrosc import __version__
+from imrosc.backends.registry import GENERATED_MARK
 from imrosc.check import check_files
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
@@ -326,6 +327,8 @@ def _emit(document: dict[str, object], output_format: str, path: Path | None, fo
     if path is None:
         click.echo(text, nl=False)
         return
+    if output_format == "text":  # so that the next run may overwrite it
+        text = f"# {GENERATED_MARK} {__version__}\n{text}"
     try:
         write_files(path.parent, {path.name: text.encode()}, force=force)
     except OverwriteRefusedError as refused:

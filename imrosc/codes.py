@@ -138,6 +138,12 @@ CODES: tuple[Code, ...] = (
         "translate",
         "A bag has no message on the configured topics; it adds no samples.",
     ),
+    Code(
+        "bag-type-drift",
+        _W,
+        "translate",
+        "A topic has another message type here than in an earlier bag; fields match by name.",
+    ),
     # Lowering (imrosc build).
     Code(
         "relative-without-graph",

@@ -155,6 +155,9 @@ def prepare(
     for topic, (bag, message) in sorted(catalog.unusable.items()):
         if topic in used:
             problems.append(make(str(bag), 1, 1, "bag-error", message))
+    for topic, drifted in sorted(catalog.drift.items()):
+        if topic in used:
+            problems += [make(str(bag), 1, 1, "bag-type-drift", text) for bag, text in drifted]
     return Prepared(project, base, catalog, specs, layouts, skipped), finalize(problems)
 
 

@@ -15,7 +15,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from imrosc import records
+import numpy as np
+
+from imrosc import __version__, records
+from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, open_bag
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
@@ -77,7 +80,7 @@ class Replayer:
         engine.reset()
         found = result.violations
         try:
-            with open_bag(bag) as reader:
+            with open_bag(bag) as reader, np.errstate(all="ignore"):
                 result.start, result.end = reader.start_time / 1e9, reader.end_time / 1e9
                 wanted = [
                     c
@@ -272,6 +275,7 @@ def replay_document(
             }
         )
     out = {
+        "$comment": f"{GENERATED_MARK} {__version__} (imrosc replay)",
         "format": "imrosc-replay",
         "version": 1,
         "invariants": str(inv),

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from imrosc import __version__
+from imrosc.backends.registry import GENERATED_MARK
 from imrosc.classify import CheckStageError, bags_of, load_project, violated_per_bag
 from imrosc.detect import run_detect
 from imrosc.diagnostics import Diagnostic, has_errors
@@ -65,7 +67,10 @@ def run_stability(
     for held_out in folds_of(bags, count):
         train = [b for b in bags if b not in held_out]
         detected = run_detect(config_path, workers=workers, bags=train)
-        problems += [d for d in detected.diagnostics if d.code in ("bag-error", "bag-empty")]
+        for found_problem in detected.diagnostics:
+            bag_level = found_problem.code in ("bag-error", "bag-empty", "bag-type-drift")
+            if bag_level and found_problem not in problems:  # each round sees the same bags
+                problems.append(found_problem)
         document = detected.document
         if document is None or has_errors(detected.diagnostics):
             problems += detected.diagnostics
@@ -103,6 +108,7 @@ def run_stability(
             "violated_ratio": round(mean_violated / mean_total, 4) if mean_total else 0.0,
         }
     report = {
+        "$comment": f"{GENERATED_MARK} {__version__} (imrosc stability)",
         "format": "imrosc-stability",
         "version": 1,
         "config": str(config_path),

@@ -159,3 +159,24 @@ def test_a_type_referring_to_an_unknown_type_is_reported_only_when_used(tmp_path
         assert bool(messages) == reported
         if reported:
             assert "unknown message type rcl_interfaces/msg/Parameter" in messages[0]
+
+
+def test_a_topic_whose_type_drifts_is_a_warning_and_still_read(tmp_path: Path) -> None:
+    """Schema drift: /out is Float64 in one bag and Float32 in the next (field ``data``)."""
+    bags = tmp_path / "bags"
+    bags.mkdir()
+    good_run(bags / "run1.bag", 0.0)
+    drifted = [
+        msg("/out" if i % 2 else "/in", 100 + i * 0.05, t, "/ctl", data=(i // 2) % 3)
+        for i in range(80)
+        for t in ["std_msgs/msg/Float32" if i % 2 else "std_msgs/msg/Int32"]
+    ]
+    write_bag(bags / "run2.bag", drifted)
+    config = tmp_path / "drift.xml"
+    config.write_text(CONFIG.format(wrong=""))
+    result = run_detect(config, workers=1)
+    drift = [d for d in result.diagnostics if d.code == "bag-type-drift"]
+    assert [(d.path, d.severity.value) for d in drift] == [(str(bags / "run2.bag"), "warning")]
+    assert "std_msgs/msg/Float32 here but std_msgs/msg/Float64" in drift[0].message
+    assert result.document is not None
+    assert result.document["points"]["a"]["support"]["runs"] == 2

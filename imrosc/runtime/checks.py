@@ -7,7 +7,10 @@ pairs, linear and ternary relations as coefficient vectors, polygons as stacked
 half-planes ``A x <= b``. Checking a sample costs a handful of numpy operations whatever
 the number of invariants; the violations are built only when one of them fails.
 
-A missing value (NaN) breaks nothing: inference skipped it too. Every check reads its
+A missing value (NaN) breaks nothing: inference skipped it too. The checks do not wrap
+themselves in ``np.errstate`` (it costs more than a check): callers run the engine with
+floating-point warnings off (``np.errstate(all="ignore")`` around a replay, ``np.seterr``
+in a monitor node), since NaN and inf samples are expected input. Every check reads its
 invariant the way inference built it, so the samples an invariant was inferred from never
 violate it: linear and ternary relations allow their stated tolerance plus the rounding
 of evaluating ``a*x + b`` in float64, array averages and deviations a few ulps (the
@@ -20,13 +23,15 @@ from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Sequence, Set,
 
 import numpy as np
 
+from imrosc.runtime.polygons import PolygonChecks
 from imrosc.runtime.violation import Violation, show
 
-_ULPS = 8 * 2.0**-52
 _STAT_SLACK = 1e-12
 """Relative allowance on bounds of array averages and deviations."""
 
 Found = List[Violation]
+_count = np.count_nonzero
+"""Faster than ``ndarray.any`` on small boolean arrays."""
 
 
 def _ints(values: Sequence[Any]) -> Any:
@@ -98,11 +103,13 @@ class Checks:
                     if family == "linear"
                     else (params["a"], params["b"], params["c"])
                 )
+                # the tolerance covers inference's data (its rounding term is 1e-14 of the
+                # magnitudes); a quarter more covers the float64 rounding of this check
                 linear.append(
                     (
                         tuple(index[n] for n in names),
                         tuple(float(c) for c in coefficients),
-                        float(params["tolerance"]),
+                        1.25 * float(params["tolerance"]) + 1e-300,
                         inv,
                     )
                 )
@@ -124,6 +131,7 @@ class Checks:
         linear: List[Tuple[Tuple[int, ...], Tuple[float, ...], float, Mapping[str, Any]]],
         edges: List[Tuple[int, int, float, float, float, int]],
     ) -> None:
+        self.polygon_checks = PolygonChecks(self.polygons, edges)
         self.bounds_at = _ints([b[0] for b in bounds])
         self.bounds_lo = _floats([b[1] for b in bounds])
         self.bounds_hi = _floats([b[2] for b in bounds])
@@ -136,31 +144,29 @@ class Checks:
         self.one_of_inv = [o[2] for o in one_of]
         self.nonzero_at = _ints([n[0] for n in nonzero])
         self.nonzero_inv = [n[1] for n in nonzero]
-        self.pairs = {
-            kind: (
-                _ints([p[0] for p in found]),
-                _ints([p[1] for p in found]),
-                [p[2] for p in found],
-            )
-            for kind, found in pairs.items()
-            if found
-        }
-        self.linear: Dict[int, Tuple[Any, Any, Any, List[Mapping[str, Any]]]] = {}
-        for arity in (2, 3):
-            chosen = [item for item in linear if len(item[0]) == arity]
-            if chosen:
-                self.linear[arity] = (
-                    _ints([item[0] for item in chosen]).reshape(len(chosen), arity),
-                    _floats([item[1] for item in chosen]).reshape(len(chosen), arity),
-                    _floats([item[2] for item in chosen]),
-                    [item[3] for item in chosen],
-                )
-        self.edge_x = _ints([e[0] for e in edges])
-        self.edge_y = _ints([e[1] for e in edges])
-        self.edge_a = _floats([e[2] for e in edges])
-        self.edge_b = _floats([e[3] for e in edges])
-        self.edge_c = _floats([e[4] for e in edges])
-        self.edge_owner = _ints([e[5] for e in edges])
+        # pairs: d = x - y (its sign is exact); violated when sign * d > limit
+        rows = []
+        for kind, found in sorted(pairs.items()):
+            for first, second, inv in found:
+                if kind == "==":
+                    rows += [(first, second, 1.0, 0.0, inv), (first, second, -1.0, 0.0, inv)]
+                else:  # "<" is broken by d >= 0, i.e. d > -(smallest subnormal)
+                    rows.append((first, second, 1.0, -5e-324 if kind == "<" else 0.0, inv))
+        self.pair_first = _ints([r[0] for r in rows])
+        self.pair_second = _ints([r[1] for r in rows])
+        self.pair_sign = _floats([r[2] for r in rows])
+        self.pair_limit = _floats([r[3] for r in rows])
+        self.pair_inv = [r[4] for r in rows]
+        self.pair_count = len({id(r[4]) for r in rows})
+        # linear and ternary relations as y - a*x - b*z - c with a padded third term
+        padded = [
+            (at + (at[0],) * (3 - len(at)), co[:-1] + (0.0,) * (3 - len(co)) + co[-1:], tol, inv)
+            for at, co, tol, inv in linear
+        ]
+        self.linear_at = _ints([p[0] for p in padded]).reshape(len(padded), 3).T.copy()
+        self.linear_coefficients = _floats([p[1] for p in padded]).reshape(len(padded), 3).T
+        self.linear_tolerance = _floats([p[2] for p in padded])
+        self.linear_inv = [p[3] for p in padded]
 
     @property
     def size(self) -> int:
@@ -169,8 +175,8 @@ class Checks:
             len(self.bounds_inv)
             + len(self.one_of_inv)
             + len(self.nonzero_inv)
-            + sum(len(set(map(id, p[2]))) for p in self.pairs.values())
-            + sum(len(v[3]) for v in self.linear.values())
+            + self.pair_count
+            + len(self.linear_inv)
             + len(self.polygons)
             + len(self.string_sets)
         )
@@ -179,64 +185,58 @@ class Checks:
         """The violations of one sample (``row``: float64 values in ``index`` order)."""
         found: Found = []
         if len(self.bounds_at):
-            x = row[self.bounds_at]
+            x = row.take(self.bounds_at)
             bad = (x < self.bounds_lo) | (x > self.bounds_hi)
-            if bad.any():
-                for k in np.flatnonzero(bad).tolist():
+            if _count(bad):
+                for k in bad.nonzero()[0].tolist():
                     inv = self.bounds_inv[k]
-                    expected = (
-                        f"[{show(float(self.bounds_lo[k]))}, {show(float(self.bounds_hi[k]))}]"
-                    )
+                    lo, hi = float(self.bounds_lo[k]), float(self.bounds_hi[k])
+                    expected = f"[{show(lo)}, {show(hi)}]"
                     found.append(_violation(time, point, inv, float(x[k]), expected))
+        if self.polygon_checks.count:
+            candidates = self.polygon_checks.candidates(row)
+            if len(candidates):
+                for owner in self.polygon_checks.broken(row, candidates).tolist():
+                    inv = self.polygons[owner]
+                    first, second = inv["variables"]
+                    observed = (float(row[self.index[first]]), float(row[self.index[second]]))
+                    found.append(_violation(time, point, inv, observed, "inside the polygon"))
         if len(self.one_of_at):
-            x = row[self.one_of_at]
+            x = row.take(self.one_of_at)
             bad = ~(x[:, None] == self.one_of_values).any(axis=1) & ~np.isnan(x)
-            if bad.any():
-                for k in np.flatnonzero(bad).tolist():
+            if _count(bad):
+                for k in bad.nonzero()[0].tolist():
                     inv = self.one_of_inv[k]
                     expected = "one of " + show(set(inv["params"]["values"]))
                     found.append(_violation(time, point, inv, float(x[k]), expected))
         if len(self.nonzero_at):
-            bad = row[self.nonzero_at] == 0
-            if bad.any():
-                for k in np.flatnonzero(bad).tolist():
+            bad = row.take(self.nonzero_at) == 0
+            if _count(bad):
+                for k in bad.nonzero()[0].tolist():
                     found.append(_violation(time, point, self.nonzero_inv[k], 0.0, "!= 0"))
-        for kind, (first, second, invs) in self.pairs.items():
-            x, y = row[first], row[second]
-            if kind == "==":
-                bad = (x != y) & ~np.isnan(x) & ~np.isnan(y)
-            elif kind == "<":
-                bad = x >= y
-            else:
-                bad = x > y
-            if bad.any():
-                for k in np.flatnonzero(bad).tolist():
-                    observed = (float(x[k]), float(y[k]))
-                    found.append(_violation(time, point, invs[k], observed, kind))
-        for at, coefficients, tolerance, invs in self.linear.values():
-            values = row[at]
-            with np.errstate(all="ignore"):
-                terms = values[:, 1:] * coefficients[:, :-1]
-                fitted = terms.sum(axis=1) + coefficients[:, -1]
-                size = np.abs(terms).sum(axis=1) + np.abs(coefficients[:, -1])
-                allowed = tolerance + _ULPS * (size + np.abs(values[:, 0]))
-                bad = np.abs(values[:, 0] - fitted) > allowed
-            if bad.any():
-                for k in np.flatnonzero(bad).tolist():
-                    seen = tuple(float(v) for v in values[k])
-                    expected = f"within {show(float(tolerance[k]))} of the relation"
-                    found.append(_violation(time, point, invs[k], seen, expected))
-        if len(self.edge_x):
-            with np.errstate(all="ignore"):
-                reach = self.edge_a * row[self.edge_x] + self.edge_b * row[self.edge_y]
-            bad = reach > self.edge_c
-            if bad.any():
-                owners = sorted(set(self.edge_owner[bad].tolist()))
-                for owner in owners:
-                    inv = self.polygons[owner]
-                    x, y = inv["variables"]
-                    observed = (float(row[self.index[x]]), float(row[self.index[y]]))
-                    found.append(_violation(time, point, inv, observed, "inside the polygon"))
+        if len(self.pair_first):
+            d = row.take(self.pair_first) - row.take(self.pair_second)
+            bad = d * self.pair_sign > self.pair_limit
+            if _count(bad):
+                reported = set()
+                for k in bad.nonzero()[0].tolist():
+                    inv = self.pair_inv[k]
+                    if id(inv) in reported:
+                        continue
+                    reported.add(id(inv))
+                    observed = (float(row[self.pair_first[k]]), float(row[self.pair_second[k]]))
+                    found.append(_violation(time, point, inv, observed, inv["kind"]))
+        if len(self.linear_inv):
+            at, co = self.linear_at, self.linear_coefficients
+            residual = row.take(at[0]) - co[0] * row.take(at[1]) - co[1] * row.take(at[2])
+            residual -= co[2]
+            bad = np.abs(residual) > self.linear_tolerance
+            if _count(bad):
+                for k in bad.nonzero()[0].tolist():
+                    inv = self.linear_inv[k]
+                    seen = tuple(float(row[self.index[n]]) for n in inv["variables"])
+                    expected = "within {} of the relation".format(show(inv["params"]["tolerance"]))
+                    found.append(_violation(time, point, inv, seen, expected))
         for at, values, inv in self.string_sets:
             value = strings[at]
             if value not in values:
@@ -307,9 +307,11 @@ class WindowChecks:
                 found.append(_violation(time, point, inv, frequency, expected))
         for family, (at, lo, hi, invs) in self.arrays.items():
             values = derived(family)[at]
-            bad = (values < lo) | (values > hi)
-            if bad.any():
-                for k in np.flatnonzero(bad).tolist():
+            # inference skips window values that are not finite (an infinite sample, an
+            # overflowing square): they break nothing here either
+            bad = ((values < lo) | (values > hi)) & np.isfinite(values)
+            if _count(bad):
+                for k in bad.nonzero()[0].tolist():
                     inv = invs[k]
                     if inv["id"] in cleared:
                         continue

@@ -24,12 +24,34 @@ _COMPARE: Dict[str, Callable[[Any, Any], Any]] = {
     ">": operator.gt,
     ">=": operator.ge,
 }
+
+
+def _divide(a: Any, b: Any) -> Any:
+    """``a / b`` as the translator's numpy computes it: by zero, +-inf or NaN (so a
+    condition such as ``not (x / y < 1)`` accepts the samples inference accepted)."""
+    try:
+        return operator.truediv(a, b)
+    except ZeroDivisionError:
+        a = float(a)
+        if a == 0 or math.isnan(a):
+            return math.nan
+        return math.copysign(math.inf, a) * math.copysign(1.0, float(b))
+
+
+def _modulo(a: Any, b: Any) -> Any:
+    """``a % b`` as numpy computes it: NaN by zero."""
+    try:
+        return operator.mod(a, b)
+    except ZeroDivisionError:
+        return math.nan
+
+
 _ARITHMETIC: Dict[str, Callable[[Any, Any], Any]] = {
     "+": operator.add,
     "-": operator.sub,
     "*": operator.mul,
-    "/": operator.truediv,
-    "%": operator.mod,
+    "/": _divide,
+    "%": _modulo,
 }
 
 

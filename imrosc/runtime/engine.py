@@ -13,6 +13,7 @@ conditions accept: a declared ``<condition>`` on its topic's latest message, a d
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -40,6 +41,16 @@ def _number(value: Any) -> float:
         return float(value)
     except (TypeError, ValueError):
         return math.nan
+
+
+def _picker(positions: Sequence[int]) -> Callable[[Sequence[Any]], Sequence[Any]]:
+    """A function picking ``positions`` of a sequence, as a list or tuple."""
+    if len(positions) == 1:
+        only = positions[0]
+        return lambda values: (values[only],)
+    if not positions:
+        return lambda values: ()
+    return operator.itemgetter(*positions)
 
 
 class _Filter:
@@ -114,12 +125,22 @@ class _Point:
         for pattern in self.patterns:
             pattern.reset()
 
-    def accepts(self, row: Any, names: Mapping[str, int], latest: Mapping[str, Any]) -> bool:
-        """Whether every condition of the point holds for this sample."""
+    def accepts(
+        self,
+        row: Any,
+        names: Mapping[str, int],
+        latest: Mapping[str, Any],
+        texts: Sequence[Any] = (),
+    ) -> bool:
+        """Whether every condition of the point holds for this sample (``texts``: its
+        string values, in ``string_names`` order)."""
         for condition in self.filters:
             if condition.variable is not None:
                 if condition.variable in names:
                     value = row[names[condition.variable]]
+                elif condition.variable in self.string_names and texts:
+                    # a discovered condition may be on a discrete string (``mode=='land'``)
+                    value = texts[self.string_names.index(condition.variable)]
                 else:
                     return False
                 if value != condition.value:
@@ -247,6 +268,21 @@ class Engine:
                 self._arch_points.append(point)
             for source in point.events:
                 self._events.setdefault(source, []).append(point)
+        self._split: Dict[str, Tuple[Any, Any]] = {}
+        for topic, variables in self.layouts.items():
+            numeric = [k for k, v in enumerate(variables) if v["type"] in _NUMERIC]
+            strings = [k for k, v in enumerate(variables) if v["type"] == "string"]
+            self._split[topic] = (
+                None if numeric == list(range(len(variables))) else _picker(numeric),
+                _picker(strings) if strings else None,
+            )
+        self._direct = {
+            key
+            for key, (sources, gather, _) in self._gather.items()
+            if len(sources) == 1
+            and not self.points[key].params
+            and gather.tolist() == list(range(len(self._numeric_at.get(sources[0], {}))))
+        }
         self._timed = [
             p for p in self.points.values() if p.intervals or (p.windows and p.min_frequency > 0)
         ]
@@ -313,19 +349,20 @@ class Engine:
     def message(self, topic: str, time: float, values: Sequence[Any]) -> Found:
         """A message on ``topic`` flattened in the order of its layout (the file's
         ``topics[topic].variables``)."""
-        layout = self.layouts.get(topic)
-        found = self.advance(time)
-        if layout is not None:
-            numeric = [values[k] for k, v in enumerate(layout) if v["type"] in _NUMERIC]
+        found = self.advance(time) if self._timed else []
+        split = self._split.get(topic)
+        if split is not None:
+            numeric_of, strings_of = split
+            numeric = values if numeric_of is None else numeric_of(values)
             try:
-                array = np.asarray(numeric, dtype=np.float64)
+                array = np.array(numeric, dtype=np.float64)
             except (TypeError, ValueError):
-                array = np.asarray([_number(v) for v in numeric], dtype=np.float64)
+                array = np.array([_number(v) for v in numeric], dtype=np.float64)
             self.latest_numeric[topic] = array
-            self.latest_strings[topic] = [
-                str(values[k]) for k, v in enumerate(layout) if v["type"] == "string"
-            ]
+            if strings_of is not None:
+                self.latest_strings[topic] = [str(v) for v in strings_of(values)]
             if topic in self.condition_topics:
+                layout = self.layouts[topic]
                 self.latest_named[topic] = {v["name"]: values[k] for k, v in enumerate(layout)}
             for point in self._publish.get(topic, ()):
                 found += self._publish_sample(point, time)
@@ -335,20 +372,24 @@ class Engine:
 
     def _publish_sample(self, point: _Point, time: float) -> Found:
         sources, gather, strings = self._gather[point.key]
-        parts = []
-        for source in sources:
-            part = self.latest_numeric.get(source)
-            if part is None:
-                return []
-            parts.append(part)
-        if point.params:
-            if not self.params_seen:
-                return []
-            parts.append(
-                np.asarray([_number(self.latest_params.get(p)) for p in point.params], np.float64)
-            )
-        parts.append(np.full(1, np.nan))  # index -1: a value no source has
-        row = np.concatenate(parts)[gather] if len(gather) else np.empty(0)
+        if point.key in self._direct:  # one source whose numeric values are the row
+            row = self.latest_numeric[point.trigger]
+        else:
+            parts = []
+            for source in sources:
+                part = self.latest_numeric.get(source)
+                if part is None:
+                    return []
+                parts.append(part)
+            if point.params:
+                if not self.params_seen:
+                    return []
+                params = [_number(self.latest_params.get(p)) for p in point.params]
+                parts.append(np.asarray(params, np.float64))
+            parts.append(np.full(1, np.nan))  # index -1: a value no source has
+            row = np.concatenate(parts)[gather] if len(gather) else np.empty(0)
+        if not strings:
+            return self._check(point, time, row, ())
         texts = [
             self.latest_strings[source][at]
             if source not in ("", PARAMS)
@@ -359,7 +400,7 @@ class Engine:
 
     def _check(self, point: _Point, time: float, row: Any, texts: Sequence[Any]) -> Found:
         names = {name: k for k, name in enumerate(point.numeric_names)} if point.filters else {}
-        if point.filters and not point.accepts(row, names, self.latest_named):
+        if point.filters and not point.accepts(row, names, self.latest_named, texts):
             return []
         return point.sample(time, row, texts, self.trace)
 

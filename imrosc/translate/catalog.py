@@ -58,6 +58,8 @@ class Catalog:
     )
     has_records: set[Path] = field(default_factory=set)
     unusable: dict[str, tuple[Path, str]] = field(default_factory=dict)
+    drift: dict[str, list[tuple[Path, str]]] = field(default_factory=dict)
+    """Per topic, the bags where its message type differs from the first bag's."""
     """Topics whose type cannot be decoded, with the first bag and the reason; reported only
     for topics a configuration uses."""
     messages: dict[Path, int] = field(default_factory=dict)
@@ -153,7 +155,7 @@ def _note_bag(catalog: Catalog, bag: Path) -> None:
                     f"topic {connection.topic} has type {connection.msgtype} here but "
                     f"{known[0]} in an earlier bag; fields are matched by name"
                 )
-                catalog.diagnostics.append(make(str(bag), 1, 1, "bag-error", message))
+                catalog.drift.setdefault(connection.topic, []).append((bag, message))
             callerid = getattr(connection.ext, "callerid", None)
             if callerid:
                 catalog.callerids.setdefault(connection.topic, set()).add(callerid)

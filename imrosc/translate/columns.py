@@ -41,6 +41,23 @@ def _getter(paths: Sequence[str]) -> Callable[[Any], tuple[Any, ...]]:
     return get
 
 
+def _lenient(paths: Sequence[str], missing: Any) -> Callable[[Any], tuple[Any, ...]]:
+    """Like :func:`_getter`, with ``missing`` for a field the message lacks (schema drift:
+    a later bag's type without a field of the first bag's)."""
+    getters = [operator.attrgetter(path) for path in paths]
+
+    def get(message: Any) -> tuple[Any, ...]:
+        values = []
+        for getter in getters:
+            try:
+                values.append(getter(message))
+            except AttributeError:
+                values.append(missing)
+        return tuple(values)
+
+    return get
+
+
 def _number(value: Any) -> float:
     try:
         return float(value)
@@ -128,9 +145,25 @@ class Flattener:
         self._texts = _getter([v.path for v in self.strings])
         self._arrays = _getter([spec.path for spec, _ in layout.arrays])
 
+    def _rows(
+        self, messages: Sequence[Any], which: str, missing: Any
+    ) -> list[tuple[Any, ...]]:
+        """Each message's values of one kind; a field a message lacks gives ``missing``."""
+        get = getattr(self, which)
+        try:
+            return [get(m) for m in messages]
+        except AttributeError:
+            paths = {
+                "_numbers": [v.path for v in self.numeric],
+                "_texts": [v.path for v in self.strings],
+                "_arrays": [spec.path for spec, _ in self.layout.arrays],
+            }[which]
+            lenient = _lenient(paths, missing)
+            return [lenient(m) for m in messages]
+
     def __call__(self, messages: Sequence[Any]) -> Columns:
         out: Columns = {}
-        rows = [self._numbers(m) for m in messages]
+        rows = self._rows(messages, "_numbers", math.nan)
         try:
             block = np.array(rows, dtype=np.float64).reshape(len(rows), len(self.numeric)).T.copy()
         except (TypeError, ValueError):  # a value that is no number: convert column by column
@@ -139,12 +172,12 @@ class Flattener:
             )
         for index, variable in enumerate(self.numeric):
             out[variable.name] = block[index]
-        texts = [self._texts(m) for m in messages]
+        texts = self._rows(messages, "_texts", "")
         for index, variable in enumerate(self.strings):
             column = np.empty(len(messages), dtype=object)
             column[:] = [str(row[index]) for row in texts]
             out[variable.name] = column
-        arrays = [self._arrays(m) for m in messages]
+        arrays = self._rows(messages, "_arrays", ())
         for index, (_, variables) in enumerate(self.layout.arrays):
             _array_stats([row[index] for row in arrays], variables, out)
         return out

@@ -1,0 +1,129 @@
+"""Plain-text reports: aligned tables and timelines for a terminal or a log."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from imrosc.report.views import Classify, Replay, Stability
+
+
+def table(headers: Sequence[str], rows: Sequence[Sequence[str]], align: str = "l") -> list[str]:
+    """Columns two spaces apart, aligned by ``align``: ``l`` left, ``r`` right, then right.
+
+    >>> print("\\n".join(table(["family", "total"], [["bounds", "120"], ["frequency", "5"]])))
+    family     total
+    bounds       120
+    frequency      5
+    """
+    widths = [len(h) for h in headers]
+    for row in rows:
+        widths = [max(w, len(c)) for w, c in zip(widths, row, strict=True)]
+    lines = []
+    for row in [headers, *rows]:
+        cells = [
+            c.ljust(w) if a == "l" else c.rjust(w)
+            for c, w, a in zip(row, widths, align.ljust(len(widths), "r"), strict=True)
+        ]
+        lines.append("  ".join(cells).rstrip())
+    return lines
+
+
+def replay(view: Replay) -> str:
+    """A replay report: per run a header line and the timeline of its episodes."""
+    title = f"imrosc replay of {view.invariants}"
+    if view.project:
+        title += f" (project {view.project})"
+    lines = [title]
+    for run in view.runs:
+        lines += ["", f"{run.bag}: {run.summary}"]
+        if run.error is not None:
+            continue
+        if not run.episodes:
+            if run.violated:  # violations counted without episodes: say so, list nothing
+                lines.append("  no episodes recorded")
+            continue
+        time_width = max(len(e.time) for e in run.episodes)
+        point_width = max(len(e.point) for e in run.episodes)
+        id_width = max(len(e.invariant) for e in run.episodes)
+        category_width = max(len(e.category) for e in run.episodes)
+        for e in run.episodes:
+            line = (
+                f"  {e.time.rjust(time_width)}  {e.point.ljust(point_width)}"
+                f"  {e.invariant.ljust(id_width)}  {e.category.ljust(category_width)}  {e.text}"
+            )
+            detail = " ".join(p for p in (e.comparison, e.repeat) if p)
+            lines.append(f"{line}  -- {detail}" if detail else line)
+    lines += ["", view.summary]
+    return "\n".join(lines) + "\n"
+
+
+def _errors(view: Classify) -> list[str]:
+    if not view.errors:
+        return []
+    lines = ["", "unreadable bags:"]
+    lines += [f"  {e.bag}: {e.error}" for e in view.errors]
+    return lines
+
+
+def classify(view: Classify) -> str:
+    """A classify report (kept invariants by F-score) or a compare report (broken ones)."""
+    lines = [f"imrosc {view.mode} of {view.invariants} ({view.config})", view.summary]
+    if view.output:
+        lines.append(f"refined invariants written to {view.output}")
+    lines += _errors(view)
+    lines.append("")
+    if view.compare:
+        rows = [
+            [f.name, str(f.total), str(f.broken), str(f.unbroken), f.broken_share]
+            for f in [*view.families, view.all]
+        ]
+        lines += table(["family", "total", "broken", "unbroken", "% broken"], rows)
+        lines.append("")
+        broken = view.broken
+        if not broken:
+            lines.append("no invariant broken")
+        else:
+            lines.append("broken invariants:")
+            runs = len(view.reference)
+            rows = [[s.family, s.point, s.id, f"{s.runs_broken} of {runs}", s.text] for s in broken]
+            headers = ["family", "point", "id", "runs broken", "text"]
+            lines += ["  " + line for line in table(headers, rows, "lllrl")]
+        return "\n".join(lines) + "\n"
+    rows = [[f.name, str(f.total), str(f.kept)] for f in [*view.families, view.all]]
+    lines += table(["family", "total", "kept"], rows)
+    lines.append("")
+    kept = view.kept
+    if kept:
+        lines.append("kept invariants, best F first:")
+        rows = [
+            [
+                *(s.fscore, s.precision, s.recall, s.tp, s.fp, s.tn, s.fn),
+                *(s.family, s.point, s.id, s.text),
+            ]
+            for s in kept
+        ]
+        headers = ["F", "P", "R", "TP", "FP", "TN", "FN", "family", "point", "id", "text"]
+        lines += ["  " + line for line in table(headers, rows, "rrrrrrrllll")]
+    else:
+        lines.append("no invariant kept")
+    lines.append(view.dropped_line)
+    return "\n".join(lines) + "\n"
+
+
+def stability(view: Stability) -> str:
+    """A stability report: per family each round's violated/total, the means and the ratio."""
+    lines = [f"imrosc stability of {view.config}", view.summary, ""]
+    headers = ["family", *(r.label for r in view.rounds)]
+    headers += ["violated (mean)", "total (mean)", "ratio"]
+    rows = [
+        [row.family, *(c.text for c in row.cells), row.violated_mean, row.total_mean, row.ratio]
+        for row in view.rows
+    ]
+    lines += table(headers, rows)
+    lines.append("(per round: invariants violated by the held-out bags / invariants inferred)")
+    if view.rounds:
+        lines.append("")
+    for r in view.rounds:
+        lines.append(f"{r.label}: {r.summary}")
+        lines += [f"  unreadable {e.bag}: {e.error}" if e.bag else f"  {e.error}" for e in r.errors]
+    return "\n".join(lines) + "\n"
