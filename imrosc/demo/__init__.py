@@ -26,11 +26,7 @@ from imrosc.sim import ScenarioKind
 MARKER = ".imrosc-demo"
 CONFIG = "landing_sim.xml"
 FAULTS: tuple[ScenarioKind, ...] = ("slowed", "spoofed", "stuck", "tilt")
-COMING = (
-    ("classify", "score each invariant on successful and failed runs, keep the useful"),
-    ("build --backend ros1|ros2", "render a monitor package that checks them live"),
-    ("replay", "run the monitor's engine over a faulty run and show the violations"),
-)
+COMING = (("build --backend ros1|ros2", "render a monitor package that checks them live"),)
 
 
 def example_configs() -> list[Path]:
@@ -68,6 +64,49 @@ def _write_bags(out: Path, runs: int) -> None:
             fmt="ros1",
             scenario=Scenario(kind),
         )
+
+
+def _check_stage(out: Path, config: Path, workers: int | None) -> bool:
+    """Classify the invariants, then replay a faulty run with the refined ones."""
+    from imrosc.classify import CheckStageError, run_check
+    from imrosc.replay import replay_document
+    from imrosc.report import render as render_report
+
+    click.echo(f"\n5. imrosc classify {config}")
+    try:
+        checked = run_check(config, workers=workers or default_workers())
+    except CheckStageError as error:
+        click.echo(f"   {error}", err=True)
+        return False
+    if checked.refined is None or checked.output is None:
+        click.echo(render_text(checked.diagnostics, 1), nl=False)
+        return False
+    write_files(
+        checked.output.parent, {checked.output.name: dumps(checked.refined).encode()}, force=True
+    )
+    report = out / "classify.html"
+    write_files(out, {report.name: render_report(checked.report, "html").encode()}, force=True)
+    families = checked.report["families"]
+    kept = sum(f["kept"] for f in families.values())
+    total = sum(f["total"] for f in families.values())
+    click.echo(
+        f"   kept {kept} of {total} invariants (F-score >= {checked.report['threshold']}) "
+        f"in {checked.output}; scores in {report}"
+    )
+    faulty = out / "bags" / "fail" / "spoofed.bag"
+    click.echo(
+        f"\n6. imrosc replay {checked.output} {faulty} --format html -o {out / 'replay.html'}"
+    )
+    document, runs = replay_document(checked.output, checked.refined, [faulty])
+    write_files(out, {"replay.html": render_report(document, "html").encode()}, force=True)
+    episodes = document["runs"][0]["episodes"]
+    click.echo(
+        f"   {len(runs[0].violations)} violations in {len(episodes)} episodes; "
+        f"timeline and plots in {out / 'replay.html'}"
+    )
+    for line in render_report(document, "text").splitlines()[1:7]:
+        click.echo("   " + line)
+    return True
 
 
 def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None = None) -> int:
@@ -110,7 +149,8 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
     click.echo(f"   ({result.seconds:.1f} s; see them all with: imrosc show {result.output})")
     sample = render(result.document, points=["v"]).splitlines()[:12]
     click.echo("\n".join("   " + line for line in sample))
-
+    if not _check_stage(out, config, workers):
+        return 1
     click.echo("\nComing in later stages:")
     for command, what in COMING:
         click.echo(f"   imrosc {command}: {what}")

@@ -200,7 +200,20 @@ class Checks:
                     inv = self.polygons[owner]
                     first, second = inv["variables"]
                     observed = (float(row[self.index[first]]), float(row[self.index[second]]))
-                    found.append(_violation(time, point, inv, observed, "inside the polygon"))
+                    found.append(
+                        Violation(
+                            time,
+                            point,
+                            inv["id"],
+                            "polygon",
+                            inv["kind"],
+                            "({}, {}) inside a {}-gon".format(
+                                first, second, len(inv["params"]["b"])
+                            ),
+                            observed,
+                            "inside the polygon",
+                        )
+                    )
         if len(self.one_of_at):
             x = row.take(self.one_of_at)
             bad = ~(x[:, None] == self.one_of_values).any(axis=1) & ~np.isnan(x)

@@ -25,7 +25,7 @@ from typing import Any, List, Mapping, Sequence, Tuple
 
 import numpy as np
 
-GRID = 32
+GRID = 64
 """Cells per axis over a polygon's bounding box (plus one border cell on each side)."""
 _SIDE = GRID + 2
 _SAFETY = 16 * 2.0**-53
@@ -68,24 +68,29 @@ class PolygonChecks:
             grid = _grid(polygon["params"]["vertices"], per[owner])
             if grid is not None:
                 origin[owner], scale[owner], need[owner] = grid
-        self.origin = origin.ravel()
+        # x cells of polygon p are numbered from p * _SIDE (its table's first row), y cells
+        # from 0; the origins sit one cell below the box, so inner cells start at 1
+        first = np.stack([np.arange(count) * _SIDE, np.zeros(count)], axis=1)
+        cell = 1.0 / np.where(scale > 0, scale, 1.0)
+        self.origin = (origin - (first + 1.0) * cell).ravel()
         self.scale = scale.ravel()
+        self.low = first.astype(np.int64).ravel()
+        self.high = self.low + GRID + 1
+        self.weights = np.tile(np.array([_SIDE, 1], np.int64), count)
         self.need = need.ravel()
-        self.base = np.arange(count, dtype=np.int64) * (_SIDE * _SIDE)
 
     def candidates(self, row: Any) -> Any:
         """The polygons whose grid cell for ``row`` is not certainly inside."""
         g = row.take(self.at)
         g -= self.origin
         g *= self.scale
-        g += 1.0
-        np.fmax(g, 0.0, out=g)  # NaN goes to the border (then: exact check, no violation)
-        np.fmin(g, GRID + 1.0, out=g)
+        # NaN and huge values cast to garbage, clipped into the border: an exact check
+        # follows there, which finds no violation for NaN (callers ignore the cast warning)
         cells = g.astype(np.int64)
-        flat = cells[0::2] * _SIDE
-        flat += cells[1::2]
-        flat += self.base
-        return self.need.take(flat).nonzero()[0]
+        np.maximum(cells, self.low, out=cells)  # (np.clip costs three times as much)
+        np.minimum(cells, self.high, out=cells)
+        cells *= self.weights
+        return self.need.take(cells[0::2] + cells[1::2]).nonzero()[0]
 
     def broken(self, row: Any, candidates: Any = None) -> Any:
         """Which polygons (of ``candidates``, default all) ``row`` is outside of."""
