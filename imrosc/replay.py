@@ -103,6 +103,9 @@ class Replayer:
                         found += engine.message(topic, time, flatten(message))
                     else:
                         found += self._record(topic, time, message)
+                withdrawn = {id(v) for v in engine.end_run()}
+                if withdrawn:
+                    found[:] = [v for v in found if id(v) not in withdrawn]
         except BagError as error:
             result.error = str(error)
         return result

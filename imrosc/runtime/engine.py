@@ -332,6 +332,16 @@ class Engine:
         for point in self.points.values():
             point.reset()
 
+    def end_run(self) -> Found:
+        """A recorded run ends: the violations of ordered-pair intervals still open, which
+        the caller should withdraw (inference neither records nor checks an interval its
+        run did not close). A live monitor never calls this."""
+        found: Found = []
+        for point in self.points.values():
+            for machine in point.intervals:
+                found += machine.unfinished()
+        return found
+
     def clear(self, invariant: str) -> bool:
         """Stop checking one invariant (``/m/clear_inv``); whether it was known."""
         found = self.by_id.get(invariant)
