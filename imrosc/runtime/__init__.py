@@ -11,7 +11,7 @@ message), :meth:`Engine.call` (a service call), :meth:`Engine.params` (parameter
 :class:`Violation` s it found.
 """
 
-from imrosc.runtime.engine import Engine
-from imrosc.runtime.violation import Violation
+from .engine import Engine
+from .violation import Violation
 
 __all__ = ["Engine", "Violation"]

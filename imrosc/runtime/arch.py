@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Sequence, Tuple
 
-from imrosc.runtime.violation import Violation
+from .violation import Violation
 
 Snapshot = Mapping[str, Mapping[str, FrozenSet[str]]]
 """Kind (``pub``, ``sub``, ``srv``) to resource to node names."""

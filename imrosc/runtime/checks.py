@@ -23,8 +23,8 @@ from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Sequence, Set,
 
 import numpy as np
 
-from imrosc.runtime.polygons import PolygonChecks
-from imrosc.runtime.violation import Violation, show
+from .polygons import PolygonChecks
+from .violation import Violation, show
 
 _STAT_SLACK = 1e-12
 """Relative allowance on bounds of array averages and deviations."""

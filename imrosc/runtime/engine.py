@@ -18,12 +18,12 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from imrosc.runtime.arch import ArchChecks, Snapshot
-from imrosc.runtime.checks import Checks, WindowChecks
-from imrosc.runtime.conditions import holds
-from imrosc.runtime.temporal import IntervalMachine, PatternMachine
-from imrosc.runtime.violation import Violation
-from imrosc.runtime.windows import Windows
+from .arch import ArchChecks, Snapshot
+from .checks import Checks, WindowChecks
+from .conditions import holds
+from .temporal import IntervalMachine, PatternMachine
+from .violation import Violation
+from .windows import Windows
 
 ARCH_PERIOD = 1.0
 """Seconds between two checks of the architecture in force (inference samples it so)."""

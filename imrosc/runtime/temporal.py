@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from typing import Any, Dict, FrozenSet, List, Mapping, Optional
 
-from imrosc.runtime.violation import Violation, show
+from .violation import Violation, show
 
 Found = List[Violation]
 
