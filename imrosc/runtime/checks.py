@@ -19,6 +19,7 @@ monitor's summation order may differ from the translator's).
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Sequence, Set, Tuple
 
 import numpy as np
@@ -132,9 +133,6 @@ class Checks:
         edges: List[Tuple[int, int, float, float, float, int]],
     ) -> None:
         self.polygon_checks = PolygonChecks(self.polygons, edges)
-        self.bounds_at = _ints([b[0] for b in bounds])
-        self.bounds_lo = _floats([b[1] for b in bounds])
-        self.bounds_hi = _floats([b[2] for b in bounds])
         self.bounds_inv = [b[3] for b in bounds]
         self.one_of_at = _ints([o[0] for o in one_of])
         table = np.full((len(one_of), max([len(o[1]) for o in one_of] + [1])), np.nan)
@@ -144,29 +142,32 @@ class Checks:
         self.one_of_inv = [o[2] for o in one_of]
         self.nonzero_at = _ints([n[0] for n in nonzero])
         self.nonzero_inv = [n[1] for n in nonzero]
-        # pairs: d = x - y (its sign is exact); violated when sign * d > limit
-        rows = []
+        self.forms = _Forms(len(self.index))
+        for at, lo, hi, inv in bounds:
+            if hi < math.inf:
+                self.forms.add(inv, [(at, 1.0)], hi, "<= " + show(hi))
+            if lo > -math.inf:
+                self.forms.add(inv, [(at, -1.0)], -lo, ">= " + show(lo))
         for kind, found in sorted(pairs.items()):
             for first, second, inv in found:
+                terms = [(first, 1.0), (second, -1.0)]
                 if kind == "==":
-                    rows += [(first, second, 1.0, 0.0, inv), (first, second, -1.0, 0.0, inv)]
-                else:  # "<" is broken by d >= 0, i.e. d > -(smallest subnormal)
-                    rows.append((first, second, 1.0, -5e-324 if kind == "<" else 0.0, inv))
-        self.pair_first = _ints([r[0] for r in rows])
-        self.pair_second = _ints([r[1] for r in rows])
-        self.pair_sign = _floats([r[2] for r in rows])
-        self.pair_limit = _floats([r[3] for r in rows])
-        self.pair_inv = [r[4] for r in rows]
-        self.pair_count = len({id(r[4]) for r in rows})
-        # linear and ternary relations as y - a*x - b*z - c with a padded third term
-        padded = [
-            (at + (at[0],) * (3 - len(at)), co[:-1] + (0.0,) * (3 - len(co)) + co[-1:], tol, inv)
-            for at, co, tol, inv in linear
-        ]
-        self.linear_at = _ints([p[0] for p in padded]).reshape(len(padded), 3).T.copy()
-        self.linear_coefficients = _floats([p[1] for p in padded]).reshape(len(padded), 3).T
-        self.linear_tolerance = _floats([p[2] for p in padded])
-        self.linear_inv = [p[3] for p in padded]
+                    self.forms.add(inv, terms, 0.0, "==")
+                    self.forms.add(inv, [(first, -1.0), (second, 1.0)], 0.0, "==")
+                else:  # x - y (its sign is exact) > 0; "<" is broken by x - y >= 0
+                    self.forms.add(inv, terms, -5e-324 if kind == "<" else 0.0, kind)
+        for places, co, tolerance, inv in linear:
+            # y - a*x (- b*z) - c, within the tolerance on either side
+            terms = [(places[0], 1.0)] + [(i, -c) for i, c in zip(places[1:], co[:-1])]
+            terms.append((self.forms.one, -co[-1]))
+            expected = "within {} of the relation".format(show(inv["params"]["tolerance"]))
+            self.forms.add(inv, terms, tolerance, expected)
+            self.forms.add(inv, [(i, -w) for i, w in terms], tolerance, expected)
+        self.forms.freeze()
+        self.pair_count = len(
+            {id(inv) for inv, _ in self.forms.owners} - {id(b) for b in self.bounds_inv}
+        )
+        self.linear_inv = [item[3] for item in linear]
 
     @property
     def size(self) -> int:
@@ -176,7 +177,6 @@ class Checks:
             + len(self.one_of_inv)
             + len(self.nonzero_inv)
             + self.pair_count
-            + len(self.linear_inv)
             + len(self.polygons)
             + len(self.string_sets)
         )
@@ -184,15 +184,12 @@ class Checks:
     def check(self, time: float, point: str, row: Any, strings: Sequence[Any] = ()) -> Found:
         """The violations of one sample (``row``: float64 values in ``index`` order)."""
         found: Found = []
-        if len(self.bounds_at):
-            x = row.take(self.bounds_at)
-            bad = (x < self.bounds_lo) | (x > self.bounds_hi)
+        forms = self.forms
+        if forms.size:
+            z = np.concatenate((row, _TAIL))
+            bad = (z.take(forms.at) * forms.weights).sum(axis=1) > forms.limit
             if _count(bad):
-                for k in bad.nonzero()[0].tolist():
-                    inv = self.bounds_inv[k]
-                    lo, hi = float(self.bounds_lo[k]), float(self.bounds_hi[k])
-                    expected = f"[{show(lo)}, {show(hi)}]"
-                    found.append(_violation(time, point, inv, float(x[k]), expected))
+                found += forms.violations(time, point, z, bad)
         if self.polygon_checks.count:
             candidates = self.polygon_checks.candidates(row)
             if len(candidates):
@@ -227,29 +224,6 @@ class Checks:
             if _count(bad):
                 for k in bad.nonzero()[0].tolist():
                     found.append(_violation(time, point, self.nonzero_inv[k], 0.0, "!= 0"))
-        if len(self.pair_first):
-            d = row.take(self.pair_first) - row.take(self.pair_second)
-            bad = d * self.pair_sign > self.pair_limit
-            if _count(bad):
-                reported = set()
-                for k in bad.nonzero()[0].tolist():
-                    inv = self.pair_inv[k]
-                    if id(inv) in reported:
-                        continue
-                    reported.add(id(inv))
-                    observed = (float(row[self.pair_first[k]]), float(row[self.pair_second[k]]))
-                    found.append(_violation(time, point, inv, observed, inv["kind"]))
-        if len(self.linear_inv):
-            at, co = self.linear_at, self.linear_coefficients
-            residual = row.take(at[0]) - co[0] * row.take(at[1]) - co[1] * row.take(at[2])
-            residual -= co[2]
-            bad = np.abs(residual) > self.linear_tolerance
-            if _count(bad):
-                for k in bad.nonzero()[0].tolist():
-                    inv = self.linear_inv[k]
-                    seen = tuple(float(row[self.index[n]]) for n in inv["variables"])
-                    expected = "within {} of the relation".format(show(inv["params"]["tolerance"]))
-                    found.append(_violation(time, point, inv, seen, expected))
         for at, values, inv in self.string_sets:
             value = strings[at]
             if value not in values:
@@ -257,6 +231,64 @@ class Checks:
                 found.append(_violation(time, point, inv, value, expected))
         if found and self.cleared:
             found = [v for v in found if v.invariant not in self.cleared]
+        return found
+
+
+_TAIL = np.array([0.0, 1.0])
+"""Appended to a sample: the zero that pads short forms and the one of constants."""
+_WIDTH = 4
+
+
+class _Forms:
+    """Linear forms ``w . z > limit`` of up to four terms over the sample ``z`` extended by
+    ``(0, 1)``: one array operation checks bounds, orderings, equalities and linear and
+    ternary relations together. Padding terms read the zero slot, so a form of one term is
+    the value itself (``x + 0 + 0 + 0``, exact, infinities kept), a difference ``x - y`` is
+    rounded once (its sign exact)."""
+
+    def __init__(self, width: int) -> None:
+        self.zero = width
+        self.one = width + 1
+        self.rows: List[Tuple[List[Tuple[int, float]], float]] = []
+        self.owners: List[Tuple[Mapping[str, Any], str]] = []
+
+    def add(
+        self, inv: Mapping[str, Any], terms: List[Tuple[int, float]], limit: float, expected: str
+    ) -> None:
+        self.rows.append((terms, limit))
+        self.owners.append((inv, expected))
+
+    def freeze(self) -> None:
+        self.size = len(self.rows)
+        at = np.full((self.size, _WIDTH), self.zero, dtype=np.int64)
+        weights = np.zeros((self.size, _WIDTH))
+        for k, (terms, _) in enumerate(self.rows):
+            for j, (index, weight) in enumerate(terms):
+                at[k, j] = index
+                weights[k, j] = weight
+        self.at = at
+        self.weights = weights
+        self.limit = np.asarray([limit for _, limit in self.rows], dtype=np.float64)
+
+    def violations(self, time: float, point: str, z: Any, bad: Any) -> Found:
+        found: Found = []
+        seen = set()
+        for k in bad.nonzero()[0].tolist():
+            inv, expected = self.owners[k]
+            if id(inv) in seen:  # an equality or relation has a form for each side
+                continue
+            seen.add(id(inv))
+            values = tuple(float(z[i]) for i, w in zip(self.at[k], self.weights[k]) if w != 0)
+            if inv["family"] in ("bounds", "array"):
+                observed: Any = values[0]
+                lo = inv["params"].get("min", "-inf")
+                hi = inv["params"].get("max", "inf")
+                expected = f"[{show(_number(lo))}, {show(_number(hi))}]"
+            elif inv["family"] in ("linear", "ternary"):
+                observed = tuple(float(z[i]) for i in self.at[k][: len(inv["variables"])])
+            else:
+                observed = values[:2]
+            found.append(_violation(time, point, inv, observed, expected))
         return found
 
 
