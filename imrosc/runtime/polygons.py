@@ -101,11 +101,13 @@ class PolygonChecks:
         px = row.take(self.x.take(candidates))[:, None]
         py = row.take(self.y.take(candidates))[:, None]
         a, b, c = self.abc.take(candidates, axis=1)
-        outside = a * px + b * py > c
+        hit = (a * px + b * py > c).any(axis=1)
+        if not np.count_nonzero(hit):
+            return candidates[:0]
         # inference builds hulls from finite samples only: a NaN or infinite coordinate
         # breaks no polygon (a NaN compares false already; an inf would reach past an edge)
-        outside &= np.isfinite(px) & np.isfinite(py)
-        return candidates[outside.any(axis=1)]
+        finite = np.isfinite(px[:, 0]) & np.isfinite(py[:, 0])
+        return candidates[hit & finite]
 
 
 def _grid(
