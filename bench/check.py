@@ -74,9 +74,7 @@ def inferred(data: np.ndarray) -> dict[str, Any]:
         state.end_run()
     context = FinalizeContext(Tunables(), variables, "a", None, 1)
     found = [i for state in states for i in state.finalize(context)]
-    layout = [
-        {"name": v.name, "path": v.path, "type": v.type, "derived": None} for v in variables
-    ]
+    layout = [{"name": v.name, "path": v.path, "type": v.type, "derived": None} for v in variables]
     point = PointInfo("a", "publish", "/t", None, ROWS, 1, variables, {"inputs": []})
     return document(
         project="bench",

@@ -145,9 +145,7 @@ class Flattener:
         self._texts = _getter([v.path for v in self.strings])
         self._arrays = _getter([spec.path for spec, _ in layout.arrays])
 
-    def _rows(
-        self, messages: Sequence[Any], which: str, missing: Any
-    ) -> list[tuple[Any, ...]]:
+    def _rows(self, messages: Sequence[Any], which: str, missing: Any) -> list[tuple[Any, ...]]:
         """Each message's values of one kind; a field a message lacks gives ``missing``."""
         get = getattr(self, which)
         try:
