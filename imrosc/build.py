@@ -1,17 +1,26 @@
 """``imrosc build``: check, lower, run the passes, render a backend, write its files.
 
 Writing never destroys what a user had: a file is overwritten only if it carries imrosc's
-generated-file mark, unless ``force`` is given. Outputs are byte-identical across runs.
+generated-file mark, unless ``force`` is given. Outputs are byte-identical across runs; a
+file whose content is :class:`~imrosc.backends.registry.Executable` gets its execute bits.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+import stat
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from imrosc import ir
-from imrosc.backends.registry import GENERATED_MARK, BuildInputs, TopicType, available
+from imrosc.backends.registry import (
+    GENERATED_MARK,
+    BuildInputs,
+    Executable,
+    TopicType,
+    available,
+)
 from imrosc.bags import BagError, discover_bags, open_bag
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
@@ -97,9 +106,12 @@ def build(
     context = PassContext(path=config.path, graph=graph)
     project = run_passes(lower(config), context)
     problems += context.diagnostics
-    inputs = BuildInputs(project, tuple(str(b) for b in bags), types)
+    inputs = BuildInputs(project, tuple(str(b) for b in bags), types, graph)
     renderer = available()[backend]
     files = renderer(inputs) if not has_errors(problems) else {}
+    problems += inputs.diagnostics
+    if has_errors(problems):
+        files = {}
     return BuildResult(project, finalize(problems), files)
 
 
@@ -120,8 +132,19 @@ def generated_by_imrosc(path: Path) -> bool:
         return False
 
 
-def write_files(out: Path, files: dict[str, bytes], *, force: bool = False) -> list[Path]:
-    """Write ``files`` under ``out``; refuse (before writing any) to clobber a foreign file."""
+def _make_executable(path: Path) -> None:
+    """Add an execute bit wherever the file has a read bit (``chmod +x`` under the umask)."""
+    mode = stat.S_IMODE(path.stat().st_mode)
+    wanted = mode | ((mode & (stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)) >> 2)
+    if wanted != mode:
+        os.chmod(path, wanted)
+
+
+def write_files(out: Path, files: Mapping[str, bytes], *, force: bool = False) -> list[Path]:
+    """Write ``files`` under ``out``; refuse (before writing any) to clobber a foreign file.
+
+    :class:`~imrosc.backends.registry.Executable` contents are made executable.
+    """
     targets = {name: out / name for name in files}
     for path in targets.values():
         if path.exists() and not force and not generated_by_imrosc(path):
@@ -129,7 +152,10 @@ def write_files(out: Path, files: dict[str, bytes], *, force: bool = False) -> l
     written = []
     for name, path in sorted(targets.items()):
         path.parent.mkdir(parents=True, exist_ok=True)
-        if not (path.exists() and path.read_bytes() == files[name]):
-            path.write_bytes(files[name])
+        content = files[name]
+        if not (path.exists() and path.read_bytes() == content):
+            path.write_bytes(content)
+        if isinstance(content, Executable):
+            _make_executable(path)
         written.append(path)
     return written

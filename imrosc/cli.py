@@ -135,6 +135,9 @@ def build(
         sys.exit(EXIT_USAGE)
     for path in written:
         click.echo(f"wrote {path}")
+    if backend in ("ros1", "ros2") and result.files:
+        package = out / next(iter(result.files)).split("/", 1)[0]
+        click.echo(f"monitor package {package} (see docs/monitor.md)")
 
 
 main.add_command(graph_command)
@@ -469,3 +472,8 @@ def stability(
         sys.exit(EXIT_ERRORS)
     _emit(report, output_format, report_path, force)
     sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)
+
+
+from imrosc.record.command import record  # noqa: E402  (imports nothing heavy)
+
+main.add_command(record)

@@ -163,6 +163,57 @@ CODES: tuple[Code, ...] = (
         "lower",
         "Relative grouping went round a cycle of the graph; each topic is grouped once.",
     ),
+    # Monitor backends (imrosc build --backend ros1).
+    Code("monitor-missing", _E, "backend", "A monitor backend needs a <monitor> in the config."),
+    Code(
+        "invariants-unreadable",
+        _E,
+        "backend",
+        "The monitor's invariants file is missing, unreadable or not an imrosc invariants file.",
+    ),
+    Code(
+        "bad-field-path",
+        _E,
+        "backend",
+        "A variable's field path is not a chain of Python identifiers (with one [index]).",
+    ),
+    Code("bad-type-name", _E, "backend", "A message type name is not pkg/Type or pkg/msg/Type."),
+    Code(
+        "bad-package-name",
+        _E,
+        "backend",
+        "The project name does not give a valid ROS package name (<project>_monitor).",
+    ),
+    Code(
+        "action-type-unknown",
+        _N,
+        "backend",
+        "No invariants file or bag knows an action topic's type; the node asks the master.",
+    ),
+    Code(
+        "launch-error",
+        _E,
+        "backend",
+        "The <monitor> launch file cannot be read or is not a roslaunch XML file.",
+    ),
+    Code(
+        "launch-without-graph",
+        _E,
+        "backend",
+        "Blocked topics need a graph that knows subscribers to rewrite the launch file.",
+    ),
+    Code(
+        "launch-unknown-node",
+        _W,
+        "backend",
+        "A node of the launch file that the graph does not know; it is not remapped.",
+    ),
+    Code(
+        "launch-unrewritten",
+        _W,
+        "backend",
+        "A part of the launch file imrosc cannot rewrite safely (an include, a scope remap).",
+    ),
 )
 
 BY_NAME: dict[str, Code] = {code.name: code for code in CODES}

@@ -165,6 +165,8 @@ def _no_duplicates(pairs: list[tuple[str, object]]) -> dict[str, object]:
 
 def _load(text: str, what: str, keys: frozenset[str]) -> dict[str, object]:
     """Parse a record's text into its top-level object and check version and keys."""
+    if not isinstance(text, str):  # a record topic whose messages are not strings
+        raise RecordError(f"{what} record is not text but {type(text).__name__}")
     try:
         document = json.loads(text, object_pairs_hook=_no_duplicates)
     except RecordError as error:

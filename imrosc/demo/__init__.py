@@ -26,7 +26,7 @@ from imrosc.sim import ScenarioKind
 MARKER = ".imrosc-demo"
 CONFIG = "landing_sim.xml"
 FAULTS: tuple[ScenarioKind, ...] = ("slowed", "spoofed", "stuck", "tilt")
-COMING = (("build --backend ros1|ros2", "render a monitor package that checks them live"),)
+COMING: tuple[tuple[str, str], ...] = ()
 
 
 def example_configs() -> list[Path]:
@@ -57,10 +57,12 @@ def _write_bags(out: Path, runs: int) -> None:
     write_runs(nominal, runs=max(runs - 1, 1), seed=0, fmt="ros1")
     write_run(nominal / "nominal_mcap", seed=runs, fmt="mcap")
     write_runs(out / "bags" / "success", runs=2, seed=100, fmt="ros1")
+    # each faulty run is a nominal run (same seed) with the fault from 10 s on: what breaks
+    # in it is the fault's doing
     for offset, kind in enumerate(FAULTS):
         write_run(
             out / "bags" / "fail" / f"{kind}.bag",
-            seed=200 + offset,
+            seed=offset % max(runs - 1, 1),
             fmt="ros1",
             scenario=Scenario(kind),
         )
@@ -109,6 +111,30 @@ def _check_stage(out: Path, config: Path, workers: int | None) -> bool:
     return True
 
 
+def _monitors(out: Path, config: Path) -> bool:
+    """Build the ROS 1 and ROS 2 monitor packages of the demo's <monitor>."""
+    graph = out / "landing_sim.graph.yaml"
+    for backend in ("ros1", "ros2"):
+        target = out / "build" / backend
+        step = 7 if backend == "ros1" else 8
+        click.echo(
+            f"\n{step}. imrosc build {config} --backend {backend} -o {target} --graph {graph}"
+        )
+        built = build(config, backend, graph_files=[graph])
+        if not built.ok:
+            click.echo(render_text(built.diagnostics, 1), nl=False)
+            return False
+        written = write_files(target, built.files, force=True)
+        package = sorted({p.relative_to(target).parts[0] for p in written})
+        click.echo(f"   wrote {len(written)} files: the package {target / package[0]}")
+    click.echo(
+        f"\n   ROS 1: ROS_PACKAGE_PATH={out / 'build' / 'ros1'}:$ROS_PACKAGE_PATH "
+        "roslaunch landing_sim_monitor landing_sim_monitor.launch"
+    )
+    click.echo(f"   ROS 2: colcon build --base-paths {out / 'build' / 'ros2'}")
+    return True
+
+
 def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None = None) -> int:
     """Simulate, check, build and infer; return the exit status."""
     if not _prepare(out):
@@ -116,6 +142,10 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
     source = next(p for p in example_configs() if p.name == CONFIG)
     config = out / CONFIG
     shutil.copyfile(source, config)
+    graph = next(p for p in example_configs() if p.name == CONFIG).with_name(
+        "landing_sim.graph.yaml"
+    )
+    shutil.copyfile(graph, out / graph.name)
     click.echo(f"1. simulating the landing system of thesis section 5.1 into {out / 'bags'}")
     _write_bags(out, runs)
     click.echo(
@@ -151,7 +181,10 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
     click.echo("\n".join("   " + line for line in sample))
     if not _check_stage(out, config, workers):
         return 1
-    click.echo("\nComing in later stages:")
-    for command, what in COMING:
-        click.echo(f"   imrosc {command}: {what}")
+    if not _monitors(out, config):
+        return 1
+    if COMING:
+        click.echo("\nComing in later stages:")
+        for command, what in COMING:
+            click.echo(f"   imrosc {command}: {what}")
     return 0

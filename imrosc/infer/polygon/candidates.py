@@ -2,8 +2,8 @@
 
 Algorithm 6 keeps only the points outside the current polygon. Testing every sample of
 every pair costs pairs x rows work (1,540 x 160,000 on the benchmark), so a chunk is
-reduced without touching most (pair, row) combinations, using the shapes the
-:class:`~imrosc.infer.polygon.guide.Guide` keeps strictly inside each current hull:
+reduced without touching most (pair, row) combinations, using what the
+:class:`~imrosc.infer.polygon.guide.Guide` knows to lie inside each current hull:
 
 * per pair, the square box or the cheapest cross (a wide and a tall box) is chosen by
   costing each on a sample of the chunk; the rows outside it are read from per-variable
@@ -11,15 +11,26 @@ reduced without touching most (pair, row) combinations, using the shapes the
   left or right of the cross; part B, above or below it; part C, its corners, read from
   the smaller of the two tails and filtered by the other coordinate. The cost follows the
   number of samples near the boundary, not pairs x rows;
-* pairs no cross fits (a band along a diagonal) are scanned row by row;
+* pairs no cross fits well (a band along a diagonal, a random walk wandering off the
+  box) go by blocks of consecutive rows instead: a block whose bounding box has its four
+  corners inside the hull has every row inside (the hull's interior is convex), so only
+  the rows of the other blocks are read, refining 256-row blocks into 32-row ones. Smooth
+  signals (positions, integrated quantities) have small boxes: few blocks stay open;
 * every row so found is tested against the pair's polar table (a sector lookup, a compare);
+* pairs without a table whose hull is a segment or a sliver (a variable that is a linear
+  function of the other, up to rounding) have every row located exactly in their hull
+  (:mod:`~imrosc.infer.polygon.locate`);
 * pairs where a variable takes few values (constants, flags, modes) keep, per value, only
-  the rows with the least and greatest partner value; pairs of identical columns keep
-  their two end points; pairs without a guide (no hull yet, or a degenerate one) keep all.
+  the rows with the least and greatest partner value, found in the partner's tails; pairs
+  of identical columns keep their two end points; pairs without any hull keep all.
 
-Everything discarded is provably strictly inside the current hull, hence no vertex of
-``hull(current hull | chunk)``: the exact hull of the current vertices plus the survivors is
-that hull, whatever the chunking.
+Everything discarded is provably in the current hull and none of its vertices, hence no
+vertex of ``hull(current hull | chunk)``: the exact hull of the current vertices plus the
+survivors is that hull, whatever the chunking.
+
+A chunk where a pair's guide fits badly (no hull yet, a variable drifting into new ground)
+first gives that pair a head start (:func:`seeds`, :func:`heads`): likely vertices whose
+hull, inside the final one, tightens the guide before the whole chunk is filtered.
 """
 
 from __future__ import annotations
@@ -42,14 +53,20 @@ FEW_VALUES = 16
 SAMPLE = 1024
 """Rows per chunk whose sorted values estimate how many rows a guide lets through."""
 
+TAIL = 4
+"""A variable's tails hold its values beyond the ``TAIL``-th least and greatest sampled."""
+
 EXPANDING = 0.05
 """A guide letting more than this fraction of a chunk through calls for a head start."""
 
-_SCAN = 0.75
-"""Pairs whose cross would enumerate this fraction of the rows are scanned row by row."""
+_BY_BLOCKS = 0.15
+"""Pairs whose cross would enumerate this fraction of the rows go by blocks instead."""
 
 _BLOCK = 1 << 15
 """Samples filtered together (keeps the temporaries in cache)."""
+
+BLOCKS = (256, 32)
+"""Sizes of the blocks of consecutive rows whose bounding boxes are tested, coarse to fine."""
 
 
 def ragged_arange(starts: IntArray, lengths: IntArray) -> IntArray:
@@ -84,22 +101,106 @@ class Chunk:
         self.empty = np.isnan(self.low)
         self._before: IntArray | None = None
         self._sorted_sample: dict[int, FloatArray] | None = None
+        self._extremes: dict[tuple[int, int], IntArray] = {}
+        self._tails: dict[int, tuple[IntArray, IntArray]] = {}
+        self.levels: dict[int, FloatArray] = {}
+        self._blocks: dict[int, tuple[FloatArray, FloatArray]] = {}
+        self._firsts: dict[int, IntArray] = {}
+        self._block_rows: dict[int, IntArray] = {}
         self.classes: tuple[list[tuple[int, IntArray]], IntArray, IntArray] | None = None
         self.plan: _Plan | None = None
         self.plan_stamp = np.empty(0, np.int64)
 
-    def every(self, stride: int) -> Chunk:
-        """The chunk's rows ``0, stride, 2 * stride, ...``."""
-        return Chunk(np.ascontiguousarray(self.values[:, ::stride]), self.discrete)
+    def block_bounds(self, size: int) -> tuple[FloatArray, FloatArray]:
+        """Per variable and block of ``size`` consecutive rows, the least and greatest
+        present value (NaN for a block without any), ``(variables, blocks)`` each."""
+        found = self._blocks.get(size)
+        if found is None:
+            base = BLOCKS[-1]
+            if size % base == 0 and size > base:
+                # from the finest blocks: a least of least values is the least value
+                low, high = self.block_bounds(base)
+                factor = size // base
+                blocks = -(-low.shape[1] // factor)
+                parts = []
+                for fine, reduce in ((low, np.fmin), (high, np.fmax)):
+                    padded = np.full((len(fine), blocks * factor), np.nan)
+                    padded[:, : fine.shape[1]] = fine
+                    parts.append(reduce.reduce(padded.reshape(len(fine), blocks, factor), axis=2))
+                found = (parts[0], parts[1])
+            else:
+                starts = np.arange(0, self.rows, size)
+                with np.errstate(all="ignore"):
+                    found = (
+                        np.fmin.reduceat(self.values, starts, axis=1),
+                        np.fmax.reduceat(self.values, starts, axis=1),
+                    )
+            self._blocks[size] = found
+        return found
 
-    def extreme_rows(self, count: int) -> IntArray:
-        """Per variable, rows of its ``count`` least and ``count`` greatest values
-        (``(variables, 2 * count)``; rows of missing values may stand among the greatest)."""
+    def block_extremes(self, size: int) -> IntArray:
+        """Per variable and block of ``size`` consecutive rows, the rows of its least and
+        greatest present value, ``(variables, 2, blocks)`` (a row of a missing value for a
+        block without any)."""
+        found = self._block_rows.get(size)
+        if found is None:
+            blocks = -(-self.rows // size)
+            padded = np.full((self.values.shape[0], blocks * size), np.nan)
+            padded[:, : self.rows] = self.values
+            shaped = padded.reshape(len(padded), blocks, size)
+            gaps = np.isnan(shaped)
+            low = np.where(gaps, np.inf, shaped).argmin(axis=2)
+            high = np.where(gaps, -np.inf, shaped).argmax(axis=2)
+            start = np.arange(blocks) * size
+            found = np.minimum(np.stack([low + start, high + start], axis=1), self.rows - 1)
+            self._block_rows[size] = found
+        return found
+
+    def extreme_rows(self, variables: IntArray, count: int) -> IntArray:
+        """Rows of the ``count`` least and ``count`` greatest values of each of
+        ``variables`` (``(len(variables), 2 * count)``, or every row when the chunk is that
+        short; rows of missing values may stand among the greatest)."""
         if 2 * count >= self.rows:
-            rows = np.broadcast_to(np.arange(self.rows), (self.values.shape[0], self.rows))
-            return np.ascontiguousarray(rows).astype(np.int64)
-        split = np.argpartition(self.values, (count, self.rows - count - 1), axis=1)
-        return np.concatenate([split[:, :count], split[:, -count:]], axis=1).astype(np.int64)
+            return np.broadcast_to(
+                np.arange(self.rows, dtype=np.int64), (len(variables), self.rows)
+            )
+        out = np.empty((len(variables), 2 * count), np.int64)
+        for k, var in enumerate(variables.tolist()):
+            found = self._extremes.get((var, count))
+            if found is None:
+                split = np.argpartition(self.values[var], (count, self.rows - count - 1))
+                found = np.concatenate([split[:count], split[-count:]]).astype(np.int64)
+                self._extremes[(var, count)] = found
+            out[k] = found
+        return out
+
+    def first_rows(self, var: int) -> IntArray:
+        """The first row of each present value of ``var``, in increasing value order."""
+        found = self._firsts.get(var)
+        if found is None:
+            column = self.values[var]
+            _, index = np.unique(column, return_index=True)
+            found = index[~np.isnan(column[index])].astype(np.int64)
+            self._firsts[var] = found
+        return found
+
+    def tail_rows(self, var: int) -> tuple[IntArray, IntArray]:
+        """Rows of ``var``'s low and high tails: values at most (at least) the ``TAIL``-th
+        least (greatest) of the estimation sample, ties included (about ``TAIL`` / ``SAMPLE``
+        of the rows each, whatever the distribution)."""
+        found = self._tails.get(var)
+        if found is None:
+            sample = self.sorted_sample()[var]
+            if not len(sample):
+                empty = np.empty(0, np.int64)
+                found = (empty, empty)
+            else:
+                column = self.values[var]
+                low = sample[min(TAIL, len(sample) - 1)]
+                high = sample[max(len(sample) - 1 - TAIL, 0)]
+                found = (np.flatnonzero(column <= low), np.flatnonzero(column >= high))
+            self._tails[var] = found
+        return found
 
     def sample_size(self) -> int:
         """Rows in the estimation sample."""
@@ -153,12 +254,16 @@ class Chunk:
 
 
 def _few_valued(chunk: Chunk) -> BoolArray:
-    """Constant variables, and discrete ones with at most ``FEW_VALUES`` values here."""
+    """Constant variables, and discrete ones with at most ``FEW_VALUES`` values here (their
+    values go to ``chunk.levels``)."""
     few: BoolArray = np.asarray((chunk.low == chunk.high) & ~chunk.empty, dtype=bool)
+    for var in np.flatnonzero(few).tolist():
+        chunk.levels[var] = chunk.low[var : var + 1].copy()
     for var in np.flatnonzero(~few & ~chunk.empty & np.asarray(chunk.discrete, bool)).tolist():
-        column = chunk.values[var][~chunk.nan[var]]
-        if len(np.unique(column)) <= FEW_VALUES:
+        levels = np.unique(chunk.values[var][~chunk.nan[var]])
+        if len(levels) <= FEW_VALUES:
             few[var] = True
+            chunk.levels[var] = levels
     return few
 
 
@@ -180,7 +285,75 @@ def _identical(chunk: Chunk, wanted: BoolArray) -> dict[int, int]:
 
 
 def _grouped(chunk: Chunk, var: int, pairs: IntArray, pi: IntArray, pj: IntArray) -> GroupSet:
-    """Candidates of pairs where ``var`` takes few values: per value, the partner's ends."""
+    """Candidates of pairs where ``var`` takes few values: per value, the partner's ends.
+
+    Each end is the row of the least (greatest) partner value among the rows of that
+    value of ``var``, the earliest on ties. They are looked for in the partner's tails
+    first; pairs where a value has no row there are done in full.
+    """
+    partner = np.where(pi[pairs] == var, pj[pairs], pi[pairs])
+    # a constant partner without gaps: every end is the value's first row
+    flat = (chunk.low[partner] == chunk.high[partner]) & ~chunk.has_nan[partner]
+    firsts = chunk.first_rows(var)
+    found = [(np.repeat(pairs[flat], len(firsts)), np.tile(firsts, int(flat.sum())))]
+    pair, row, missed = _ends_in_tails(chunk, var, pairs[~flat], partner[~flat])
+    found.append((pair, row))
+    if missed.any():
+        found.append(_ends_in_full(chunk, var, pairs[~flat][missed], partner[~flat][missed]))
+    return _points(
+        chunk, pi, pj, np.concatenate([p for p, _ in found]), np.concatenate([r for _, r in found])
+    )
+
+
+def _ends_in_tails(
+    chunk: Chunk, var: int, pairs: IntArray, partner: IntArray
+) -> tuple[IntArray, IntArray, BoolArray]:
+    """``(pair, row)`` of the per-value ends found in the partners' tails, and which pairs
+    miss a value there.
+
+    A tail holds every row whose value lies beyond its threshold, ties included, so the
+    least partner value of the rows of a value of ``var`` met in the low tail is that
+    value's least, and its earliest row there is the earliest of all.
+    """
+    levels = chunk.levels[var]
+    keys = chunk.values[var]
+    cells = len(pairs) * len(levels)  # one per (pair, value of var)
+    found_cell: list[IntArray] = []
+    found_row: list[IntArray] = []
+    missed = np.zeros(len(pairs), bool)
+    longest = max(chunk.rows // 4, 1024)
+    for side, sign in ((0, 1.0), (1, -1.0)):
+        tails = [chunk.tail_rows(p)[side] for p in partner.tolist()]
+        lengths = np.array([len(t) for t in tails], np.int64)
+        missed |= lengths > longest  # long ties: cheaper done in full
+        lengths[missed] = 0
+        tails = [t for t, m in zip(tails, missed.tolist(), strict=True) if not m]
+        row = np.concatenate(tails) if tails else np.empty(0, np.int64)
+        slot = np.repeat(np.arange(len(pairs)), lengths)
+        key = keys.take(row)
+        present = np.flatnonzero(~np.isnan(key))
+        row, slot, key = row.take(present), slot.take(present), key.take(present)
+        cell = slot * len(levels) + np.searchsorted(levels, key)
+        value = sign * chunk.values.ravel().take(partner.take(slot) * chunk.rows + row)
+        least = np.full(cells, np.inf)
+        np.minimum.at(least, cell, value)
+        tie = np.flatnonzero(value == least.take(cell))
+        first = np.full(cells, chunk.rows, np.int64)
+        np.minimum.at(first, cell.take(tie), row.take(tie))
+        hit = np.flatnonzero(first < chunk.rows)
+        missed |= np.bincount(hit // len(levels), minlength=len(pairs)) != len(levels)
+        found_cell.append(hit)
+        found_row.append(first.take(hit))
+    cell = np.concatenate(found_cell)
+    keep = np.flatnonzero(~missed[cell // len(levels)])
+    pair = pairs.take(cell.take(keep) // len(levels))
+    return pair, np.concatenate(found_row).take(keep), missed
+
+
+def _ends_in_full(
+    chunk: Chunk, var: int, pairs: IntArray, partner: IntArray
+) -> tuple[IntArray, IntArray]:
+    """``(pair, row)`` of every per-value end, from all rows of the chunk."""
     values = chunk.values[var]
     order = np.argsort(values, kind="stable")
     count = int(np.count_nonzero(~chunk.nan[var]))
@@ -190,7 +363,6 @@ def _grouped(chunk: Chunk, var: int, pairs: IntArray, pi: IntArray, pj: IntArray
     run = np.zeros(count, np.int64)
     run[starts[1:]] = 1
     run = np.cumsum(run)
-    partner = np.where(pi[pairs] == var, pj[pairs], pi[pairs])
     other = chunk.values[partner][:, order]
     position = np.broadcast_to(np.arange(count), other.shape)
     parts: list[tuple[IntArray, IntArray]] = []
@@ -203,7 +375,7 @@ def _grouped(chunk: Chunk, var: int, pairs: IntArray, pi: IntArray, pj: IntArray
             parts.append((pairs[p_idx], order[at[p_idx, g_idx]]))
     pair = np.concatenate([parts[0][0], parts[1][0]])
     row = np.concatenate([parts[0][1], parts[1][1]])
-    return _points(chunk, pi, pj, pair, row)
+    return pair, row
 
 
 def _points(chunk: Chunk, pi: IntArray, pj: IntArray, pair: IntArray, row: IntArray) -> GroupSet:
@@ -325,13 +497,27 @@ def _make_plan(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide:
     )
 
 
-def _general(
-    chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide, cross: bool = True
-) -> GroupSet:
+def _general(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide) -> GroupSet:
     """Candidates of the pairs with continuous variables (see the module docstring)."""
     if not len(pairs):
         return GroupSet.empty()
-    plan = _plan(chunk, pairs, pi, pj, guide) if cross else _square_plan(pairs, guide)
+    plan = _plan(chunk, pairs, pi, pj, guide)
+    blocks = (plan.cost >= _BY_BLOCKS) | (guide.locator.slot[pairs] >= 0)
+    crossed = np.flatnonzero(~blocks)
+    return GroupSet.concat(
+        [
+            _by_cross(chunk, pairs[crossed], pi, pj, guide, _take_plan(plan, crossed)),
+            _by_blocks(chunk, pairs[blocks], pi, pj, guide),
+        ]
+    )
+
+
+def _by_cross(
+    chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide, plan: _Plan
+) -> GroupSet:
+    """Candidates of ``pairs`` from the rows outside their cross, read from sorted tails."""
+    if not len(pairs):
+        return GroupSet.empty()
     ox, oy = pi[pairs], pj[pairs]
     nvar = chunk.values.shape[0]
     # parts: A from x, B from y, C (corners) from x or y; each as (owner, lo, hi)
@@ -339,17 +525,16 @@ def _general(
     c_lo = np.where(plan.c_on_x, plan.c[0], plan.c[2])
     c_hi = np.where(plan.c_on_x, plan.c[1], plan.c[3])
     parts = ((ox, plan.a[0], plan.a[1]), (oy, plan.b[0], plan.b[1]), (c_owner, c_lo, c_hi))
-    scan = plan.cost >= _SCAN
     need_lo = np.full(nvar, -np.inf)
     need_hi = np.full(nvar, np.inf)
     for owner, lo, hi in parts:
-        np.maximum.at(need_lo, owner[~scan], lo[~scan])
-        np.minimum.at(need_hi, owner[~scan], hi[~scan])
+        np.maximum.at(need_lo, owner, lo)
+        np.minimum.at(need_hi, owner, hi)
     sorted_values: dict[int, FloatArray] = {}
     sorted_rows: list[IntArray] = []
     offsets = np.zeros(nvar, np.int64)
     total = 0
-    for var in np.union1d(ox[~scan], oy[~scan]).tolist():
+    for var in np.union1d(ox, oy).tolist():
         column = chunk.values[var]
         with np.errstate(invalid="ignore"):
             rows = np.flatnonzero((column < need_lo[var]) | (column > need_hi[var]))
@@ -368,8 +553,8 @@ def _general(
     for part, (owner, lo, hi) in enumerate(parts):
         starts = np.zeros((len(pairs), 2), np.int64)
         lengths = np.zeros((len(pairs), 2), np.int64)
-        for var in np.unique(owner[~scan]).tolist():
-            mine = np.flatnonzero((owner == var) & ~scan)
+        for var in np.unique(owner).tolist():
+            mine = np.flatnonzero(owner == var)
             vals = sorted_values[var]
             below = np.searchsorted(vals, lo[mine], side="left")
             above = np.maximum(np.searchsorted(vals, hi[mine], side="right"), below)
@@ -399,30 +584,99 @@ def _general(
                     keep &= (x >= plan.a[0].take(slot)) & (x <= plan.a[1].take(slot))
             sel = np.flatnonzero(keep)
             found.append(GroupSet(pair.take(sel), x.take(sel), y.take(sel), row.take(sel)))
-    # pairs no cross fits (bands along a diagonal, no hull yet): every row, by blocks
-    rows_all = np.arange(width, dtype=np.int64)
-    for slot in np.flatnonzero(scan).tolist():
-        x = chunk.values[ox[slot]]
-        y = chunk.values[oy[slot]]
-        sel = np.flatnonzero(~(np.isnan(x) | np.isnan(y)))
-        pair = np.full(len(sel), pairs[slot], np.int64)
-        found.append(_outside(guide, pair, x[sel], y[sel], rows_all[sel]))
     return GroupSet.concat(found)
 
 
-def _outside(guide: Guide, pair: IntArray, x: FloatArray, y: FloatArray, row: IntArray) -> GroupSet:
-    """The samples the guide cannot place strictly inside their pair's hull."""
-    sel = np.flatnonzero(~guide.inside(pair, x, y))
-    return GroupSet(pair[sel].astype(np.int64), x[sel], y[sel], row[sel])
+def _by_blocks(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide) -> GroupSet:
+    """Candidates of ``pairs`` from the rows of the blocks of consecutive rows whose
+    bounding box the table cannot place strictly inside the hull (if it can, so is every
+    row of the block: the hull's interior is convex), refined block size by block size.
+    Pairs without a table have every row located exactly instead."""
+    if not len(pairs) or not chunk.rows:
+        return GroupSet.empty()
+    loose = pairs[guide.locator.slot[pairs] >= 0]
+    every = np.arange(chunk.rows, dtype=np.int64)
+    found = _rows(
+        chunk,
+        loose,
+        pi,
+        pj,
+        np.repeat(np.arange(len(loose), dtype=np.int64), chunk.rows),
+        np.tile(every, len(loose)),
+        guide,
+        located=True,
+    )
+    pairs = pairs[guide.locator.slot[pairs] < 0]
+    count = -(-chunk.rows // BLOCKS[0])
+    slot = np.repeat(np.arange(len(pairs), dtype=np.int64), count)
+    block = np.tile(np.arange(count, dtype=np.int64), len(pairs))
+    for level, size in enumerate(BLOCKS):
+        if level:
+            factor = BLOCKS[level - 1] // size
+            block = (block[:, None] * factor + np.arange(factor)).ravel()
+            slot = np.repeat(slot, factor)
+            real = np.flatnonzero(block < -(-chunk.rows // size))
+            block, slot = block.take(real), slot.take(real)
+        slot, block = _open_blocks(chunk, pairs, pi, pj, guide, size, slot, block)
+    starts = block * BLOCKS[-1]
+    lengths = np.minimum(BLOCKS[-1], chunk.rows - starts)
+    row = ragged_arange(starts, lengths)
+    found += _rows(chunk, pairs, pi, pj, np.repeat(slot, lengths), row, guide, located=False)
+    return GroupSet.concat(found)
 
 
-def _square_plan(pairs: IntArray, guide: Guide) -> _Plan:
-    """Only the square box (part C empty)."""
-    sq = guide.square[:, pairs]
-    none = np.empty((4, len(pairs)))
-    none[0::2] = -np.inf
-    none[1::2] = np.inf
-    return _Plan(sq[0:2], sq[2:4], none, np.ones(len(pairs), bool), np.zeros(len(pairs)))
+def _open_blocks(
+    chunk: Chunk,
+    pairs: IntArray,
+    pi: IntArray,
+    pj: IntArray,
+    guide: Guide,
+    size: int,
+    slot: IntArray,
+    block: IntArray,
+) -> tuple[IntArray, IntArray]:
+    """The ``(slot, block)`` whose bounding box has a corner the table cannot place."""
+    low, high = chunk.block_bounds(size)
+    width = low.shape[1]
+    pair = pairs.take(slot)
+    i = pi.take(pair) * width + block
+    j = pj.take(pair) * width + block
+    closed = np.arange(len(slot))  # every corner tested so far is inside
+    for xs, ys in ((low, low), (high, high), (low, high), (high, low)):
+        x = xs.ravel().take(i.take(closed))
+        y = ys.ravel().take(j.take(closed))
+        closed = closed.take(np.flatnonzero(guide.inside(pair.take(closed), x, y)))
+    open_ = np.ones(len(slot), bool)
+    open_[closed] = False
+    keep = np.flatnonzero(open_)
+    return slot.take(keep), block.take(keep)
+
+
+def _rows(
+    chunk: Chunk,
+    pairs: IntArray,
+    pi: IntArray,
+    pj: IntArray,
+    slot: IntArray,
+    row: IntArray,
+    guide: Guide,
+    located: bool,
+) -> list[GroupSet]:
+    """The present rows ``row`` of ``pairs[slot]`` the guide keeps (``located``: with exact
+    location too), by cache-sized blocks."""
+    values = chunk.values.ravel()
+    found: list[GroupSet] = []
+    for first in range(0, len(row), _BLOCK):
+        r = row[first : first + _BLOCK]
+        pair = pairs.take(slot[first : first + _BLOCK])
+        x = values.take(pi.take(pair) * chunk.rows + r)
+        y = values.take(pj.take(pair) * chunk.rows + r)
+        with np.errstate(invalid="ignore"):
+            drop = guide.discards(pair, x, y) if located else guide.inside(pair, x, y)
+            keep = ~drop & ~(np.isnan(x) | np.isnan(y))
+        sel = np.flatnonzero(keep)
+        found.append(GroupSet(pair.take(sel), x.take(sel), y.take(sel), r.take(sel)))
+    return found
 
 
 def _classify(
@@ -465,10 +719,17 @@ def seeds(
     pairs = general[only[general]]
     if not len(pairs) or not chunk.rows:
         return GroupSet.empty()
-    ends = chunk.extreme_rows(extremes)
+    used = np.union1d(pi[pairs], pj[pairs])
+    slot = np.zeros(chunk.values.shape[0], np.int64)
+    slot[used] = np.arange(len(used))
+    ends = chunk.extreme_rows(used, extremes)
     sample = _sample_rows(chunk.rows, 2 * extremes)
     rows = np.concatenate(
-        [ends[pi[pairs]], ends[pj[pairs]], np.broadcast_to(sample, (len(pairs), len(sample)))],
+        [
+            ends[slot[pi[pairs]]],
+            ends[slot[pj[pairs]]],
+            np.broadcast_to(sample, (len(pairs), len(sample))),
+        ],
         axis=1,
     )
     pair = np.repeat(pairs, rows.shape[1])
@@ -476,8 +737,45 @@ def seeds(
     x = chunk.values[pi[pair], row]
     y = chunk.values[pj[pair], row]
     keep = ~(np.isnan(x) | np.isnan(y))
-    keep[keep] = ~guide.inside(pair[keep], x[keep], y[keep])
+    keep[keep] = ~guide.discards(pair[keep], x[keep], y[keep])
     sel = np.flatnonzero(keep)
+    return GroupSet(pair[sel], x[sel], y[sel], row[sel])
+
+
+def heads(
+    chunk: Chunk, pi: IntArray, pj: IntArray, guide: Guide, only: BoolArray, size: int
+) -> GroupSet:
+    """A head start for the pairs in ``only``: per block of ``size`` consecutive rows whose
+    bounding box the guide cannot place inside the hull, the rows of both variables'
+    least and greatest values in the block (at most four), unless the guide discards them.
+    """
+    _, _, general = _classify(chunk, pi, pj)
+    pairs = general[only[general]]
+    if not len(pairs) or not chunk.rows:
+        return GroupSet.empty()
+    count = -(-chunk.rows // size)
+    slot = np.repeat(np.arange(len(pairs), dtype=np.int64), count)
+    block = np.tile(np.arange(count, dtype=np.int64), len(pairs))
+    slot, block = _open_blocks(chunk, pairs, pi, pj, guide, size, slot, block)
+    ends = chunk.block_extremes(size)
+    width = ends.shape[2]
+    pair = pairs.take(slot)
+    rows = [
+        ends[:, side].ravel().take(var.take(pair) * width + block)
+        for var in (pi, pj)
+        for side in (0, 1)
+    ]
+    pair = np.tile(pair, 4)
+    row = np.concatenate(rows)
+    values = chunk.values.ravel()
+    x = values.take(pi.take(pair) * chunk.rows + row)
+    y = values.take(pj.take(pair) * chunk.rows + row)
+    with np.errstate(invalid="ignore"):
+        keep = ~(np.isnan(x) | np.isnan(y))
+        keep[keep] = ~guide.discards(pair[keep], x[keep], y[keep])
+    sel = np.flatnonzero(keep)
+    order = np.argsort(pair[sel], kind="stable")
+    sel = sel[order]
     return GroupSet(pair[sel], x[sel], y[sel], row[sel])
 
 
@@ -490,24 +788,13 @@ def expanding(chunk: Chunk, pi: IntArray, pj: IntArray, guide: Guide) -> BoolArr
     return out
 
 
-def candidates(
-    chunk: Chunk,
-    pi: IntArray,
-    pj: IntArray,
-    guide: Guide,
-    cross: bool = True,
-    only: BoolArray | None = None,
-) -> GroupSet:
+def candidates(chunk: Chunk, pi: IntArray, pj: IntArray, guide: Guide) -> GroupSet:
     """The chunk's samples that may be vertices of ``hull(current hull | chunk)``.
 
-    ``at`` of the result is the sample's row in the chunk; ``guide`` (shapes inside the
-    current hulls) decides what is discarded; ``cross=False`` uses only the square box
-    (cheaper to plan, for small chunks); ``only`` restricts the work to some continuous
-    pairs (a head start: the other pairs get nothing).
+    ``at`` of the result is the sample's row in the chunk; ``guide`` (what lies inside the
+    current hulls) decides what is discarded.
     """
     groups, twins, general = _classify(chunk, pi, pj)
-    if only is not None:
-        return _general(chunk, general[only[general]], pi, pj, guide, cross)
     parts = [_grouped(chunk, var, pairs, pi, pj) for var, pairs in groups]
     if len(twins):
         column = chunk.values[pi[twins]]
@@ -516,5 +803,5 @@ def candidates(
         pair = np.concatenate([twins, twins])
         row = np.concatenate([low, high]).astype(np.int64)
         parts.append(_points(chunk, pi, pj, pair, row))
-    parts.append(_general(chunk, general, pi, pj, guide, cross))
+    parts.append(_general(chunk, general, pi, pj, guide))
     return GroupSet.concat(parts)

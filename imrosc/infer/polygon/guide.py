@@ -18,7 +18,13 @@ when ``H`` changes):
   a nearly radial edge far away.
 
 A sample inside a box, or on the inner side of its sector's chord, is strictly inside
-``H``, hence no vertex of any later hull. Pairs without a guide keep every sample.
+``H``, hence no vertex of any later hull; so is every point of a box whose four corners are
+(the interior of ``H`` is convex). The tables are built in cache-sized batches of pairs.
+
+Pairs left without a table (a hull that is a segment or a sliver a few units of rounding
+wide, where no float test proves anything) keep their vertices in a
+:class:`~imrosc.infer.polygon.locate.Locator` instead: :meth:`Guide.discards` locates
+their samples exactly. Pairs without any hull keep every sample.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ import numpy.typing as npt
 
 from imrosc.infer.core import FloatArray
 from imrosc.infer.polygon.hull import GroupSet, IntArray
+from imrosc.infer.polygon.locate import Locator
 from imrosc.infer.polygon.predicates import surely_left
 
 BoolArray = npt.NDArray[np.bool_]
@@ -39,6 +46,8 @@ BUCKETS = 256
 
 _TABLE = 64 * 2**20
 """Bytes the polar tables of one point may take (three float64 planes)."""
+_TABLE_BLOCK = 1 << 14
+"""Table entries computed together (keeps the temporaries in cache)."""
 FRACTIONS = (0.3, 0.55, 0.8)
 """Heights of the wide boxes (widths of the tall ones) as fractions of the hull's span."""
 
@@ -152,6 +161,9 @@ class Guide:
             np.zeros(npairs * self.buckets),
             np.full(npairs * self.buckets, -np.inf),
         )
+        # pairs without a table: their vertices, for exact location
+        self.loose = GroupSet.empty()
+        self.locator = Locator.build(self.loose, npairs)
 
     def refresh(self, hull: GroupSet, pairs: IntArray) -> None:
         """Recompute the guide of ``pairs`` from their current hull vertices."""
@@ -184,7 +196,7 @@ class Guide:
                 low, high = mid_x - fraction * sx / 2, mid_x + fraction * sx / 2
                 bottom, top = flipped.span(low, high)
                 self.tall[k][:, pairs] = _valid(np.stack([low, high, bottom, top]), ok)
-            table = self._table(poly, ok, cx, cy, sx, sy, self.buckets)
+            self._table(poly, pairs, ok, (cx, cy), (sx, sy))
         self.ok[pairs] = ok
         self.cx[pairs] = cx
         self.cy[pairs] = cy
@@ -192,8 +204,21 @@ class Guide:
         self.sy[pairs] = np.where(ok, sy, 1.0)
         self.ix[pairs] = 1 / self.sx[pairs]
         self.iy[pairs] = 1 / self.sy[pairs]
-        for plane, values in zip(self.planes, table, strict=True):
-            plane.reshape(-1, self.buckets)[pairs] = values
+        self._relocate(hull, pairs, ok)
+
+    def _relocate(self, hull: GroupSet, pairs: IntArray, ok: BoolArray) -> None:
+        """Keep the vertices of the pairs left without a table (``~ok``) for location."""
+        npairs = len(self.ok)
+        redone = np.zeros(npairs, bool)
+        redone[pairs] = True
+        loose = np.zeros(npairs, bool)
+        loose[pairs[~ok]] = True
+        if not loose.any() and not len(self.loose):
+            return
+        kept = self.loose.take(np.flatnonzero(~redone[self.loose.group]))
+        fresh = hull.take(np.flatnonzero(loose[hull.group]))
+        self.loose = GroupSet.concat([kept, fresh])
+        self.locator = Locator.build(self.loose, npairs)
 
     @staticmethod
     def _square(
@@ -227,73 +252,36 @@ class Guide:
             best_area = np.where(better, area, best_area)
         return best
 
-    @staticmethod
     def _table(
+        self,
         poly: _Polygons,
+        pairs: IntArray,
         ok: BoolArray,
-        cx: FloatArray,
-        cy: FloatArray,
-        sx: FloatArray,
-        sy: FloatArray,
-        buckets: int,
-    ) -> FloatArray:
-        m, width = poly.vx.shape
-        tables = np.zeros((3, m, buckets))
-        tables[2] = -np.inf
+        centre: tuple[FloatArray, FloatArray],
+        span: tuple[FloatArray, FloatArray],
+    ) -> None:
+        """Write the polar tables of ``pairs`` (rows of ``poly``), by cache-sized blocks."""
+        nx, ny, level = (plane.reshape(-1, self.buckets) for plane in self.planes)
+        nx[pairs] = 0.0
+        ny[pairs] = 0.0
+        level[pairs] = -np.inf
         rows = np.flatnonzero(ok)
-        if not len(rows):
-            return tables
-        k = len(rows)
-        cnt = poly.count[rows]
-        real = poly.real[rows]
-        au = (poly.vx[rows] - cx[rows, None]) * (1 / sx[rows, None])
-        av = (poly.vy[rows] - cy[rows, None]) * (1 / sy[rows, None])
-        angle = np.where(real, diamond(au, av), np.inf)
-        order = np.argsort(angle, axis=1)
-        angle = np.take_along_axis(angle, order, axis=1)
-        au = np.take_along_axis(au, order, axis=1)
-        av = np.take_along_axis(av, order, axis=1)
-        col = np.arange(width)[None, :]
-        nxt = np.where(col + 1 < cnt[:, None], col + 1, 0)
-        # outward normal of each edge (not normalised) and its offset from c
-        nu = np.take_along_axis(av, nxt, axis=1) - av
-        nv = au - np.take_along_axis(au, nxt, axis=1)
-        offset = au * nu + av * nv
-        # the edge each sector bound crosses: bound j belongs to the last vertex at or
-        # before it (wrapping round to the last vertex)
-        first_bound = np.clip(np.ceil(angle * (buckets / 4)), 0, buckets).astype(np.int64)
-        marks = np.zeros((k, buckets + 1), np.int64)
-        rr, cc = np.nonzero(real)
-        np.add.at(marks, (rr, first_bound[rr, cc]), 1)
-        edge = np.cumsum(marks[:, :buckets], axis=1) - 1
-        edge = np.where(edge < 0, (cnt - 1)[:, None], edge)
-        # every edge line supports the polygon, so a ray leaves it at the nearest one; the
-        # bound's own edge and both neighbours cover an assignment off by one at a vertex
-        ray_u, ray_v = _rays(buckets)
-        reach = np.full((k, buckets), np.inf)
-        for shift in (-1, 0, 1):
-            near = (edge + shift) % cnt[:, None]
-            flat = (np.arange(k) * width)[:, None] + near
-            across = nu.ravel()[flat] * ray_u + nv.ravel()[flat] * ray_v
-            hit = np.where(across > 0, offset.ravel()[flat] / across, np.inf)
-            reach = np.minimum(reach, hit)
-        # only for hulls whose edges all keep clear of c (in normalised units): then a
-        # ray grazing a vertex meets the neighbouring edge right there, never far away
-        clear = np.where(real, offset / np.hypot(nu, nv), np.inf).min(axis=1) >= _CLEAR
-        reach = np.where(clear[:, None] & np.isfinite(reach), reach, 0.0) * (1 - _SHRINK)
-        # chords between consecutive bounds (pulled inwards by the shrink)
-        px = reach * ray_u
-        py = reach * ray_v
-        qx = np.roll(px, -1, axis=1)
-        qy = np.roll(py, -1, axis=1)
-        tx = qy - py
-        ty = px - qx
-        level = tx * px + ty * py
-        usable = (reach > 0) & (np.roll(reach, -1, axis=1) > 0) & np.isfinite(level)
-        tables[0, rows] = np.where(usable, tx, 0.0)
-        tables[1, rows] = np.where(usable, ty, 0.0)
-        tables[2, rows] = np.where(usable, level, -np.inf)
-        return tables
+        step = max(1, _TABLE_BLOCK // self.buckets)
+        for first in range(0, len(rows), step):
+            mine = rows[first : first + step]
+            tx, ty, lv = _chords(poly, mine, centre, span, self.buckets)
+            nx[pairs[mine]] = tx
+            ny[pairs[mine]] = ty
+            level[pairs[mine]] = lv
+
+    def discards(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
+        """Where the sample ``(x, y)`` of ``pair`` is certainly no new vertex: strictly
+        inside its hull by the table, or (pairs without one) in the closed hull and none of
+        its vertices, by exact location."""
+        found = self.inside(pair, x, y)
+        if len(self.loose):
+            found |= self.locator.covered(pair, x, y)
+        return found
 
     def inside(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
         """Where the sample ``(x, y)`` of ``pair`` is certainly strictly inside its hull."""
@@ -311,6 +299,78 @@ class Guide:
             nx, ny, level = self.planes
             result: BoolArray = nx.take(cell) * u + ny.take(cell) * v < level.take(cell)
         return result
+
+
+def _chords(
+    poly: _Polygons,
+    rows: IntArray,
+    centre: tuple[FloatArray, FloatArray],
+    span: tuple[FloatArray, FloatArray],
+    buckets: int,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The polar tables of ``rows`` of ``poly`` (see the module docstring), as the planes
+    ``(nx, ny, level)``, ``(rows, buckets)`` each: inside when ``nx * u + ny * v < level``."""
+    width = poly.vx.shape[1]
+    k = len(rows)
+    cx, cy = centre[0][rows], centre[1][rows]
+    sx, sy = span[0][rows], span[1][rows]
+    cnt = poly.count[rows]
+    real = poly.real[rows]
+    au = (poly.vx[rows] - cx[:, None]) * (1 / sx[:, None])
+    av = (poly.vy[rows] - cy[:, None]) * (1 / sy[:, None])
+    angle = np.where(real, diamond(au, av), np.inf)
+    order = np.argsort(angle, axis=1)
+    angle = np.take_along_axis(angle, order, axis=1)
+    au = np.take_along_axis(au, order, axis=1)
+    av = np.take_along_axis(av, order, axis=1)
+    col = np.arange(width)[None, :]
+    nxt = np.where(col + 1 < cnt[:, None], col + 1, 0)
+    # outward normal of each edge (not normalised) and its offset from c
+    nu = np.take_along_axis(av, nxt, axis=1) - av
+    nv = au - np.take_along_axis(au, nxt, axis=1)
+    offset = au * nu + av * nv
+    # the edge each sector bound crosses: bound j belongs to the last vertex at or
+    # before it (wrapping round to the last vertex)
+    first_bound = np.clip(np.ceil(angle * (buckets / 4)), 0, buckets).astype(np.int64)
+    marks = np.zeros((k, buckets + 1), np.int64)
+    rr, cc = np.nonzero(real)
+    np.add.at(marks, (rr, first_bound[rr, cc]), 1)
+    edge = np.cumsum(marks[:, :buckets], axis=1) - 1
+    edge = np.where(edge < 0, (cnt - 1)[:, None], edge)
+    # every edge line supports the polygon, so a ray leaves it at the nearest one; the
+    # bound's own edge and both neighbours cover an assignment off by one at a vertex.
+    # With the edges wrapped round (column c + 1 holds edge c, column 0 the last one),
+    # the edges at shifts -1, 0, +1 are columns edge + 0, 1, 2.
+    ray_u, ray_v = _rays(buckets)
+    ext = np.arange(width + 2)[None, :] - 1
+    ext = np.where(ext < 0, (cnt - 1)[:, None], ext % cnt[:, None])
+    wrap = [np.take_along_axis(a, ext, axis=1).ravel() for a in (nu, nv, offset)]
+    flat = (np.arange(k) * (width + 2))[:, None] + edge
+    reach = np.full((k, buckets), np.inf)
+    for shift in range(3):
+        eu, ev, eo = (a[shift:].take(flat) for a in wrap)
+        across = eu * ray_u
+        across += ev * ray_v
+        hit = np.divide(eo, across, out=np.full_like(across, np.inf), where=across > 0)
+        np.minimum(reach, hit, out=reach)
+    # only for hulls whose edges all keep clear of c (in normalised units): then a
+    # ray grazing a vertex meets the neighbouring edge right there, never far away
+    clear = np.where(real, offset / np.hypot(nu, nv), np.inf).min(axis=1) >= _CLEAR
+    reach = np.where(clear[:, None] & np.isfinite(reach), reach, 0.0) * (1 - _SHRINK)
+    # chords between consecutive bounds (pulled inwards by the shrink)
+    px = reach * ray_u
+    py = reach * ray_v
+    qx = np.roll(px, -1, axis=1)
+    qy = np.roll(py, -1, axis=1)
+    tx = qy - py
+    ty = px - qx
+    level = tx * px + ty * py
+    usable = (reach > 0) & (np.roll(reach, -1, axis=1) > 0) & np.isfinite(level)
+    return (
+        np.where(usable, tx, 0.0),
+        np.where(usable, ty, 0.0),
+        np.where(usable, level, -np.inf),
+    )
 
 
 def diamond(u: FloatArray, v: FloatArray) -> FloatArray:

@@ -12,9 +12,10 @@ states mergeable bit for bit.
 Method: a level-synchronous quickhull across all groups (every round splits every open
 edge at its farthest outside point; exact orientation decides what is outside, so it only
 ever discards points inside a triangle of data points). The farthest point is found in
-floating point; where another point might be as far (within the rounding bound), the pick
-may not be a vertex, and such groups are settled by Andrew's monotone chain, run in
-lock-step across groups on the few points quickhull kept.
+floating point; where another point might be as far (within the rounding bound), or where
+a distance overflowed (coordinates near 1e300), the pick may not be a vertex, and such
+groups are settled by Andrew's monotone chain, run in lock-step across groups on the few
+points quickhull kept.
 """
 
 from __future__ import annotations
@@ -155,6 +156,13 @@ def _quickhull(pts: GroupSet) -> tuple[GroupSet, IntArray, IntArray]:
             t2 = (sx - px) * (ey - py)
             dist = t1 - t2
             err = _ERR * (np.abs(t1) + np.abs(t2))
+        # a distance that overflowed says nothing: its segment picks among the rest (or
+        # any point) and its group is settled by the monotone chain
+        lost = ~np.isfinite(dist) | ~np.isfinite(err)
+        if lost.any():
+            suspect[pgroup[lost]] = True
+            dist = np.where(lost, -np.inf, dist)
+            err = np.where(lost, 0.0, err)
         far = np.maximum.reduceat(dist, seg)
         top = dist == far[seg_run]
         best = np.minimum.reduceat(np.where(top, pat, _BIG), seg)

@@ -26,19 +26,19 @@ from typing import Any
 import numpy as np
 
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
-from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, seeds
+from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, heads, seeds
 from imrosc.infer.polygon.guide import Guide
 from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
 from imrosc.ir import Tunables
 
-_REFRESH_AT = 32
+_REFRESH_AT = 512
 """A guide letting more candidates than this through is rebuilt from the new hull."""
 _STALE = 8
 """A guide is rebuilt after its hull changed this many times."""
-_EXTREMES = 32
+_EXTREMES = 16
 """Rows of each variable's least and greatest values that seed a pair without a hull."""
-_STRIDE = 8
-"""Every how many rows a pair whose guide fits badly gets a head start."""
+_HEAD = 512
+"""Rows per block whose extremes give a pair whose guide fits badly a head start."""
 
 THIN_RATIO = 1e-9
 """Hulls whose area is at most this fraction of their bounding box are lines, not polygons."""
@@ -92,10 +92,49 @@ def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray, FloatArra
     return np.stack([a, b], axis=1), top + 8 * _UNIT * magnitude, top
 
 
+def _all_half_planes(
+    hull: GroupSet, starts: IntArray, ends: IntArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """:func:`half_planes` of the hulls at ``[starts, ends)`` at once, the same arithmetic
+    element by element: ``(a, b, offsets, tight)`` per edge, the hulls' edges one after
+    the other (edge ``k`` of a hull leaves its vertex ``k``)."""
+    count = ends - starts
+    first = np.cumsum(count) - count  # each hull's first edge
+    poly = np.repeat(np.arange(len(count)), count)
+    vertex = starts[poly] + np.arange(len(poly)) - first[poly]
+    vx, vy = hull.x[vertex], hull.y[vertex]
+    nxt = np.arange(1, len(poly) + 1)
+    nxt[first + count - 1] = first
+    a = vy[nxt] - vy
+    b = vx - vx[nxt]
+    scale = np.maximum(np.abs(a), np.abs(b))
+    a = a / scale
+    b = b / scale
+    # every edge against every vertex of its hull
+    size = count[poly]
+    edge = np.repeat(np.arange(len(poly)), size)
+    other = (
+        np.repeat(first[poly], size)
+        + np.arange(len(edge))
+        - np.repeat(np.cumsum(size) - size, size)
+    )
+    reach = a[edge] * vx[other] + b[edge] * vy[other]
+    top = np.maximum.reduceat(reach, np.cumsum(size) - size)
+    wide = np.maximum.reduceat(np.abs(vx), first)[poly]
+    tall = np.maximum.reduceat(np.abs(vy), first)[poly]
+    magnitude = np.abs(a) * wide + np.abs(b) * tall
+    return a, b, top + 8 * _UNIT * magnitude, top
+
+
 def polygon_text(x: str, y: str, normals: FloatArray, offsets: FloatArray) -> str:
     """The thesis' form: ``x + 0.0554*y >= -1.89 ∩ ...`` (coefficients to 3 digits)."""
+    return _text(x, y, normals.tolist(), offsets.tolist())
+
+
+def _text(x: str, y: str, normals: list[list[float]], offsets: list[float]) -> str:
+    """:func:`polygon_text` of plain lists."""
     parts: list[str] = []
-    for (ca, cb), c in zip(normals.tolist(), offsets.tolist(), strict=True):
+    for (ca, cb), c in zip(normals, offsets, strict=True):
         unit = ca if abs(ca) >= abs(cb) else cb
         flip = unit < 0
         sa, sb, sc = (-ca, -cb, -c) if flip else (ca, cb, c)
@@ -151,8 +190,9 @@ class PolygonState:
         values[~np.isfinite(values)] = np.nan
         return values
 
-    def _absorb(self, extra: GroupSet, added: IntArray) -> None:
-        """Fold ``extra`` (``at`` relative to the old counts) into the hulls."""
+    def _absorb(self, extra: GroupSet, added: IntArray, refresh: bool = False) -> None:
+        """Fold ``extra`` (``at`` relative to the old counts) into the hulls (``refresh``:
+        rebuild the guide of every pair whose hull changed)."""
         if len(extra):
             extra.at = extra.at + self.count[extra.group]
             touched = np.zeros(len(self.pi), bool)
@@ -164,11 +204,11 @@ class PolygonState:
             self.hull = GroupSet.concat([kept, fresh])
             changed = _changed(before, fresh, np.flatnonzero(touched))
             # a guide from an older hull stays valid (it lies inside the new one): refresh
-            # it only where it lets many samples through or has gone stale
+            # it only where asked, where it lets many samples through or has gone stale
             self.stale[changed] += 1
             many = np.bincount(extra.group, minlength=len(self.pi)) > _REFRESH_AT
             redo = changed[
-                many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= _STALE)
+                many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= _STALE) | refresh
             ]
             self.guide.refresh(self.hull, redo)
             self.stale[redo] = 0
@@ -178,8 +218,9 @@ class PolygonState:
         """Fold a chunk: prefilter, then the exact hull of the survivors and the vertices.
 
         Pairs whose guide fits the chunk badly (no hull yet, or a variable drifting into
-        new ground) first absorb likely vertices (for pairs without a hull: the rows of
-        each variable's extreme values and a sample), then every 8th row: that hull,
+        new ground) first absorb likely vertices: for pairs without a hull, the rows of
+        each variable's extreme values and a sample; then, per block of 512 rows the guide
+        cannot place inside, the rows of both variables' extremes in the block. That hull,
         inside the final one, refines their guide before the whole chunk is filtered.
         """
         if len(samples) == 0 or not len(self.pi):
@@ -187,18 +228,16 @@ class PolygonState:
         chunk = Chunk(self._matrix(samples), self.discrete)
         nothing = np.zeros(len(self.pi), np.int64)
         todo = expanding(chunk, self.pi, self.pj, self.guide)
-        if (todo & ~self.guide.ok).any():
-            found = seeds(chunk, self.pi, self.pj, self.guide, todo & ~self.guide.ok, _EXTREMES)
+        bare = todo & ~self.guide.ok & (self.guide.locator.slot < 0)  # no usable hull yet
+        if bare.any():
+            found = seeds(chunk, self.pi, self.pj, self.guide, bare, _EXTREMES)
             found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
             self._absorb(found, nothing)
             todo &= expanding(chunk, self.pi, self.pj, self.guide)
-        for stride in (64, 8):
-            if todo.any() and chunk.rows >= 32 * stride:
-                part = chunk.every(stride)
-                found = candidates(part, self.pi, self.pj, self.guide, cross=False, only=todo)
-                found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at * stride)
-                self._absorb(found, nothing)
-                todo &= expanding(chunk, self.pi, self.pj, self.guide)
+        if todo.any():
+            found = heads(chunk, self.pi, self.pj, self.guide, todo, _HEAD)
+            found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
+            self._absorb(found, nothing, refresh=True)
         found = candidates(chunk, self.pi, self.pj, self.guide)
         found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
         self._absorb(found, chunk.valid_counts(self.pi, self.pj))
@@ -232,15 +271,22 @@ class PolygonState:
         since = self.count[groups] - np.maximum.reduceat(hull.at, starts)
         keep = (ends - starts >= 3) & (area > 0) & (box_area > 0) & np.isfinite(ratio)
         keep &= (ratio > THIN_RATIO) & (ratio <= context.tunables.drop_ratio)
-        for k in np.flatnonzero(keep).tolist():
+        chosen = [k for k in np.flatnonzero(keep).tolist() if context.justified(int(since[k]))]
+        if not chosen:
+            return found
+        index = np.array(chosen, np.int64)
+        planes = _all_half_planes(hull, starts[index], ends[index])
+        a, b, offsets, tight = (values.tolist() for values in planes)
+        vx, vy = hull.x.tolist(), hull.y.tolist()
+        edge = 0
+        for k in chosen:
             n = int(since[k])
-            if not context.justified(n):
-                continue
             group, lo, hi = int(groups[k]), int(starts[k]), int(ends[k])
-            vertices = np.stack([hull.x[lo:hi], hull.y[lo:hi]], axis=1)
             x = self.names[int(self.pi[group])]
             y = self.names[int(self.pj[group])]
-            normals, offsets, tight = half_planes(vertices)
+            mine = slice(edge, edge + hi - lo)
+            edge += hi - lo
+            normals = [[ca, cb] for ca, cb in zip(a[mine], b[mine], strict=True)]
             found.append(
                 Invariant(
                     family=self.family,
@@ -250,14 +296,14 @@ class PolygonState:
                     params={
                         "x": x,
                         "y": y,
-                        "vertices": vertices.tolist(),
-                        "A": normals.tolist(),
-                        "b": offsets.tolist(),
+                        "vertices": [[px, py] for px, py in zip(vx[lo:hi], vy[lo:hi], strict=True)],
+                        "A": normals,
+                        "b": offsets[mine],
                         "area": float(area[k]),
                         "box_area": float(box_area[k]),
                         "ratio": float(ratio[k]),
                     },
-                    text=polygon_text(x, y, normals, tight),
+                    text=_text(x, y, normals, tight[mine]),
                     samples=int(self.count[group]),
                     confidence=confidence(n),
                     condition=context.condition,

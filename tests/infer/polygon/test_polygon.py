@@ -23,8 +23,9 @@ from imrosc.infer.polygon import (
     polygon_text,
     polygon_variables,
 )
+from imrosc.infer.polygon.locate import Locator
 from imrosc.ir import Tunables
-from tests.infer.polygon.reference import algorithm_6, hull_with_first
+from tests.infer.polygon.reference import algorithm_6, contains, hull_with_first
 
 U = Variable("UAV.y", "float", topic="/uav", path="pose.y")
 R = Variable("iRobot.y", "float", topic="/irobot", path="pose.y", trigger=False)
@@ -468,3 +469,159 @@ def test_grouped_hulls_equal_the_reference(groups: list[tuple[FloatArray, FloatA
         zip(out.group.tolist(), out.x.tolist(), out.y.tolist(), out.at.tolist(), strict=True)
     )
     assert got == expected
+
+
+# --- the filters: exact location, blocks, head starts, few-valued columns ----------------
+
+
+@settings(max_examples=60, deadline=None)
+@given(clouds(), st.integers(0, 2**32 - 1))
+def test_location_discards_exactly_the_non_vertex_points_of_the_closed_hull(
+    cloud: tuple[FloatArray, FloatArray], seed: int
+) -> None:
+    x, y = cloud
+    ok = np.isfinite(x) & np.isfinite(y)
+    group = np.zeros(int(ok.sum()), np.int64)
+    hull = hulls(GroupSet(group, x[ok], y[ok], group.copy()))
+    vertices = list(zip(hull.x.tolist(), hull.y.tolist(), strict=True))
+    rng = np.random.default_rng(seed)
+    # the cloud's own points, jittered ones, points on the lines through vertex pairs
+    picks = rng.integers(0, max(len(vertices), 1), (2, 40))
+    if vertices:
+        vx, vy = hull.x[picks], hull.y[picks]
+        t = rng.choice([0.0, 0.5, 1.0, 1.5, -0.5, rng.uniform()], 40)
+        line_x, line_y = vx[0] + t * (vx[1] - vx[0]), vy[0] + t * (vy[1] - vy[0])
+    else:
+        line_x = line_y = np.zeros(0)
+    qx = np.concatenate([x[ok], x[ok] * (1 + 1e-12), line_x, rng.normal(size=20)])
+    qy = np.concatenate([y[ok], y[ok], line_y, rng.normal(size=20)])
+    got = Locator.build(hull, 1).covered(np.zeros(len(qx), np.int64), qx, qy)
+    usable = len(vertices) >= 2 and min(vertices)[0] < max(vertices)[0]
+    for k, p in enumerate(zip(qx.tolist(), qy.tolist(), strict=True)):
+        expected = contains(vertices, p) and p not in vertices
+        if got[k] or usable:
+            assert bool(got[k]) == expected, (p, vertices)
+
+
+def _state_of(columns: dict[str, FloatArray], kinds: dict[str, str], chunk: int) -> PolygonState:
+    names = list(columns)
+    variables = tuple(Variable(n, kinds.get(n, "float")) for n in names)  # type: ignore[arg-type]
+    state = PolygonState(variables)
+    rows = len(columns[names[0]])
+    for first in range(0, rows, chunk):
+        stop = min(first + chunk, rows)
+        state.update(
+            Samples(
+                "p",
+                0,
+                np.arange(first, stop, dtype=float),
+                {n: columns[n][first:stop] for n in names},
+                variables,
+            )
+        )
+    return state
+
+
+def _assert_reference(state: PolygonState, columns: dict[str, FloatArray]) -> None:
+    names = list(columns)
+    for pair, (i, j) in enumerate(zip(state.pi.tolist(), state.pj.tolist(), strict=True)):
+        x, y = columns[names[i]], columns[names[j]]
+        ok = np.isfinite(x) & np.isfinite(y)
+        points = list(zip(x[ok].tolist(), y[ok].tolist(), strict=True))
+        assert vertices_of(state, pair) == hull_with_first(points), (names[i], names[j])
+        assert int(state.count[pair]) == len(points)
+
+
+def test_walks_lines_and_noise_over_many_chunks_match_the_reference() -> None:
+    """Random walks drifting into new ground (head starts, blocks), a walk and its exact
+    linear copy (a sliver located exactly), noise (crosses), gaps, odd chunk sizes."""
+    rng = np.random.default_rng(11)
+    n = 4000
+    walk = np.cumsum(rng.normal(0, 0.01, (3, n)), axis=1)
+    columns = {
+        "w0": walk[0],
+        "w1": walk[1].copy(),
+        "line": 2 * walk[0] + 3,
+        "tilted": 0.1 * walk[2] + 0.7,
+        "w2": walk[2],
+        "noise": rng.normal(size=n),
+    }
+    columns["w1"][rng.random(n) < 0.01] = np.nan
+    columns["noise"][:700] = np.nan
+    state = _state_of(columns, {}, chunk=1111)
+    _assert_reference(state, columns)
+    # the sliver pairs have no table: they are located exactly
+    assert state.guide.locator.slot.max() >= 0
+
+
+def test_few_valued_columns_with_gaps_and_ties_match_the_reference() -> None:
+    """Modes and flags against continuous, tied, constant and gappy partners: the ends of
+    each value come from the partners' tails, or from all rows when a tail misses one."""
+    rng = np.random.default_rng(12)
+    n = 6000
+    columns = {
+        "mode": rng.integers(0, 6, n).astype(float),
+        "flag": rng.integers(0, 2, n).astype(float),
+        "rare": np.where(rng.random(n) < 0.002, 7.0, 1.0),  # a value often missing from tails
+        "level": rng.normal(size=n),
+        "steps": np.round(rng.normal(size=n) * 2),  # many ties
+        "const": np.full(n, 1.5),
+        "gappy": rng.normal(size=n),
+    }
+    columns["gappy"][rng.random(n) < 0.05] = np.nan
+    columns["mode"][rng.random(n) < 0.02] = np.nan
+    columns["const"][:50] = np.nan
+    kinds = {"mode": "int", "flag": "bool", "rare": "int", "steps": "int"}
+    state = _state_of(columns, kinds, chunk=1700)
+    _assert_reference(state, columns)
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(100, 700), st.sampled_from([0.0, 0.03]))
+def test_smooth_and_discrete_columns_fold_exactly(seed: int, chunk: int, gaps: float) -> None:
+    rng = np.random.default_rng(seed)
+    n = 700
+    walk = np.cumsum(rng.normal(0, 0.05, (2, n)), axis=1)
+    columns = {
+        "a": walk[0],
+        "b": walk[1],
+        "c": -3 * walk[0] + 0.1,
+        "mode": rng.integers(0, 4, n).astype(float),
+        "d": rng.normal(size=n),
+    }
+    for name in ("b", "mode"):
+        columns[name][rng.random(n) < gaps] = np.nan
+    state = _state_of(columns, {"mode": "int"}, chunk=chunk)
+    _assert_reference(state, columns)
+
+
+def test_finalize_gives_each_polygon_its_half_planes_and_text() -> None:
+    rng = np.random.default_rng(13)
+    t = rng.uniform(0, 2 * np.pi, 4000)
+    columns = {
+        "a": np.cos(t) * 1e3 + 5e5,
+        "b": 2 * np.sin(t) + 0.1 * rng.normal(size=4000),
+        "c": rng.normal(size=4000) * 1e-6,
+    }
+    state = state_for(columns, chunk=1500)
+    found = polygons(state, drop_ratio=1.0)
+    assert len(found) == 3
+    for inv in found:
+        normals, offsets, tight = half_planes(np.array(inv.params["vertices"]))
+        assert inv.params["A"] == normals.tolist()
+        assert inv.params["b"] == offsets.tolist()
+        assert inv.text == polygon_text(inv.params["x"], inv.params["y"], normals, tight)
+
+
+def test_hulls_of_values_whose_products_overflow_match_the_reference() -> None:
+    """Quickhull's float distances overflow near 1e300: such groups are settled exactly."""
+    rng = np.random.default_rng(14)
+    n = 1500
+    columns = {
+        "big": rng.normal(size=n) * 1e300,
+        "walk": np.cumsum(rng.normal(size=n)) * 1e305,
+        "small": rng.normal(size=n),
+        "tiny": rng.normal(size=n) * 1e-310,
+    }
+    state = _state_of(columns, {}, chunk=600)
+    _assert_reference(state, columns)

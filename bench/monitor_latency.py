@@ -1,0 +1,262 @@
+"""What the generated ROS 1 monitor adds to the latency of a relayed topic, on live ROS 1.
+
+    python bench/monitor_latency.py [--rates 100,1000] [--seconds 5] [--invariants 1000]
+
+Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free port of
+127.0.0.1 (the live tests' harness, ``tests/live/harness.py``), rospy nodes under
+``/usr/bin/python3``. A source node publishes a message of 56 float64 fields and a header
+(``imrosc_bench/Wide``, generated with genpy into a temporary folder) at each rate, its
+``header.stamp`` set right before publishing; a sink takes receipt time minus stamp. Three
+paths, measured one after the other in the same run, at each rate:
+
+* ``direct``: source -> sink;
+* ``plain relay``: source -> a rospy node that decodes and republishes -> sink;
+* ``monitor``: source -> the monitor that ``imrosc build --backend ros1`` generates, blocking
+  the topic (it decodes, flattens, checks the invariants with ``imrosc.runtime``, and
+  republishes on ``/m/bench/wide``) -> sink.
+
+The monitor's invariants are those ``bench/check.py`` uses: inferred by imrosc from 20,000
+rows of a thesis-scale point (Daikon's families and polygons), the first ``--invariants`` of
+them kept, all on the relayed topic; the source publishes rows of the training data, so no
+message breaks one and every message is relayed (a run where one is dropped says so).
+Printed: messages received, median and 99th percentile latency, and the ratio of monitor to
+plain relay (target: within 1.2x). The first 0.5 s of each run is warm-up and not counted.
+Every node uses rospy's defaults (no TCP_NODELAY) and queues of 100, as the monitor does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from imrosc.invariants import dumps  # noqa: E402
+from imrosc.runtime import Engine  # noqa: E402
+from tests.live.harness import ROS_PYTHON, Proc, Ros, ros_missing, wait_until  # noqa: E402
+
+TOPIC = "/bench/wide"
+RELAYED = "/bench/relayed"
+PACKAGE = "imrosc_bench"
+MSGTYPE = f"{PACKAGE}/Wide"
+PROJECT = "bench_latency"
+MONITOR = f"{PROJECT}_monitor"
+COLUMNS = 56
+WARMUP = 0.5
+HEADER_MSG = "uint32 seq\ntime stamp\nstring frame_id\n"  # std_msgs/Header, for genpy
+CONFIG = f"""<imROS project="{PROJECT}">
+  <scope>
+    <publish id="a">{TOPIC}</publish>
+  </scope>
+  <monitor inv="bench.inv">
+    <block>{TOPIC}</block>
+  </monitor>
+</imROS>
+"""
+GENERATE = """
+import os, sys, genpy.generator, genpy.generate_initpy
+source, headers, out = sys.argv[1:4]
+folder = os.path.join(out, "imrosc_bench", "msg")
+os.makedirs(folder)
+status = genpy.generator.MsgGenerator().generate_messages(
+    "imrosc_bench", [source], folder, {"std_msgs": [headers]})
+genpy.generate_initpy.write_modules(folder)
+open(os.path.join(out, "imrosc_bench", "__init__.py"), "w").close()
+sys.exit(status)
+"""
+
+
+def load_check() -> ModuleType:
+    """``bench/check.py``: its training data and inferred invariants."""
+    spec = importlib.util.spec_from_file_location("bench_check", ROOT / "bench" / "check.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def invariants(count: int) -> tuple[dict[str, Any], np.ndarray]:
+    """The first ``count`` invariants of bench/check.py's point, moved to the relayed topic,
+    and rows of its training data (which break none of them)."""
+    check = load_check()
+    data = check.training_data()
+    document: dict[str, Any] = check.keep(check.inferred(data), count)
+    text = json.dumps(document).replace('"/t"', json.dumps(TOPIC))
+    document = json.loads(text.replace('"bench/msg/T"', json.dumps(f"{PACKAGE}/msg/Wide")))
+    rows = data[:: check.ROWS // 2000][:2000]
+    engine = Engine(document)
+    with np.errstate(all="ignore"):
+        broken = [v for k, r in enumerate(rows.tolist()) for v in engine.message(TOPIC, k, r)]
+    assert not broken, broken[:3]
+    return document, rows
+
+
+def generate_type(folder: Path) -> Path:
+    """``imrosc_bench/Wide`` (a header and v00..v55, float64) as a rospy message package."""
+    source = folder / "Wide.msg"
+    fields = "".join(f"float64 v{i:02d}\n" for i in range(COLUMNS))
+    source.write_text("Header header\n" + fields, encoding="utf-8")
+    headers = folder / "std_msgs"
+    headers.mkdir()
+    (headers / "Header.msg").write_text(HEADER_MSG, encoding="utf-8")
+    out = folder / "python"
+    command = [str(ROS_PYTHON), "-c", GENERATE, str(source), str(headers), str(out)]
+    subprocess.run(command, check=True, capture_output=True)
+    return out
+
+
+def build_monitor(folder: Path, document: dict[str, Any]) -> Path:
+    """The monitor package ``imrosc build --backend ros1`` renders; returns its parent."""
+    (folder / "bench.inv").write_text(dumps(document), encoding="utf-8")
+    config = folder / "bench.xml"
+    config.write_text(CONFIG, encoding="utf-8")
+    out = folder / "build"
+    command = [sys.executable, "-m", "imrosc", "build", str(config), "--backend", "ros1"]
+    subprocess.run([*command, "-o", str(out)], check=True, capture_output=True, cwd=ROOT)
+    return out
+
+
+def measure(
+    ros: Ros, path: str, rate: float, seconds: float, rows: Path, launch: Path
+) -> dict[str, Any]:
+    """One run: start the path's relay and the sink, publish; the messages sent and received
+    and the latencies (ms) after the warm-up."""
+    started: list[Proc] = []
+    typed = ("--type", MSGTYPE)
+    sink_topic = TOPIC
+    try:
+        if path == "plain relay":
+            relay = ros.node("bench_relay.py", *typed, "--input", TOPIC, "--output", RELAYED)
+            started.append(relay)
+            ros.wait_subscriber(TOPIC, "/bench_relay", 30, started)
+            ros.wait_publisher(RELAYED, "/bench_relay", 30, started)
+            sink_topic = RELAYED
+        elif path == "monitor":
+            monitor = ros.launch(launch)
+            started.append(monitor)
+            sink_topic = "/m" + TOPIC
+            ros.wait_subscriber(TOPIC, "/" + MONITOR, 60, started)
+            ros.wait_publisher(sink_topic, "/" + MONITOR, 60, started)
+        out = ros.home / f"sink-{path.replace(' ', '_')}-{rate:g}.json"
+        sink = ros.node("bench_sink.py", *typed, "--topic", sink_topic, "--out", str(out))
+        started.append(sink)
+        ros.wait_subscriber(sink_topic, "/bench_sink", 30, started)
+        time.sleep(0.5)  # the relay's outgoing connection to the sink
+        source = ros.node(
+            "bench_source.py",
+            *typed,
+            "--topic",
+            TOPIC,
+            "--rows",
+            str(rows),
+            "--rate",
+            f"{rate:g}",
+            "--seconds",
+            f"{seconds + WARMUP:g}",
+            "--out",
+            str(out.with_suffix(".sent")),
+        )
+        wait_until(lambda: source.popen.poll() is not None, "the source", seconds + 60, started)
+        time.sleep(0.3)
+        ros.stop(sink)
+        record = json.loads(out.read_text(encoding="utf-8"))
+        sent = int(out.with_suffix(".sent").read_text(encoding="utf-8"))
+    finally:
+        ros.stop(*started)
+    first = record["received"][0] if record["received"] else 0.0
+    kept = [
+        latency * 1e3
+        for latency, received in zip(record["latency"], record["received"], strict=True)
+        if received >= first + WARMUP
+    ]
+    return {"received": len(record["latency"]), "sent": sent, "latencies": kept}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rates", default="100,1000", help="Hz, comma-separated")
+    parser.add_argument("--seconds", type=float, default=5.0, help="per run, after warm-up")
+    parser.add_argument("--invariants", type=int, default=1000)
+    parser.add_argument("--rounds", type=int, default=1, help="runs of each path, interleaved")
+    args = parser.parse_args()
+    missing = ros_missing()
+    if missing:
+        sys.exit(f"no ROS 1 here: {missing}")
+    rates = [float(r) for r in args.rates.split(",")]
+    paths = ("direct", "plain relay", "monitor")
+    results = {
+        (rate, path): {"received": 0, "sent": 0, "latencies": []}
+        for rate in rates
+        for path in paths
+    }
+    load = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory(prefix="imrosc-latency-") as tmp:
+        folder = Path(tmp)
+        document, rows = invariants(args.invariants)
+        np.save(folder / "rows.npy", rows)
+        python = generate_type(folder)
+        build = build_monitor(folder, document)
+        ros = Ros(folder / "ros")
+        ros.env["PYTHONPATH"] = str(python)  # the message package, for every node
+        ros.add_package_path(build)
+        launch = build / MONITOR / "launch" / f"{MONITOR}.launch"
+        try:
+            ros.start()
+            for _ in range(args.rounds):
+                for rate in rates:
+                    for path in paths:
+                        run = measure(ros, path, rate, args.seconds, folder / "rows.npy", launch)
+                        total = results[(rate, path)]
+                        total["received"] += run["received"]
+                        total["sent"] += run["sent"]
+                        total["latencies"] += run["latencies"]
+        finally:
+            ros.shutdown()
+    print(
+        f"live ROS 1 (rospy, 127.0.0.1), {MSGTYPE}: a header and {COLUMNS} float64; "
+        f"{len(document['invariants'])} invariants on the relayed topic; {args.rounds} x "
+        f"{args.seconds:g} s per path and rate after {WARMUP:g} s of warm-up; latency = "
+        f"receipt - header.stamp; load average {load:.1f} before, {os.getloadavg()[0]:.1f} after"
+    )
+    report(results)
+
+
+def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
+    """The table: per rate and path, messages, median and p99; monitor / plain relay."""
+    print(f"{'rate':>8}  {'path':<12} {'received':>13}  {'median ms':>9}  {'p99 ms':>8}")
+    figures: dict[tuple[float, str], tuple[float, float]] = {}
+    for (rate, path), total in results.items():
+        values = np.array(total["latencies"])
+        median, p99 = (
+            (float(np.median(values)), float(np.percentile(values, 99)))
+            if len(values)
+            else (float("nan"), float("nan"))
+        )
+        figures[(rate, path)] = median, p99
+        received = f"{total['received']}/{total['sent']}"
+        print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}")
+        if path == "monitor":
+            plain_median, plain_p99 = figures[(rate, "plain relay")]
+            print(
+                f"{'':>8}  monitor / plain relay: median {median / plain_median:.2f}x "
+                f"(+{median - plain_median:.3f} ms), p99 {p99 / plain_p99:.2f}x  "
+                "(target: within 1.2x)"
+            )
+
+
+if __name__ == "__main__":
+    main()

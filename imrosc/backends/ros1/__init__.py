@@ -1,0 +1,202 @@
+"""Backend ``ros1``: a native catkin package that monitors the invariants live (thesis 4.3).
+
+The package ``<project>_monitor`` (under ``-o DIR``) holds
+
+* ``package.xml`` (format 2) and ``CMakeLists.txt`` (catkin, ``catkin_install_python``);
+* ``scripts/<project>_monitor``, the node, and ``scripts/<project>_monitor_watchdog``, the
+  fail-open watchdog: executable, ``#!/usr/bin/env python3``, runnable with ``rosrun`` and
+  ``roslaunch`` straight from the source package;
+* ``scripts/imrosc_monitor/``: the rospy adapter (``imrosc/monitor_ros1``, copied), the
+  generated ``flatteners.py`` and ``spec.json`` (what the node watches and does, as data);
+* ``scripts/imrosc_runtime/``: a copy of the runtime engine (``imrosc/runtime``), so the
+  robot needs no pip install;
+* ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
+* ``launch/<project>_monitor.launch`` and, with ``<monitor launch="...">``,
+  ``launch/system_monitored.launch``: the system's launch file rewritten
+  (:mod:`imrosc.backends.launch`).
+
+Every file names the generator, its version and the source config. The templates
+(``templates/*.j2``) only format a :class:`~imrosc.backends.monitor.MonitorSpec`; each name or
+literal from the configuration or the invariants file is rendered through a quoting filter
+(``py``: a Python literal, JSON for a string and ``repr`` for a number; ``hash_comment``
+and ``xml_comment``: escaped comment text that cannot end its comment; XML text and
+attributes autoescaped), and field paths, the only text that becomes code, are checked to
+be field names first (:mod:`imrosc.backends.monitor`). ``docs/monitor.md`` describes the
+package and the node.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import textwrap
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from markupsafe import Markup
+
+from imrosc import __version__
+from imrosc.backends import launch
+from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
+from imrosc.backends.registry import BuildInputs, Executable, register
+from imrosc.diagnostics import make
+
+BACKEND = "ros1"
+SYSTEM_LAUNCH = "launch/system_monitored.launch"
+ADAPTER_DIR = "scripts/imrosc_monitor"
+RUNTIME_DIR = "scripts/imrosc_runtime"
+EXEC_DEPENDS = ("python3-numpy", "rosgraph", "roslib", "rospy", "rosservice", "std_msgs")
+_CMAKE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+")
+
+
+def py_literal(value: Any) -> str:
+    """A Python literal of a str, int, finite float, bool or None, on one line, that Python
+    reads back as the same value whatever the text holds: JSON for a string (ASCII, every
+    quote and control character escaped), ``repr`` for the rest."""
+    if isinstance(value, str):
+        return json.dumps(value)
+    if value is None or isinstance(value, bool | int):
+        return repr(value)
+    if isinstance(value, float) and math.isfinite(value):
+        return repr(value)
+    raise ValueError(f"no literal for {value!r}")
+
+
+COMMENT_WIDTH = 96
+
+
+def hash_comment(text: Any) -> str:
+    """``text`` as ``#`` comment lines: non-printable and non-ASCII characters escaped (so no
+    text can end the comment), wrapped to the line length (a long path is cut)."""
+    shown = str(text).encode("unicode_escape").decode("ascii")
+    lines = textwrap.wrap(shown, COMMENT_WIDTH, break_long_words=True, break_on_hyphens=False) or [
+        ""
+    ]
+    return "\n".join(["# " + lines[0], *("#   " + line for line in lines[1:])])
+
+
+def xml_comment_filter(text: Any) -> Markup:
+    """The body of an XML comment (already safe: no ``--``, one line)."""
+    return Markup(launch.xml_comment(str(text)))
+
+
+def cmake_name(text: Any) -> str:
+    """A CMake word that needs no quoting (package and script names are checked before)."""
+    if not isinstance(text, str) or not _CMAKE_NAME.fullmatch(text):
+        raise ValueError(f"{text!r} is not a plain CMake name")
+    return text
+
+
+def environment() -> Environment:
+    """The template environment: strict, XML autoescaped, with the quoting filters."""
+    env = Environment(
+        loader=PackageLoader("imrosc.backends.ros1", "templates"),
+        autoescape=select_autoescape(enabled_extensions=("xml.j2", "launch.j2"), default=False),
+        undefined=StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["py"] = py_literal
+    env.filters["hash_comment"] = hash_comment
+    env.filters["xml_comment"] = xml_comment_filter
+    env.filters["cmake_name"] = cmake_name
+    return env
+
+
+def _copies(package: str, folder: str, banner: str) -> dict[str, bytes]:
+    """The ``.py`` files of an imrosc package, each under ``folder`` with the banner first."""
+    files: dict[str, bytes] = {}
+    for item in sorted(resources.files(package).iterdir(), key=lambda i: i.name):
+        if item.is_file() and item.name.endswith(".py"):
+            text = item.read_text(encoding="utf-8")
+            files[f"{folder}/{item.name}"] = f"{hash_comment(banner)}\n{text}".encode()
+    return files
+
+
+def _helpers(spec: MonitorSpec) -> list[str]:
+    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
+    for topic in spec.topics:
+        for value in topic.values:
+            used |= {name for name in HELPERS if f"{name}(" in value.expression}
+    return sorted(used)
+
+
+def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
+    """The files of the package (paths relative to the package folder)."""
+    env = environment()
+    version = __version__ if _VERSION.fullmatch(__version__) else "0.0.0"
+    flattened = [t for t in spec.topics if t.flattener is not None]
+
+    def render(template: str, **extra: Any) -> bytes:
+        context = {"spec": spec, "banner": banner, **extra}
+        return env.get_template(template).render(**context).encode("utf-8")
+
+    files: dict[str, bytes] = {
+        "package.xml": render(
+            "package.xml.j2", version=version, depends=sorted({*EXEC_DEPENDS, *spec.depends})
+        ),
+        "CMakeLists.txt": render("CMakeLists.txt.j2"),
+        f"scripts/{spec.node}": Executable(render("node.py.j2")),
+        f"scripts/{spec.watchdog}": Executable(render("watchdog.py.j2")),
+        f"{ADAPTER_DIR}/flatteners.py": render(
+            "flatteners.py.j2", topics=flattened, helpers=_helpers(spec)
+        ),
+        f"{ADAPTER_DIR}/spec.json": dumps(spec.runtime_document(banner)),
+        spec.invariants_path: invariants_copy(spec, banner),
+        f"launch/{spec.package}.launch": render("monitor.launch.j2"),
+    }
+    files.update(_copies("imrosc.monitor_ros1", ADAPTER_DIR, banner))
+    files.update(_copies("imrosc.runtime", RUNTIME_DIR, banner))
+    return dict(sorted(files.items()))
+
+
+def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -> dict[str, bytes]:
+    """``launch/system_monitored.launch`` when the ``<monitor>`` names a launch file."""
+    project = inputs.project
+    monitor = project.monitor
+    if spec.launch is None or monitor is None:
+        return {}
+    interception = launch.Interception(spec.topic_relays, spec.service_relays)
+    graph = inputs.graph
+    if interception and (graph is None or not graph.knows_subscriptions):
+        inputs.diagnostics.append(
+            make(
+                project.source,
+                monitor.span.line,
+                monitor.span.column,
+                "launch-without-graph",
+                "rewriting the launch file needs to know who subscribes to the blocked topics "
+                "and who serves the relayed services: pass --graph FILE or --bags with "
+                "architecture records",
+            )
+        )
+        return {}
+    path = Path(project.source).parent / spec.launch
+    rewritten = launch.rewrite_ros1(
+        path,
+        interception=interception,
+        graph=graph,
+        monitor=launch.MonitorLaunch(spec.package, f"{spec.package}.launch"),
+        banner=banner,
+    )
+    inputs.diagnostics.extend(rewritten.diagnostics)
+    if rewritten.content is None:
+        return {}
+    return {SYSTEM_LAUNCH: rewritten.content}
+
+
+@register(BACKEND)
+def render(inputs: BuildInputs) -> dict[str, bytes]:
+    """The monitor package, each path under ``<package>/``."""
+    spec = monitor_spec(inputs)
+    if spec is None:
+        return {}
+    banner = inputs.banner(BACKEND)
+    files = render_package(spec, banner)
+    files.update(rewrite_system_launch(inputs, spec, banner))
+    return {f"{spec.package}/{name}": content for name, content in sorted(files.items())}

@@ -1,0 +1,266 @@
+"""Backend ``ros2``: a native ament_python package that monitors the invariants live.
+
+The package ``<project>_monitor`` (under ``-o DIR``) holds
+
+* ``package.xml`` (format 3, ``ament_python``), ``setup.py`` (the Python packages,
+  ``spec.json`` as package data, the ament index marker, ``package.xml``, ``config/`` and
+  ``launch/`` as data files, console scripts for the node and the watchdog) and
+  ``setup.cfg`` (scripts into ``lib/<package>``, where ``ros2 run`` looks);
+* ``resource/<package>``: the ament index marker (its content, the generated-file banner,
+  is ignored: the index reads only its name);
+* ``<package>/``: the Python package: ``main.py`` (the entry points), the generated
+  ``flatteners.py`` and ``spec.json`` (what the node watches and does, as data), and under
+  ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout: the runtime engine
+  (``imrosc/runtime``), the rclpy adapter (``imrosc/monitor_ros2``) and the
+  middleware-neutral half of the ROS 1 adapter it builds on (``logic.py`` and ``flat.py`` of
+  ``imrosc/monitor_ros1``), each copied unchanged below a banner;
+* ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
+* ``launch/<package>.launch.xml`` and, with ``<monitor launch="....launch.xml">``,
+  ``launch/system_monitored.launch.xml``: the system's ROS 2 launch XML rewritten
+  (:func:`imrosc.backends.launch.rewrite_ros2`).
+
+The spec is :mod:`imrosc.backends.monitor`'s, shared with ``ros1``; so are the quoting
+filters (:mod:`imrosc.backends.ros1`): every name or literal from the configuration or the
+invariants file reaches Python as a JSON/``repr`` literal or a ``#`` comment, XML through
+autoescaping, and field paths, the only text that becomes code, are checked to be field
+names first. ``docs/monitor.md`` describes the package and the node.
+"""
+
+from __future__ import annotations
+
+import re
+import textwrap
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+
+from imrosc import __version__
+from imrosc.backends import launch
+from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
+from imrosc.backends.registry import BuildInputs, register
+from imrosc.backends.ros1 import hash_comment, py_literal, xml_comment_filter
+from imrosc.diagnostics import make
+
+BACKEND = "ros2"
+SYSTEM_LAUNCH = "launch/system_monitored.launch.xml"
+VENDOR = "imrosc"
+"""The subpackage of the package's Python package that holds the copied parts of imrosc."""
+SHARED_ADAPTER = ("flat.py", "logic.py")
+"""The middleware-neutral modules of ``imrosc/monitor_ros1`` the ROS 2 adapter imports."""
+EXEC_DEPENDS = (
+    "ament_index_python",
+    "builtin_interfaces",
+    "python3-numpy",
+    "rcl_interfaces",
+    "rclpy",
+    "ros2launch",
+    "std_msgs",
+)
+_VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+")
+LAUNCH_SUFFIXES = (".launch.xml", ".xml")
+"""Launch files the ``ros2`` backend rewrites (ROS 2 launch XML); Python and YAML launch
+files are code or a format it does not read."""
+
+_DOCSTRINGS = {
+    "": (
+        "The imrosc monitor package {package}: ``main`` holds its entry points, "
+        "``flatteners`` and ``spec.json`` what it watches, ``imrosc/`` the parts of imrosc "
+        "it runs."
+    ),
+    VENDOR: (
+        "The parts of imrosc this package carries, in imrosc's own layout: the runtime "
+        "engine, the ROS 2 adapter and the middleware-neutral modules of the ROS 1 adapter."
+    ),
+    f"{VENDOR}/monitor_ros1": (
+        "The middleware-neutral modules of imrosc's ROS 1 adapter (``logic``, ``flat``), "
+        "which the ROS 2 adapter shares; the rospy modules are not carried."
+    ),
+}
+
+
+def environment() -> Environment:
+    """The template environment: strict, XML autoescaped, with ``ros1``'s quoting filters."""
+    env = Environment(
+        loader=PackageLoader("imrosc.backends.ros2", "templates"),
+        autoescape=select_autoescape(enabled_extensions=("xml.j2",), default=False),
+        undefined=StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["py"] = py_literal
+    env.filters["hash_comment"] = hash_comment
+    env.filters["xml_comment"] = xml_comment_filter
+    return env
+
+
+def _copies(package: str, folder: str, banner: str, only: tuple[str, ...] = ()) -> dict[str, bytes]:
+    """The ``.py`` files of an imrosc package (or ``only`` those), each under ``folder``
+    with the banner first."""
+    files: dict[str, bytes] = {}
+    for item in sorted(resources.files(package).iterdir(), key=lambda i: i.name):
+        if item.is_file() and item.name.endswith(".py") and (not only or item.name in only):
+            text = item.read_text(encoding="utf-8")
+            files[f"{folder}/{item.name}"] = f"{hash_comment(banner)}\n{text}".encode()
+    return files
+
+
+def _helpers(spec: MonitorSpec) -> list[str]:
+    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
+    for topic in spec.topics:
+        for value in topic.values:
+            used |= {name for name in HELPERS if f"{name}(" in value.expression}
+    return sorted(used)
+
+
+def chunks(text: str, width: int = 72) -> list[str]:
+    """``text`` cut at spaces into pieces of about ``width`` characters (each but the last
+    keeps its trailing space), for implicitly concatenated literals.
+
+    >>> chunks("a bb ccc", 4)
+    ['a bb ', 'ccc']
+    """
+    pieces: list[str] = []
+    for word in text.split(" "):
+        if pieces and len(pieces[-1]) + len(word) <= width:
+            pieces[-1] += " " + word
+        else:
+            pieces.append(word)
+    return [piece + " " for piece in pieces[:-1]] + pieces[-1:]
+
+
+def python_packages(spec: MonitorSpec) -> list[str]:
+    """The Python packages ``setup.py`` installs (dotted names)."""
+    root = spec.package
+    vendor = f"{root}.{VENDOR}"
+    return [root, vendor, f"{vendor}.monitor_ros1", f"{vendor}.monitor_ros2", f"{vendor}.runtime"]
+
+
+def data_files(spec: MonitorSpec, launch_files: list[str]) -> list[tuple[str, list[str]]]:
+    """``setup.py``'s ``data_files``: the ament index marker, ``package.xml``, the config
+    and the launch files, under ``share/``."""
+    share = f"share/{spec.package}"
+    return [
+        ("share/ament_index/resource_index/packages", [f"resource/{spec.package}"]),
+        (share, ["package.xml"]),
+        (f"{share}/config", [spec.invariants_path]),
+        (f"{share}/launch", sorted(launch_files)),
+    ]
+
+
+def render_package(
+    spec: MonitorSpec, banner: str, extra_launch: tuple[str, ...] = ()
+) -> dict[str, bytes]:
+    """The files of the package (paths relative to the package folder); ``extra_launch``
+    names launch files written beside the monitor's own (the rewritten system launch)."""
+    env = environment()
+    version = __version__ if _VERSION.fullmatch(__version__) else "0.0.0"
+    flattened = [t for t in spec.topics if t.flattener is not None]
+    root = spec.package
+    description = (
+        f"Monitor of the invariants of {spec.project}: checks them live and warns, blocks, "
+        "publishes or calls a service when one breaks."
+    )
+    monitor_launch = f"launch/{spec.package}.launch.xml"
+
+    def render(template: str, **extra: Any) -> bytes:
+        context = {"spec": spec, "banner": banner, **extra}
+        return env.get_template(template).render(**context).encode("utf-8")
+
+    def init(folder: str) -> bytes:
+        docstring = textwrap.fill(_DOCSTRINGS[folder].format(package=spec.package), 92)
+        return render("init.py.j2", docstring=docstring)
+
+    files: dict[str, bytes] = {
+        "package.xml": render(
+            "package.xml.j2", version=version, depends=sorted({*EXEC_DEPENDS, *spec.depends})
+        ),
+        "setup.py": render(
+            "setup.py.j2",
+            version=version,
+            packages=python_packages(spec),
+            data_files=data_files(spec, [monitor_launch, *extra_launch]),
+            description=chunks(description),
+            scripts=[
+                f"{spec.node} = {root}.main:monitor",
+                f"{spec.watchdog} = {root}.main:watchdog",
+            ],
+        ),
+        "setup.cfg": render("setup.cfg.j2"),
+        f"resource/{root}": f"{banner}\n".encode(),
+        f"{root}/__init__.py": init(""),
+        f"{root}/main.py": render("main.py.j2"),
+        f"{root}/flatteners.py": render(
+            "flatteners.py.j2", topics=flattened, helpers=_helpers(spec)
+        ),
+        f"{root}/spec.json": dumps(spec.runtime_document(banner)),
+        f"{root}/{VENDOR}/__init__.py": init(VENDOR),
+        f"{root}/{VENDOR}/monitor_ros1/__init__.py": init(f"{VENDOR}/monitor_ros1"),
+        spec.invariants_path: invariants_copy(spec, banner),
+        monitor_launch: render("monitor.launch.xml.j2"),
+    }
+    vendor = f"{root}/{VENDOR}"
+    files.update(_copies("imrosc.runtime", f"{vendor}/runtime", banner))
+    files.update(_copies("imrosc.monitor_ros2", f"{vendor}/monitor_ros2", banner))
+    files.update(
+        _copies("imrosc.monitor_ros1", f"{vendor}/monitor_ros1", banner, only=SHARED_ADAPTER)
+    )
+    return dict(sorted(files.items()))
+
+
+def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -> dict[str, bytes]:
+    """``launch/system_monitored.launch.xml`` when the ``<monitor>`` names a launch file."""
+    project = inputs.project
+    monitor = project.monitor
+    if spec.launch is None or monitor is None:
+        return {}
+
+    def problem(code: str, message: str) -> dict[str, bytes]:
+        inputs.diagnostics.append(
+            make(project.source, monitor.span.line, monitor.span.column, code, message)
+        )
+        return {}
+
+    if not spec.launch.endswith(LAUNCH_SUFFIXES):
+        return problem(
+            "launch-error",
+            f"the ros2 backend rewrites ROS 2 launch XML (*.launch.xml), not {spec.launch!r}: "
+            f"include launch/{spec.package}.launch.xml from your launch file and remap the "
+            "subscribers of the blocked topics to /m/<topic> yourself (see docs/monitor.md)",
+        )
+    interception = launch.Interception(spec.topic_relays, spec.service_relays)
+    graph = inputs.graph
+    if interception and (graph is None or not graph.knows_subscriptions):
+        return problem(
+            "launch-without-graph",
+            "rewriting the launch file needs to know who subscribes to the blocked topics "
+            "and who serves the relayed services: pass --graph FILE or --bags with "
+            "architecture records",
+        )
+    path = Path(project.source).parent / spec.launch
+    rewritten = launch.REWRITERS[BACKEND](
+        path,
+        interception=interception,
+        graph=graph,
+        monitor=launch.MonitorLaunch(spec.package, f"{spec.package}.launch.xml"),
+        banner=banner,
+    )
+    inputs.diagnostics.extend(rewritten.diagnostics)
+    if rewritten.content is None:
+        return {}
+    return {SYSTEM_LAUNCH: rewritten.content}
+
+
+@register(BACKEND)
+def render(inputs: BuildInputs) -> dict[str, bytes]:
+    """The monitor package, each path under ``<package>/``."""
+    spec = monitor_spec(inputs)
+    if spec is None:
+        return {}
+    banner = inputs.banner(BACKEND)
+    system = rewrite_system_launch(inputs, spec, banner)
+    files = render_package(spec, banner, tuple(system))
+    files.update(system)
+    return {f"{spec.package}/{name}": content for name, content in sorted(files.items())}

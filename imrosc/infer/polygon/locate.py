@@ -1,0 +1,145 @@
+"""Exact point location in many convex hulls at once: which samples cannot be new vertices.
+
+A hull here is a group of a :class:`~imrosc.infer.polygon.hull.GroupSet` as
+:func:`~imrosc.infer.polygon.hull.hulls` returns it: strict vertices counter-clockwise from
+the lexicographic minimum ``L``, so the vertices up to the lexicographic maximum ``R`` form
+the lower chain (``x`` non-decreasing) and the rest, read backwards from ``L``, the upper
+chain. A sample ``p`` with ``L.x <= p.x <= R.x`` lies in the closed hull exactly when it is
+on or left of the lower chain's edge spanning ``p.x`` and on or right of the upper
+chain's (an exact orientation each, the edges found by a vectorised binary search).
+
+Such a sample is no vertex of any later hull: a point of the closed hull that is not one of
+its vertices is a proper convex combination of them. A sample *at* a vertex is kept anyway
+(it may be an earlier occurrence of that vertex). This is exact and needs no guide, so it
+serves the hulls the guide cannot (slivers along a line, with rounding noise as width),
+where the float filters prove nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from imrosc.infer.core import FloatArray
+from imrosc.infer.polygon.hull import GroupSet, IntArray
+from imrosc.infer.polygon.predicates import orientation
+
+BoolArray = npt.NDArray[np.bool_]
+
+
+@dataclass
+class Chains:
+    """The lower or the upper chains of some hulls, each read with ``x`` non-decreasing:
+    chain ``s`` is ``x[start[s]:start[s] + size[s]]`` (likewise ``y``)."""
+
+    x: FloatArray
+    y: FloatArray
+    start: IntArray
+    size: IntArray
+
+    @staticmethod
+    def of(hull: GroupSet, index: IntArray, size: IntArray) -> Chains:
+        """The chains whose vertices are ``hull``'s at ``index`` (chain after chain)."""
+        start = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
+        return Chains(hull.x[index], hull.y[index], start, size.astype(np.int64))
+
+    def edge(self, chain: IntArray, px: FloatArray) -> tuple[IntArray, IntArray]:
+        """Per sample, the flat indices ``(a, b)`` of the edge of its chain spanning
+        ``px``, ``a.x < b.x``: ``a`` is the last vertex with ``x <= px`` (clipped to the
+        chain's edges); a vertical last edge (at ``px == R.x``) gives way to the one
+        before it."""
+        start, size = self.start.take(chain), self.size.take(chain)
+        lo = np.zeros(len(px), np.int64)
+        hi = size.copy()
+        steps = int(np.ceil(np.log2(int(size.max()) + 1))) if len(size) else 0
+        for _ in range(steps):  # count the vertices with x <= px
+            mid = (lo + hi) >> 1
+            open_ = lo < hi
+            below = open_ & (self.x.take(start + np.minimum(mid, size - 1)) <= px)
+            lo = np.where(below, mid + 1, lo)
+            hi = np.where(open_ & ~below, mid, hi)
+        a = start + np.clip(lo - 1, 0, size - 2)
+        a = a - (self.x.take(a) == self.x.take(a + 1))
+        return a, a + 1
+
+
+@dataclass
+class Locator:
+    """Hull vertices of some pairs, as chains, for location.
+
+    ``slot[pair]`` is the pair's chain in ``lower`` and ``upper`` (or -1). Pairs whose
+    hull is a point or a vertical segment get none.
+    """
+
+    slot: IntArray
+    lower: Chains
+    upper: Chains
+
+    @staticmethod
+    def build(hull: GroupSet, npairs: int) -> Locator:
+        """The locator of every pair of ``hull`` that has a usable one."""
+        slot = np.full(npairs, -1, np.int64)
+        groups, starts, ends = hull.bounds()
+        e = np.empty(0, np.int64)
+        if not len(groups):
+            none = Chains(np.empty(0), np.empty(0), e, e)
+            return Locator(slot, none, none)
+        run = np.repeat(np.arange(len(groups)), ends - starts)
+        # the lexicographic maximum R: greatest x, then greatest y
+        high_x = np.maximum.reduceat(hull.x, starts)
+        at_high = hull.x == high_x[run]
+        high_y = np.maximum.reduceat(np.where(at_high, hull.y, -np.inf), starts)
+        at_top = at_high & (hull.y == high_y[run])
+        position = np.arange(len(hull), dtype=np.int64)
+        top = np.minimum.reduceat(np.where(at_top, position, len(hull)), starts)
+        usable = np.flatnonzero((ends - starts >= 2) & (hull.x[starts] < high_x))
+        slot[groups[usable]] = np.arange(len(usable))
+        starts, ends, top = starts[usable], ends[usable], top[usable]
+        # lower chain: L .. R; upper chain read from L: L, then the vertices back to R
+        low_size = top - starts + 1
+        up_size = ends - top + 1
+        lower = _ragged(starts, low_size)
+        back = _ragged(np.zeros_like(up_size), up_size)
+        chain = np.repeat(np.arange(len(usable)), up_size)
+        upper = np.where(back == 0, starts[chain], ends[chain] - back)
+        return Locator(slot, Chains.of(hull, lower, low_size), Chains.of(hull, upper, up_size))
+
+    def covered(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
+        """Where ``(x, y)`` lies in its pair's closed hull and is none of its vertices."""
+        out = np.zeros(len(pair), bool)
+        slot = self.slot.take(pair) if len(pair) else pair
+        mine = np.flatnonzero(slot >= 0)
+        slot = slot.take(mine)
+        px, py = x.take(mine), y.take(mine)
+        low, up = self.lower, self.upper
+        first = low.start.take(slot)
+        last = first + low.size.take(slot) - 1
+        with np.errstate(invalid="ignore"):
+            spanned = (px >= low.x.take(first)) & (px <= low.x.take(last)) & ~np.isnan(py)
+        sel = np.flatnonzero(spanned)
+        mine, slot, px, py = mine.take(sel), slot.take(sel), px.take(sel), py.take(sel)
+        # on or left of the lower chain, then on or right of the upper one
+        a, b = low.edge(slot, px)
+        ok = orientation(low.x.take(a), low.y.take(a), low.x.take(b), low.y.take(b), px, py) >= 0
+        ok &= ((px != low.x.take(a)) | (py != low.y.take(a))) & (
+            (px != low.x.take(b)) | (py != low.y.take(b))
+        )
+        rest = np.flatnonzero(ok)
+        slot, px, py = slot.take(rest), px.take(rest), py.take(rest)
+        a, b = up.edge(slot, px)
+        fit = orientation(up.x.take(a), up.y.take(a), up.x.take(b), up.y.take(b), px, py) <= 0
+        fit &= ((px != up.x.take(a)) | (py != up.y.take(a))) & (
+            (px != up.x.take(b)) | (py != up.y.take(b))
+        )
+        out[mine[rest[fit]]] = True
+        return out
+
+
+def _ragged(starts: IntArray, lengths: IntArray) -> IntArray:
+    """``concatenate([arange(s, s + n) for s, n in zip(starts, lengths)])``."""
+    chain = np.repeat(np.arange(len(lengths)), lengths)
+    offset = np.arange(len(chain)) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    flat: IntArray = starts[chain] + offset
+    return flat

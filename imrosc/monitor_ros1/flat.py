@@ -1,0 +1,93 @@
+"""Helpers of the generated flatteners (``flatteners.py`` of a monitor package).
+
+A generated flattener reads every value of its topic's layout by straight-line field access
+(``float(m.pose.position.x)``); array elements and statistics go through the functions
+below. They compute
+exactly what ``imrosc.runtime.flatten.make_flattener`` computes: an element past the end is
+NaN, ``len`` is the array's
+length, ``avg``/``std``/``min``/``max`` are numpy's (``std`` the population deviation), an
+empty array has no statistic (NaN) and a value that is not numeric gives NaN. When a field is
+missing or a value does not convert, the flattener falls back to :func:`careful`, which reads
+each value on its own as ``make_flattener`` does.
+
+The node switches numpy's floating-point warnings off (``np.seterr(all="ignore")``), so these
+functions do not wrap their work in ``np.errstate``.
+
+>>> avg_([1.0, 2.0, 6.0]), len_([]), max_([]) != max_([])
+(3.0, 0.0, True)
+>>> careful(object(), [(lambda m: m.x, False), (lambda m: m.name, True)])
+[nan, '']
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, List, Sequence, Tuple
+
+import numpy as np
+
+Field = Tuple[Callable[[Any], Any], bool]
+"""How to read one value (raw) and whether it is a string."""
+
+
+def number(value: Any) -> float:
+    """``value`` as a float; NaN when it is not a number."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def at_(array: Any, index: int) -> Any:
+    """Element ``index`` of an array; NaN when the array is shorter."""
+    return array[index] if index < len(array) else math.nan
+
+
+def len_(array: Any) -> float:
+    """The length of an array."""
+    return float(len(array))
+
+
+def _values(array: Any) -> Any:
+    if not len(array):
+        return None
+    try:
+        return np.asarray(array, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+
+
+def avg_(array: Any) -> float:
+    """The mean of an array (NaN if empty or not numeric)."""
+    values = _values(array)
+    return math.nan if values is None else float(values.mean())
+
+
+def std_(array: Any) -> float:
+    """The population standard deviation of an array."""
+    values = _values(array)
+    return math.nan if values is None else float(values.std())
+
+
+def min_(array: Any) -> float:
+    """The smallest element of an array."""
+    values = _values(array)
+    return math.nan if values is None else float(values.min())
+
+
+def max_(array: Any) -> float:
+    """The largest element of an array."""
+    values = _values(array)
+    return math.nan if values is None else float(values.max())
+
+
+def careful(message: Any, fields: Sequence[Field]) -> List[Any]:
+    """Each value read on its own: a missing field gives NaN (or ``""`` for a string)."""
+    values: List[Any] = []
+    for read, text in fields:
+        try:
+            value = read(message)
+        except (AttributeError, IndexError, TypeError):
+            value = "" if text else math.nan
+        values.append(str(value) if text else number(value))
+    return values

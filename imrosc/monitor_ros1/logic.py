@@ -1,0 +1,390 @@
+"""What the monitor node decides, without ROS: plain functions the node calls.
+
+The node (``node.py``) is ROS plumbing around the runtime engine; everything it decides is
+here, so it is tested without rospy: which actions a batch of violations takes
+(:func:`select_actions`), the JSON warning published on ``/m/broken_inv``
+(:func:`violation_json`), the graph as the invariants know it once the monitor's own relays
+are folded back (:func:`logical_graph`), the unknown publishers to unregister
+(:func:`to_unregister`), how an action's YAML value fills a message (:func:`fill`), how a
+service call becomes the values the engine reads (:func:`message_values`,
+:func:`flatten_json`), the invariants checked before a blocked service call is forwarded
+(:func:`request_document`) and the fail-open watchdog's decision (:func:`should_relay`).
+
+Python 3.8 syntax, standard library only: this module is copied into generated packages.
+
+>>> select_actions([_V("a?1"), _V("v"), _V("z")], {"a": ["f"], "v": ["f", "g"]})
+['f', 'g']
+>>> flatten_json({"request": {"task_id": 3, "names": ["x"]}})
+{'request.task_id': 3, 'len(request.names)': 1}
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import (
+    Any,
+    Callable,
+    Dict,
+    FrozenSet,
+    Iterable,
+    List,
+    Mapping,
+    NamedTuple,
+    Optional,
+    Sequence,
+    Set,
+    Tuple,
+)
+
+Snapshot = Dict[str, Dict[str, FrozenSet[str]]]
+SystemState = Sequence[Sequence[Sequence[Any]]]
+"""The master's ``getSystemState``: ``[publishers, subscribers, services]``, each a list of
+``[name, [node, ...]]``."""
+
+WINDOW_FAMILIES = frozenset({"frequency", "variance", "rate"})
+SEQUENCE_FAMILIES = frozenset({"architecture", "interval", "pattern"})
+_INTEGER_RANGES = {
+    "int8": (-(2**7), 2**7 - 1),
+    "int16": (-(2**15), 2**15 - 1),
+    "int32": (-(2**31), 2**31 - 1),
+    "int64": (-(2**63), 2**63 - 1),
+    "uint8": (0, 2**8 - 1),
+    "uint16": (0, 2**16 - 1),
+    "uint32": (0, 2**32 - 1),
+    "uint64": (0, 2**64 - 1),
+    "byte": (-(2**7), 2**8 - 1),
+    "char": (0, 2**8 - 1),
+}
+_FLOATS = frozenset({"float32", "float64"})
+_STRINGS = frozenset({"string"})
+
+
+class _V(NamedTuple):
+    """A stand-in violation for the examples."""
+
+    point: str
+
+
+def scope_id(point: str) -> str:
+    """The scope id of a point key: ``a``, ``a?1`` and ``a?x==3`` all belong to ``a``."""
+    return point.split("?", 1)[0]
+
+
+def select_actions(
+    violations: Iterable[Any], violation_map: Mapping[str, Sequence[str]]
+) -> List[str]:
+    """The action ids a batch of violations takes, each once, in the order first named."""
+    taken: List[str] = []
+    for violation in violations:
+        for action in violation_map.get(scope_id(violation.point), ()):
+            if action not in taken:
+                taken.append(action)
+    return taken
+
+
+def json_safe(value: Any) -> Any:
+    """``value`` as JSON data: non-finite numbers as text, sets sorted, numpy scalars plain."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else repr(value)
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, (set, frozenset)):
+        return sorted(json_safe(v) for v in value)
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if hasattr(value, "item"):
+        return json_safe(value.item())
+    return value
+
+
+def violation_json(violation: Any, actions: Sequence[str] = ()) -> str:
+    """The ``/m/broken_inv`` warning: one JSON object with the invariant id, its point,
+    family and kind, its text, the observed value, what was expected, the time and the
+    actions the monitor takes for it."""
+    document = {
+        "invariant": violation.invariant,
+        "point": violation.point,
+        "family": violation.family,
+        "kind": violation.kind,
+        "text": violation.text,
+        "observed": json_safe(violation.observed),
+        "expected": violation.expected,
+        "time": json_safe(float(violation.time)),
+        "actions": list(actions),
+    }
+    return json.dumps(document, sort_keys=True, allow_nan=False)
+
+
+def _frozen(found: Mapping[str, Set[str]]) -> Dict[str, FrozenSet[str]]:
+    return {name: frozenset(nodes) for name, nodes in sorted(found.items()) if nodes}
+
+
+def logical_graph(
+    state: SystemState,
+    own: Iterable[str],
+    topic_relays: Mapping[str, str],
+    service_relays: Mapping[str, str],
+) -> Snapshot:
+    """The graph the invariants were learnt on, from the master's ``getSystemState``.
+
+    The monitor's own nodes (``own``) are left out; a node on a relay topic ``/m/<t>`` is a
+    node on ``<t>`` (the launch file remapped it there), and so is a server of a relayed
+    service's ``/m/<s>`` other than the monitor.
+
+    >>> state = [[["/t", ["/a", "/mon"]], ["/m/t", ["/mon"]]],
+    ...          [["/t", ["/mon"]], ["/m/t", ["/b"]]], []]
+    >>> logical_graph(state, {"/mon"}, {"/t": "/m/t"}, {})["sub"]
+    {'/t': frozenset({'/b'})}
+    """
+    mine = set(own)
+    topics = {relay: name for name, relay in topic_relays.items()}
+    services = {relay: name for name, relay in service_relays.items()}
+    snapshot: Dict[str, Dict[str, Set[str]]] = {"pub": {}, "sub": {}, "srv": {}}
+    for kind, entries in zip(("pub", "sub", "srv"), state):
+        renames = services if kind == "srv" else topics
+        for entry in entries:
+            name: str = entry[0]
+            nodes = entry[1]
+            kept = {node for node in nodes if node not in mine}
+            if kept:
+                snapshot[kind].setdefault(renames.get(name, name), set()).update(kept)
+    return {kind: _frozen(found) for kind, found in snapshot.items()}
+
+
+def to_unregister(
+    violations: Iterable[Any],
+    invariants: Mapping[str, Mapping[str, Any]],
+    state: SystemState,
+    own: Iterable[str],
+    topic_relays: Mapping[str, str],
+) -> List[Tuple[str, str]]:
+    """``(node, topic)`` registrations to remove: the unknown publishers that broke a
+    ``max_pubs`` invariant, on the topic they are registered on (the topic or its relay).
+
+    >>> inv = {"i1": {"kind": "max_pubs", "params": {"resource": "/t", "nodes": ["/a"]}}}
+    >>> v = type("V", (), {"invariant": "i1", "family": "architecture", "kind": "max_pubs",
+    ...                    "observed": ["/x", "/mon"]})()
+    >>> to_unregister([v], inv, [[["/t", ["/a", "/x", "/mon"]]], [], []], {"/mon"}, {})
+    [('/x', '/t')]
+    """
+    mine = set(own)
+    publishers: Dict[str, Set[str]] = {}
+    for entry in state[0] if state else ():
+        publishers.setdefault(entry[0], set()).update(entry[1])
+    found: List[Tuple[str, str]] = []
+    for violation in violations:
+        if violation.family != "architecture" or violation.kind != "max_pubs":
+            continue
+        invariant = invariants.get(violation.invariant)
+        if invariant is None:
+            continue
+        resource = invariant.get("params", {}).get("resource")
+        if not isinstance(resource, str):
+            continue
+        places = [resource] + ([topic_relays[resource]] if resource in topic_relays else [])
+        observed = violation.observed
+        nodes = [observed] if isinstance(observed, str) else list(observed or ())
+        for node in nodes:
+            if node in mine:
+                continue
+            for topic in places:
+                pair = (node, topic)
+                if node in publishers.get(topic, ()) and pair not in found:
+                    found.append(pair)
+    return found
+
+
+def flatten_json(value: Any, prefix: str = "") -> Dict[str, Any]:
+    """Scalars of JSON-like data by dotted path; a list gives its length as ``len(path)``
+    (as the translator flattens recorded calls and parameters)."""
+    if isinstance(value, dict):
+        out: Dict[str, Any] = {}
+        for key, item in value.items():
+            out.update(flatten_json(item, f"{prefix}.{key}" if prefix else str(key)))
+        return out
+    if isinstance(value, (list, tuple, bytes, bytearray)):
+        return {f"len({prefix})": len(value)}
+    if value is None:
+        return {}
+    return {prefix: value}
+
+
+def message_data(message: Any) -> Any:
+    """A ROS message (anything with ``__slots__``) as JSON-like data; times in seconds."""
+    slots = getattr(message, "__slots__", None)
+    if slots is None:
+        if isinstance(message, (list, tuple)):
+            return [message_data(item) for item in message]
+        return message
+    for seconds, nanos in (("secs", "nsecs"), ("sec", "nanosec")):
+        if set(slots) == {seconds, nanos}:  # genpy.Time, builtin_interfaces/Time
+            return float(getattr(message, seconds)) + float(getattr(message, nanos)) / 1e9
+    return {name: message_data(getattr(message, name)) for name in slots}
+
+
+def message_values(request: Any, response: Any, delay: float) -> Dict[str, Any]:
+    """The values of a service call as the engine reads them: ``request.*``, ``response.*``
+    and ``delay``."""
+    values = flatten_json({"request": message_data(request), "response": message_data(response)})
+    values["delay"] = delay
+    return values
+
+
+def request_values(request: Any) -> Dict[str, Any]:
+    """The values of a request alone (checked before a blocked call is forwarded)."""
+    return flatten_json({"request": message_data(request)})
+
+
+def request_document(document: Mapping[str, Any], services: Iterable[str]) -> Dict[str, Any]:
+    """The invariants document reduced to the invariants of call points of ``services``
+    that read the request alone (no response, no delay, no window or sequence): an engine
+    built from it checks a request before the node forwards it."""
+    wanted = set(services)
+    points = document.get("points", {})
+    kept: List[Any] = []
+    for invariant in document.get("invariants", ()):
+        info = points.get(invariant.get("point"), {})
+        if info.get("kind") != "call" or info.get("trigger") not in wanted:
+            continue
+        if invariant.get("family") in WINDOW_FAMILIES | SEQUENCE_FAMILIES:
+            continue
+        paths = {v.get("name"): v.get("path", "") for v in info.get("variables", ())}
+        names = invariant.get("variables") or ()
+        if names and all(str(paths.get(name, "")).startswith("request.") for name in names):
+            kept.append(invariant)
+    reduced = dict(document)
+    reduced["invariants"] = kept
+    return reduced
+
+
+def param_values(read: Callable[[str], Any], names: Iterable[str]) -> Dict[str, Any]:
+    """The parameters in force, flattened (``/node/gains.p``); ``read`` raises ``KeyError``
+    for a parameter that is not set, which is left out."""
+    values: Dict[str, Any] = {}
+    for name in names:
+        try:
+            value = read(name)
+        except KeyError:
+            continue
+        values.update(flatten_json(value, name))
+    return values
+
+
+class FillError(ValueError):
+    """An action value that does not fit its message."""
+
+
+def _scalar(kind: str, value: Any, where: str) -> Any:
+    if kind == "bool":
+        if isinstance(value, bool) or value in (0, 1):
+            return bool(value)
+        raise FillError(f"{where}: {value!r} is not a bool")
+    if kind in _INTEGER_RANGES:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise FillError(f"{where}: {value!r} is not an integer")
+        if isinstance(value, float) and not value.is_integer():
+            raise FillError(f"{where}: {value!r} is not an integer")
+        low, high = _INTEGER_RANGES[kind]
+        if not low <= int(value) <= high:
+            raise FillError(f"{where}: {value!r} is out of range for {kind}")
+        return int(value)
+    if kind in _FLOATS:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise FillError(f"{where}: {value!r} is not a number")
+        return float(value)
+    if kind in _STRINGS:
+        if isinstance(value, (dict, list)):
+            raise FillError(f"{where}: {value!r} is not a string")
+        return value if isinstance(value, str) else json.dumps(value)
+    raise FillError(f"{where}: cannot fill a field of type {kind}")
+
+
+def _element_kind(kind: str) -> Optional[str]:
+    at = kind.find("[")
+    return kind[:at] if at >= 0 else None
+
+
+def _convert(
+    current: Any,
+    kind: str,
+    value: Any,
+    where: str,
+    message_class: Callable[[str], Any],
+) -> Any:
+    element = _element_kind(kind)
+    if element is not None:
+        if not isinstance(value, list):
+            raise FillError(f"{where}: {value!r} is not a list")
+        items = [
+            _convert(None, element, item, f"{where}[{k}]", message_class)
+            for k, item in enumerate(value)
+        ]
+        if element in ("uint8", "char"):
+            return bytes(items)
+        return items
+    if isinstance(value, dict):
+        if hasattr(current, "__slots__"):
+            return fill(current, value, message_class, where + ".")
+        if "/" in kind or kind == "Header":
+            return fill(message_class(kind)(), value, message_class, where + ".")
+        raise FillError(f"{where}: a mapping cannot fill a field of type {kind}")
+    if kind in ("time", "duration"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise FillError(f"{where}: {value!r} is not a number of seconds")
+        if current is not None and hasattr(type(current), "from_sec"):
+            return type(current).from_sec(float(value))
+        raise FillError(f"{where}: cannot build a {kind} here")
+    if "/" in kind or kind in ("Header",):
+        raise FillError(f"{where}: {value!r} is not a mapping of {kind}")
+    return _scalar(kind, value, where)
+
+
+def fill(
+    message: Any,
+    values: Mapping[str, Any],
+    message_class: Callable[[str], Any],
+    where: str = "",
+) -> Any:
+    """Set the fields of ``message`` (a rospy message: ``__slots__`` and ``_slot_types``)
+    from an action value (``{data: 3}``, ``{linear: {x: 0.5}}``); return the message.
+
+    ``message_class(type_name)`` gives the class of a nested message in a list. A field the
+    message lacks, a value of the wrong kind or out of range raises :class:`FillError`; a
+    ``null`` value leaves the field at its default.
+    """
+    slots = list(getattr(message, "__slots__", ()))
+    kinds = list(getattr(message, "_slot_types", ()))
+    for key, value in values.items():
+        path = where + str(key)
+        if key not in slots:
+            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(slots)))
+        if value is None:
+            continue
+        current = getattr(message, key)
+        kind = kinds[slots.index(key)] if len(kinds) == len(slots) else _kind_of(current)
+        setattr(message, key, _convert(current, kind, value, path, message_class))
+    return message
+
+
+def _kind_of(current: Any) -> str:
+    """The field type of a value whose message does not list its types (``genpy.Time``)."""
+    if isinstance(current, bool):
+        return "bool"
+    if isinstance(current, int):
+        return "int64"
+    if isinstance(current, float):
+        return "float64"
+    if isinstance(current, str):
+        return "string"
+    return ""
+
+
+def should_relay(last_beat: float, now: float, timeout: float) -> bool:
+    """The fail-open watchdog's decision: relay while the monitor's heartbeat has been
+    silent for more than ``timeout`` seconds; stop as soon as it beats again.
+
+    >>> should_relay(10.0, 12.0, 3.0), should_relay(10.0, 13.5, 3.0)
+    (False, True)
+    """
+    return now - last_beat > timeout

@@ -1,0 +1,421 @@
+"""The monitor node for ROS 1 (rospy): thin plumbing around the runtime engine.
+
+A generated monitor package runs :func:`main` with its runtime engine class and its
+generated flatteners. The node
+
+* subscribes to every topic of the invariants file with the real message class, flattens
+  each message and feeds it to the engine; a blocked topic's message is republished on
+  ``/m/<topic>`` only when it broke no invariant (the rewritten launch file remaps the
+  topic's subscribers there);
+* serves ``/m/<service>`` for every watched or blocked service, forwards the call to the real
+  service and feeds the call to the engine; for a blocked service it refuses a request that
+  breaks an invariant of the request before forwarding it and withholds a response that
+  breaks one after;
+* every ``~period`` seconds advances the engine's clock, polls the master
+  (``getSystemState``) into ``engine.graph`` and the parameters the invariants read into
+  ``engine.params`` (each only when they changed), and retries what could not be set up yet
+  (a topic whose type only the master knows, a service not yet served);
+* publishes every violation as JSON on ``/m/broken_inv``, takes the actions that the
+  violation map names for the violated point (in a worker thread, so checking never waits
+  for a service), unregisters unknown publishers that broke a ``max_pubs`` invariant from
+  the master (``~unregister``), clears an invariant named on ``/m/clear_inv``, and beats on
+  ``/m/heartbeat`` for the fail-open watchdog.
+
+Parameters: ``~invariants`` (path; default the package's ``config/invariants.json``),
+``~period`` (seconds), ``~namespace`` (``/m``), ``~unregister`` (true), ``~watchdog`` (the
+watchdog's node name, left out of the graph like the monitor itself).
+
+Every decision is a function of ``logic.py``; this module only talks to ROS. Python 3.8
+syntax: it runs on ROS Noetic robots.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import sys
+import threading
+import time
+import xmlrpc.client
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple
+
+import numpy as np
+
+from . import logic
+
+try:  # only a ROS 1 robot has these; the helpers above are usable without them
+    import rosgraph  # type: ignore[import-not-found, unused-ignore]
+    import roslib.message  # type: ignore[import-not-found, unused-ignore]
+    import rospy  # type: ignore[import-not-found, unused-ignore]
+    import rosservice  # type: ignore[import-not-found, unused-ignore]
+    from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
+    from std_msgs.msg import Time as TimeMsg  # type: ignore[import-not-found, unused-ignore]
+except ImportError:  # pragma: no cover - exercised on robots only
+    rospy = None
+
+SPEC_FILE = "spec.json"
+INVARIANTS_FORMAT = "imrosc-invariants"
+QUEUE = 100
+Flatten = Callable[[Any], List[Any]]
+
+
+def load_spec(directory: Optional[str] = None) -> Dict[str, Any]:
+    """The package's monitor spec (``spec.json`` beside this module)."""
+    folder = directory or os.path.dirname(os.path.abspath(__file__))
+    with open(os.path.join(folder, SPEC_FILE), encoding="utf-8") as stream:
+        spec: Dict[str, Any] = json.load(stream)
+    return spec
+
+
+def load_invariants(path: str) -> Dict[str, Any]:
+    """An invariants file; ``ValueError`` with the reason if it is not one."""
+    with open(path, encoding="utf-8") as stream:
+        document = json.load(stream)
+    if not isinstance(document, dict) or document.get("format") != INVARIANTS_FORMAT:
+        raise ValueError(f"{path}: not an imrosc invariants file")
+    for key in ("topics", "points", "invariants"):
+        if key not in document:
+            raise ValueError(f"{path}: missing {key!r}")
+    return document
+
+
+def default_invariants(package: str) -> str:
+    """The package's ``config/invariants.json``: through rospkg, else beside the scripts."""
+    try:
+        import rospkg  # type: ignore[import-not-found, unused-ignore]
+
+        return os.path.join(rospkg.RosPack().get_path(package), "config", "invariants.json")
+    except Exception:
+        here = os.path.dirname(os.path.abspath(__file__))
+        return os.path.normpath(os.path.join(here, "..", "..", "config", "invariants.json"))
+
+
+def relay_name(namespace: str, name: str) -> str:
+    """``/m`` + ``/a/t`` = ``/m/a/t``."""
+    return namespace.rstrip("/") + name
+
+
+class Monitor:
+    """The node's state: the engine, its ROS endpoints and what it learnt from the master."""
+
+    def __init__(
+        self,
+        spec: Mapping[str, Any],
+        document: Mapping[str, Any],
+        engine_class: Callable[[Mapping[str, Any]], Any],
+        flatteners: Mapping[str, Flatten],
+    ) -> None:
+        self.spec = spec
+        self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
+        self.period = float(rospy.get_param("~period", spec["period"]))
+        self.unregister = bool(rospy.get_param("~unregister", True))
+        self.name: str = rospy.get_name()
+        watchdog = str(rospy.get_param("~watchdog", spec["watchdog"]))
+        if not watchdog.startswith("/"):
+            watchdog = rospy.get_namespace() + watchdog
+        self.own: Set[str] = {self.name, watchdog}
+        ns = self.namespace
+        self.topic_relays = {
+            t["name"]: relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
+        }
+        self.service_relays = {s["name"]: relay_name(ns, s["name"]) for s in spec["services"]}
+        self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
+        self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
+        self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
+        self.flatteners = flatteners
+        self.lock = threading.Lock()
+        self.engine = engine_class(document)
+        self.precheck = (
+            engine_class(logic.request_document(document, self.blocked_services))
+            if self.blocked_services
+            else None
+        )
+        self.by_id = {inv["id"]: inv for inv in document["invariants"]}
+        self.state: Sequence[Any] = ([], [], [])
+        self.graph: Optional[Dict[str, Any]] = None
+        self.params: Optional[Dict[str, Any]] = None
+        self.master = rosgraph.Master(self.name)
+        self.master_api: Any = xmlrpc.client.ServerProxy(rosgraph.get_master_uri())
+        self.broken = rospy.Publisher(ns + "/broken_inv", String, queue_size=QUEUE)
+        self.beat = rospy.Publisher(ns + "/heartbeat", TimeMsg, queue_size=1)
+        self.pending_topics = {t["name"]: t for t in spec["topics"]}
+        self.pending_services = set(self.service_relays)
+        self.pending_actions = set(self.actions)
+        self.subscribers: Dict[str, Any] = {}
+        self.relays: Dict[str, Any] = {}
+        self.servers: Dict[str, Any] = {}
+        self.action_out: Dict[str, Tuple[Any, Any]] = {}
+        self.work = queue.Queue()  # type: queue.Queue[Tuple[Any, ...]]
+        rospy.Subscriber(ns + "/clear_inv", String, self.on_clear, queue_size=QUEUE)
+        threading.Thread(target=self.worker, name="imrosc-actions", daemon=True).start()
+        threading.Thread(target=self.heartbeat, name="imrosc-heartbeat", daemon=True).start()
+        self.connect()
+        self.tick(None)
+        self.timer = rospy.Timer(rospy.Duration(self.period), self.tick)
+
+    # -- setting up -------------------------------------------------------------------------
+
+    def topic_class(self, msgtype: Optional[str], topic: str) -> Any:
+        """The message class of a topic: by its type name, else by what the master says."""
+        if not msgtype:
+            try:
+                known = dict(self.master.getTopicTypes())
+            except Exception:
+                return None
+            msgtype = known.get(topic)
+            if not msgtype:
+                return None
+        found = roslib.message.get_message_class(msgtype)
+        if found is None:
+            rospy.logerr_throttle(60.0, f"imrosc: no message class {msgtype} for {topic}")
+        return found
+
+    def service_class(self, service: str) -> Any:
+        """The service class of a running service (``None`` until it is served)."""
+        try:
+            return rosservice.get_service_class_by_name(service)
+        except Exception:
+            return None
+
+    def connect(self) -> None:
+        """Set up what can be set up now: subscriptions, relays, served services, action
+        publishers (types the master alone knows, services not served yet wait)."""
+        for name, topic in sorted(self.pending_topics.items()):
+            found = self.topic_class(topic.get("type"), name)
+            if found is None:
+                continue
+            relay = self.topic_relays.get(name)
+            if relay is not None:
+                self.relays[name] = rospy.Publisher(relay, found, queue_size=QUEUE)
+            self.subscribers[name] = rospy.Subscriber(
+                name, found, self.on_message, callback_args=name, queue_size=QUEUE
+            )
+            del self.pending_topics[name]
+        for name in sorted(self.pending_services):
+            found = self.service_class(name)
+            if found is None:
+                continue
+            handler = self.handler(name, found)
+            self.servers[name] = rospy.Service(self.service_relays[name], found, handler)
+            self.pending_services.discard(name)
+        for ident in sorted(self.pending_actions):
+            action = self.actions[ident]
+            if action["target"] != "topic":
+                self.pending_actions.discard(ident)
+                continue
+            found = self.topic_class(action.get("type"), action["name"])
+            if found is None:
+                continue
+            self.pending_actions.discard(ident)
+            try:
+                message = logic.fill(found(), action["value"], self.message_class)
+            except (logic.FillError, TypeError, ValueError) as error:
+                rospy.logerr(f"imrosc: action {ident} is disabled: {error}")
+                continue
+            publisher = rospy.Publisher(action["destination"], found, queue_size=QUEUE)
+            self.action_out[ident] = (publisher, message)
+
+    def message_class(self, msgtype: str) -> Any:
+        """A message class by name (for lists of messages in action values)."""
+        found = roslib.message.get_message_class(msgtype)
+        if found is None:
+            raise logic.FillError(f"unknown message type {msgtype}")
+        return found
+
+    # -- what happens -----------------------------------------------------------------------
+
+    def on_message(self, message: Any, topic: str) -> None:
+        """A message on a watched or blocked topic: check it, relay it if blocked and clean."""
+        flatten = self.flatteners.get(topic)
+        values = flatten(message) if flatten is not None else None
+        with self.lock:
+            now = rospy.get_time()
+            found = self.engine.advance(now)
+            caused = self.engine.message(topic, now, values) if values is not None else []
+            precheck = self.precheck
+            if precheck is not None and values is not None and topic in precheck.condition_topics:
+                precheck.message(topic, now, values)
+        relay = self.relays.get(topic)
+        if relay is not None and not caused:
+            relay.publish(message)
+        self.report(found + caused)
+
+    def handler(self, service: str, service_class: Any) -> Callable[[Any], Any]:
+        """The handler of ``/m/<service>``: check, forward, check, answer."""
+        blocked = service in self.blocked_services
+
+        def serve(request: Any) -> Any:
+            precheck = self.precheck
+            if blocked and precheck is not None:
+                with self.lock:
+                    refused = precheck.call(
+                        service, rospy.get_time(), logic.request_values(request)
+                    )
+                if refused:
+                    self.report(refused)
+                    ids = ", ".join(sorted({v.invariant for v in refused}))
+                    raise rospy.ServiceException(f"imrosc monitor refused the request: {ids}")
+            start = rospy.get_time()
+            response = rospy.ServiceProxy(service, service_class)(request)
+            values = logic.message_values(request, response, rospy.get_time() - start)
+            with self.lock:
+                now = rospy.get_time()
+                found = self.engine.advance(now)
+                caused = self.engine.call(service, now, values)
+            self.report(found + caused)
+            if blocked and caused:
+                ids = ", ".join(sorted({v.invariant for v in caused}))
+                raise rospy.ServiceException(f"imrosc monitor withheld the response: {ids}")
+            return response
+
+        return serve
+
+    def on_clear(self, message: Any) -> None:
+        """``/m/clear_inv``: stop checking the invariant named by the message."""
+        ident = str(message.data).strip()
+        with self.lock:
+            known = self.engine.clear(ident)
+            if self.precheck is not None:
+                self.precheck.clear(ident)
+        if known:
+            rospy.loginfo(f"imrosc: invariant {ident} cleared")
+        else:
+            rospy.logwarn(f"imrosc: /clear_inv names no invariant: {ident!r}")
+
+    def tick(self, event: Any) -> None:
+        """The timer: the clock, the graph and the parameters; retry the setup."""
+        del event
+        try:
+            state = self.master.getSystemState()
+        except Exception:
+            state = None
+        params: Optional[Dict[str, Any]]
+        try:
+            params = logic.param_values(rospy.get_param, self.spec["params"])
+        except Exception:
+            params = self.params
+        graph = None
+        if state is not None:
+            self.state = state
+            graph = logic.logical_graph(state, self.own, self.topic_relays, self.service_relays)
+        with self.lock:
+            now = rospy.get_time()
+            found = self.engine.advance(now)
+            if graph is not None and graph != self.graph:
+                self.graph = graph
+                found += self.engine.graph(now, graph)
+            if params is not None and params != self.params:
+                self.params = params
+                found += self.engine.params(now, params)
+                if self.precheck is not None:
+                    self.precheck.params(now, params)
+        if self.pending_topics or self.pending_services or self.pending_actions:
+            self.connect()
+        self.report(found)
+
+    def heartbeat(self) -> None:
+        """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""
+        while not rospy.is_shutdown():
+            self.beat.publish(TimeMsg(data=rospy.Time.now()))
+            time.sleep(self.period)
+
+    # -- what the monitor does about it -----------------------------------------------------
+
+    def report(self, violations: Sequence[Any]) -> None:
+        """Warn on ``/m/broken_inv``, queue the actions and the unregistrations."""
+        if not violations:
+            return
+        for violation in violations:
+            taken = self.violation_map.get(logic.scope_id(violation.point), ())
+            self.broken.publish(String(data=logic.violation_json(violation, taken)))
+            rospy.logwarn_throttle(
+                1.0,
+                f"imrosc: broken {violation.invariant} at {violation.point}: {violation.text}",
+            )
+        for ident in logic.select_actions(violations, self.violation_map):
+            self.work.put(("action", ident))
+        if self.unregister:
+            for node, topic in logic.to_unregister(
+                violations, self.by_id, self.state, self.own, self.topic_relays
+            ):
+                self.work.put(("unregister", node, topic))
+
+    def worker(self) -> None:
+        """Take the queued actions one by one (a service call may take its time)."""
+        while not rospy.is_shutdown():
+            try:
+                job = self.work.get(timeout=0.5)
+            except queue.Empty:
+                continue
+            try:
+                if job[0] == "action":
+                    self.act(job[1])
+                else:
+                    self.unregister_publisher(job[1], job[2])
+            except Exception as error:
+                rospy.logerr(f"imrosc: {job[0]} {job[1:]} failed: {error}")
+
+    def act(self, ident: str) -> None:
+        """Publish the action's message or call its service."""
+        action = self.actions[ident]
+        if action["target"] == "topic":
+            out = self.action_out.get(ident)
+            if out is None:
+                rospy.logwarn_throttle(10.0, f"imrosc: action {ident} is not ready")
+                return
+            publisher, message = out
+            publisher.publish(message)
+            return
+        service = action["name"]
+        found = self.service_class(service)
+        if found is None:
+            rospy.logwarn(f"imrosc: action {ident}: service {service} is not available")
+            return
+        request = logic.fill(found._request_class(), action["value"], self.message_class)
+        rospy.ServiceProxy(service, found)(request)
+
+    def unregister_publisher(self, node: str, topic: str) -> None:
+        """Remove ``node`` as a publisher of ``topic`` from the master, on its behalf: the
+        master tells the subscribers, which drop their connections to it."""
+        code, status, uri = self.master_api.lookupNode(self.name, node)
+        if code != 1:
+            rospy.logwarn(f"imrosc: cannot look up {node}: {status}")
+            return
+        code, status, _ = self.master_api.unregisterPublisher(node, topic, uri)
+        if code != 1:
+            rospy.logwarn(f"imrosc: cannot unregister {node} of {topic}: {status}")
+            return
+        rospy.logwarn(f"imrosc: unregistered unknown publisher {node} of {topic}")
+        # roscpp subscribers drop a publisher the master no longer lists; rospy ones only
+        # connect to new publishers, so the node closes its own connection to it
+        subscriber = self.subscribers.get(topic)
+        impl = getattr(subscriber, "impl", None)
+        for connection in list(getattr(impl, "connections", ())):
+            if getattr(connection, "endpoint_id", None) == uri:
+                connection.close()
+
+
+def main(
+    package: str,
+    engine_class: Callable[[Mapping[str, Any]], Any],
+    flatteners: Mapping[str, Flatten],
+) -> None:
+    """Run the monitor node of ``package`` until ROS shuts down."""
+    if rospy is None:
+        sys.exit("imrosc monitor: rospy is not importable; run it on a ROS 1 system")
+    np.seterr(all="ignore")  # the engine checks NaN and infinities itself
+    rospy.init_node(package)
+    path = rospy.get_param("~invariants", "") or default_invariants(package)
+    try:
+        spec = load_spec()
+        document = load_invariants(path)
+    except (OSError, ValueError) as error:
+        rospy.logfatal(f"imrosc monitor: {error}")
+        sys.exit(1)
+    Monitor(spec, document, engine_class, flatteners)
+    rospy.loginfo(
+        f"imrosc monitor {rospy.get_name()}: checking {len(document['invariants'])} "
+        f"invariants from {path}"
+    )
+    rospy.spin()

@@ -1,0 +1,515 @@
+"""The monitor node for ROS 2 (rclpy): thin plumbing around the runtime engine.
+
+A generated monitor package's entry point runs :func:`main` with its runtime engine class
+and its generated flatteners. The node
+
+* subscribes to every topic of the invariants file with the QoS its publishers offer
+  (``get_publishers_info_by_topic``: best effort as soon as one publisher is, transient
+  local when all are; a ``sensor_msgs`` topic starts as ``qos_profile_sensor_data`` until a
+  publisher shows), flattens each message and feeds it to the engine; a blocked topic's
+  message is republished on ``/m/<topic>``, with the source's QoS, only when it broke no
+  invariant (the rewritten launch file remaps the topic's subscribers there);
+* serves ``/m/<service>`` for every watched or blocked service once the graph tells the
+  service's type, forwards each call to the real service and feeds the call to the engine;
+  for a blocked service a request that breaks an invariant of the request is not forwarded
+  and a response that breaks one is withheld. ROS 2 services have no error reply (rclpy
+  sends whatever the callback returns), so the client gets the type's default response
+  (every field zero, false or empty) instead;
+* every ``period`` seconds (ROS time) advances the engine's clock, reads the graph
+  (``get_topic_names_and_types``, ``get_publishers_info_by_topic``,
+  ``get_subscriptions_info_by_topic``, ``get_service_names_and_types_by_node``) into
+  ``engine.graph`` and the parameters the invariants read (``rcl_interfaces/GetParameters``
+  on ``/<node>/get_parameters``) into ``engine.params`` (each only when it changed), adapts
+  the QoS of its subscriptions and relays to publishers that appeared, and sets up what
+  could not be set up yet (a topic or service whose type only the graph knows);
+* publishes every violation as JSON on ``/m/broken_inv``, takes the actions the violation
+  map names for the violated point (in a worker thread, so checking never waits for a
+  service), clears an invariant named on ``/m/clear_inv`` and beats on ``/m/heartbeat``
+  (wall time) for the fail-open watchdog. An unknown publisher that breaks a ``max_pubs``
+  invariant is only reported, with a note: ROS 2 has no master to unregister it from.
+
+Parameters: ``invariants`` (path; default the package's ``share/<pkg>/config/
+invariants.json``), ``period`` (seconds), ``namespace`` (``/m``), ``watchdog`` (the
+watchdog's node name, left out of the graph like the monitor itself), ``service_timeout``
+(seconds to wait for a forwarded call or an action's call; 10).
+
+Every decision is a function of ``logic.py`` (or of the shared ``monitor_ros1/logic.py``);
+this module only talks to ROS. Python 3.8 syntax.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import sys
+import threading
+import time
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple
+
+import numpy as np
+
+from ..monitor_ros1 import logic as common
+from . import logic, plumbing
+
+try:  # only a ROS 2 system has these; the helpers above are usable without them
+    import rclpy  # type: ignore[import-not-found, unused-ignore]
+    from builtin_interfaces.msg import (  # type: ignore[import-not-found, unused-ignore]
+        Time as TimeMsg,
+    )
+    from rcl_interfaces.srv import (  # type: ignore[import-not-found, unused-ignore]
+        GetParameters,
+    )
+    from rclpy.callback_groups import (  # type: ignore[import-not-found, unused-ignore]
+        MutuallyExclusiveCallbackGroup,
+        ReentrantCallbackGroup,
+    )
+    from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
+        MultiThreadedExecutor,
+    )
+    from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
+    from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
+except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
+    rclpy = None
+
+QUEUE = plumbing.QUEUE
+THREADS = 4
+"""Executor threads: checks run in one mutually exclusive group (messages are checked and
+relayed in order); relayed service calls wait for the real service in the others."""
+SERVICE_TIMEOUT = 10.0
+Flatten = Callable[[Any], List[Any]]
+
+
+def default_invariants(package: str) -> str:
+    """The package's ``config/invariants.json``: in its share folder (ament index), else
+    in the source package this module was copied into."""
+    try:
+        from ament_index_python.packages import (  # type: ignore[import-not-found, unused-ignore]
+            get_package_share_directory,
+        )
+
+        return os.path.join(get_package_share_directory(package), "config", "invariants.json")
+    except Exception:
+        here = os.path.dirname(os.path.abspath(__file__))
+        return os.path.normpath(os.path.join(here, "..", "..", "..", "config", "invariants.json"))
+
+
+class Topic:
+    """A watched or blocked topic: its type, class, QoS, subscription and relay."""
+
+    def __init__(self, name: str, msgtype: Optional[str], relay: Optional[str]) -> None:
+        self.name = name
+        self.msgtype = msgtype
+        self.relay_name = relay
+        self.message_class: Any = None
+        self.qos: Optional[logic.Qos] = None
+        self.relay_qos: Optional[logic.Qos] = None
+        self.subscription: Any = None
+        self.relay: Any = None
+
+
+class Monitor:
+    """The node's state: the engine, its ROS endpoints and what it learnt from the graph."""
+
+    def __init__(
+        self,
+        node: Any,
+        spec: Mapping[str, Any],
+        document: Mapping[str, Any],
+        engine_class: Callable[[Mapping[str, Any]], Any],
+        flatteners: Mapping[str, Flatten],
+    ) -> None:
+        self.node = node
+        self.log = node.get_logger()
+        self.warn = getattr(self.log, "warning", None) or self.log.warn  # Foxy has warn only
+        self.spec = spec
+        self.namespace = str(plumbing.get_param(node, "namespace", spec["namespace"]))
+        self.period = float(plumbing.get_param(node, "period", spec["period"]))
+        self.timeout = float(plumbing.get_param(node, "service_timeout", SERVICE_TIMEOUT))
+        self.name = logic.node_name(node.get_namespace(), node.get_name())
+        watchdog = str(plumbing.get_param(node, "watchdog", spec["watchdog"]))
+        self.own: Set[str] = {self.name, logic.resolve_node(node.get_namespace(), watchdog)}
+        ns = self.namespace
+        self.topic_relays = {
+            t["name"]: logic.relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
+        }
+        self.service_relays = {s["name"]: logic.relay_name(ns, s["name"]) for s in spec["services"]}
+        self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
+        self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
+        self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
+        self.flatteners = flatteners
+        self.lock = threading.Lock()
+        self.engine = engine_class(document)
+        self.precheck = (
+            engine_class(common.request_document(document, self.blocked_services))
+            if self.blocked_services
+            else None
+        )
+        self.checks = MutuallyExclusiveCallbackGroup()
+        self.calls = ReentrantCallbackGroup()
+        self.graph: Optional[Dict[str, Any]] = None
+        self.params: Optional[Dict[str, Any]] = None
+        self.answers: Dict[str, Any] = {}
+        self.param_clients: Dict[str, Any] = {}
+        self.param_pending: Set[str] = set()
+        self.topics = {
+            t["name"]: Topic(t["name"], t.get("ros2_type"), self.topic_relays.get(t["name"]))
+            for t in spec["topics"]
+        }
+        self.services: Dict[str, Tuple[Any, Any]] = {}
+        self.action_out: Dict[str, Tuple[Any, Any]] = {}
+        self.action_clients: Dict[str, Tuple[Any, Any]] = {}
+        self.pending_actions = set(self.actions)
+        self.work = queue.Queue()  # type: queue.Queue[str]
+        self.broken = node.create_publisher(
+            String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
+        )
+        self.beat = node.create_publisher(TimeMsg, ns + "/heartbeat", 1)
+        node.create_subscription(
+            String,
+            ns + "/clear_inv",
+            plumbing.guarded(self.log, "clear", self.on_clear),
+            QUEUE,
+            callback_group=self.checks,
+        )
+        threading.Thread(target=self.worker, name="imrosc-actions", daemon=True).start()
+        threading.Thread(target=self.heartbeat, name="imrosc-heartbeat", daemon=True).start()
+        self.tick()
+        self.timer = node.create_timer(
+            self.period, plumbing.guarded(self.log, "poll", self.tick), callback_group=self.checks
+        )
+
+    def now(self) -> float:
+        """ROS time in seconds (simulated time with ``use_sim_time``)."""
+        return float(self.node.get_clock().now().nanoseconds) / 1e9
+
+    # -- setting up -------------------------------------------------------------------------
+
+    def connect(self, view: logic.GraphView) -> None:
+        """Set up, or adapt to the graph, the subscriptions, relays, relayed services and
+        action endpoints."""
+        for topic in self.topics.values():
+            self.connect_topic(topic, view)
+        for name, relay in sorted(self.service_relays.items()):
+            if name in self.services:
+                continue
+            kinds = view.service_types.get(name)
+            found = plumbing.service_class(kinds[0]) if kinds else None
+            if found is None:
+                continue
+            client = self.node.create_client(found, name, callback_group=self.calls)
+            server = self.node.create_service(
+                found, relay, self.handler(name, client), callback_group=self.calls
+            )
+            self.services[name] = (client, server)
+        for ident in sorted(self.pending_actions):
+            self.connect_action(ident, view)
+
+    def connect_topic(self, topic: Topic, view: logic.GraphView) -> None:
+        """Subscribe (again, when the publishers' QoS asks for another) and relay."""
+        if topic.message_class is None:
+            kinds = view.types.get(topic.name) or ()
+            topic.msgtype = topic.msgtype or (kinds[0] if kinds else None)
+            if not topic.msgtype:
+                return
+            topic.message_class = plumbing.message_class(topic.msgtype)
+            if topic.message_class is None:
+                self.log.error(
+                    f"imrosc: no message class {topic.msgtype} for {topic.name}",
+                    throttle_duration_sec=60.0,
+                )
+                topic.msgtype = None
+                return
+        publishers = logic.publisher_qos(view, topic.name, self.own)
+        wanted = logic.qos_update(topic.qos, publishers, topic.msgtype)
+        if wanted is not None:
+            if topic.subscription is not None:
+                self.node.destroy_subscription(topic.subscription)
+            topic.qos = wanted
+            topic.subscription = self.node.create_subscription(
+                topic.message_class,
+                topic.name,
+                plumbing.guarded(self.log, f"message on {topic.name}", self.on_message_of(topic)),
+                plumbing.profile(wanted),
+                callback_group=self.checks,
+            )
+        if topic.relay_name is None:
+            return
+        offer = logic.qos_update(topic.relay_qos, publishers, topic.msgtype, logic.relay_qos)
+        if offer is not None:
+            if topic.relay is not None:
+                self.node.destroy_publisher(topic.relay)
+            topic.relay_qos = offer
+            topic.relay = self.node.create_publisher(
+                topic.message_class, topic.relay_name, plumbing.profile(offer)
+            )
+
+    def connect_action(self, ident: str, view: logic.GraphView) -> None:
+        """The publisher and message of a topic action, the client of a service action."""
+        action = self.actions[ident]
+        name = action["name"]
+        if action["target"] == "topic":
+            kinds = view.types.get(name) or ()
+            msgtype = action.get("ros2_type") or (kinds[0] if kinds else None)
+            found = plumbing.message_class(msgtype) if msgtype else None
+            if found is None:
+                return
+            self.pending_actions.discard(ident)
+            try:
+                message = logic.fill(found(), action["value"], plumbing.fill_class)
+            except (logic.FillError, TypeError, ValueError, AssertionError) as error:
+                self.log.error(f"imrosc: action {ident} is disabled: {error}")
+                return
+            offer = logic.relay_qos(logic.publisher_qos(view, name, self.own), msgtype)
+            publisher = self.node.create_publisher(
+                found, action["destination"], plumbing.profile(offer)
+            )
+            self.action_out[ident] = (publisher, message)
+            return
+        kinds = view.service_types.get(name) or ()
+        found = plumbing.service_class(kinds[0]) if kinds else None
+        if found is None:
+            return
+        self.pending_actions.discard(ident)
+        self.action_clients[ident] = (
+            self.node.create_client(found, name, callback_group=self.calls),
+            found,
+        )
+
+    # -- what happens -----------------------------------------------------------------------
+
+    def on_message_of(self, topic: Topic) -> Callable[[Any], None]:
+        """The subscription callback of ``topic``."""
+        name = topic.name
+        flatten = self.flatteners.get(name)
+
+        def on_message(message: Any) -> None:
+            values = flatten(message) if flatten is not None else None
+            with self.lock:
+                now = self.now()
+                found = self.engine.advance(now)
+                caused = self.engine.message(name, now, values) if values is not None else []
+                precheck = self.precheck
+                if (
+                    precheck is not None
+                    and values is not None
+                    and name in precheck.condition_topics
+                ):
+                    precheck.message(name, now, values)
+            if topic.relay is not None and not caused:
+                topic.relay.publish(message)
+            self.report(found + caused)
+
+        return on_message
+
+    def handler(self, service: str, client: Any) -> Callable[[Any, Any], Any]:
+        """The callback of ``/m/<service>``: check, forward, check, answer. A refused or
+        withheld call, or one the service does not answer in time, is answered with
+        ``response``, the type's default response (ROS 2 services have no error reply)."""
+        blocked = service in self.blocked_services
+
+        def serve(request: Any, response: Any) -> Any:
+            try:
+                return forward(request, response)
+            except Exception as error:
+                self.log.error(f"imrosc: relaying {service} failed: {error}")
+                return response
+
+        def forward(request: Any, default: Any) -> Any:
+            precheck = self.precheck
+            if blocked and precheck is not None:
+                with self.lock:
+                    refused = precheck.call(service, self.now(), logic.request_values(request))
+                if refused:
+                    self.report(refused)
+                    ids = ", ".join(sorted({v.invariant for v in refused}))
+                    self.warn(f"imrosc: refused a request to {service}: {ids}")
+                    return default
+            start = self.now()
+            answer = plumbing.call(client, request, self.timeout)
+            values = logic.message_values(request, answer, self.now() - start)
+            with self.lock:
+                now = self.now()
+                found = self.engine.advance(now)
+                caused = self.engine.call(service, now, values)
+            self.report(found + caused)
+            if blocked and caused:
+                ids = ", ".join(sorted({v.invariant for v in caused}))
+                self.warn(f"imrosc: withheld the response of {service}: {ids}")
+                return default
+            return answer
+
+        return serve
+
+    def on_clear(self, message: Any) -> None:
+        """``/m/clear_inv``: stop checking the invariant named by the message."""
+        ident = str(message.data).strip()
+        with self.lock:
+            known = self.engine.clear(ident)
+            if self.precheck is not None:
+                self.precheck.clear(ident)
+        if known:
+            self.log.info(f"imrosc: invariant {ident} cleared")
+        else:
+            self.warn(f"imrosc: /clear_inv names no invariant: {ident!r}")
+
+    def tick(self) -> None:
+        """The timer: the clock, the graph and the parameters; adapt and retry the setup."""
+        try:
+            view: Optional[logic.GraphView] = plumbing.read_graph(self.node)
+        except Exception as error:
+            self.warn(f"imrosc: cannot read the graph: {error}")
+            view = None
+        graph = None
+        if view is not None and view.complete:  # else a node is half discovered: wait
+            graph = logic.snapshot(view, self.own, self.topic_relays, self.service_relays)
+        with self.lock:
+            params = logic.param_values(self.answers, self.spec["params"]) if self.answers else None
+            now = self.now()
+            found = self.engine.advance(now)
+            if graph is not None and graph != self.graph:
+                self.graph = graph
+                found += self.engine.graph(now, graph)
+            if params is not None and params != self.params:
+                self.params = params
+                found += self.engine.params(now, params)
+                if self.precheck is not None:
+                    self.precheck.params(now, params)
+        if view is not None:
+            self.connect(view)
+            self.ask_params(view)
+        self.report(found)
+
+    def ask_params(self, view: logic.GraphView) -> None:
+        """Ask each node for the parameters the invariants read (answers come back in an
+        executor thread and are fed to the engine at the next poll)."""
+        requests = logic.parameter_requests(self.spec["params"], view.nodes)
+        for owner, asked in requests.items():
+            if owner in self.param_pending or owner in self.own:
+                continue
+            client = self.param_clients.get(owner)
+            if client is None:
+                client = self.node.create_client(
+                    GetParameters, owner.rstrip("/") + "/get_parameters", callback_group=self.calls
+                )
+                self.param_clients[owner] = client
+            if not client.service_is_ready():
+                continue
+            self.param_pending.add(owner)
+            future = client.call_async(GetParameters.Request(names=[p for _, p in asked]))
+            future.add_done_callback(self.on_params_of(owner, asked))
+
+    def on_params_of(self, owner: str, asked: List[Tuple[str, str]]) -> Callable[[Any], None]:
+        """What to do with a node's ``GetParameters`` answer."""
+
+        def on_params(future: Any) -> None:
+            try:
+                response = future.result()
+                answered, missing = logic.parameter_answers(asked, list(response.values))
+            except Exception as error:
+                self.warn(f"imrosc: parameters of {owner}: {error}")
+                answered, missing = {}, []
+            with self.lock:
+                self.answers.update(answered)
+                for name in missing:
+                    self.answers.pop(name, None)
+                self.param_pending.discard(owner)
+
+        return on_params
+
+    def heartbeat(self) -> None:
+        """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""
+        while rclpy.ok():
+            try:
+                self.beat.publish(self.node.get_clock().now().to_msg())
+            except Exception:  # shutting down
+                return
+            time.sleep(self.period)
+
+    # -- what the monitor does about it -----------------------------------------------------
+
+    def report(self, violations: Sequence[Any]) -> None:
+        """Warn on ``/m/broken_inv`` (a ``max_pubs`` violation with a note: ROS 2 cannot
+        unregister the publisher) and queue the actions."""
+        if not violations:
+            return
+        for violation in violations:
+            taken = self.violation_map.get(common.scope_id(violation.point), ())
+            self.broken.publish(String(data=logic.warning(violation, taken)))
+            self.warn(
+                f"imrosc: broken {violation.invariant} at {violation.point}: {violation.text}",
+                throttle_duration_sec=1.0,
+            )
+        for ident in common.select_actions(violations, self.violation_map):
+            self.work.put(ident)
+
+    def worker(self) -> None:
+        """Take the queued actions one by one (a service call may take its time)."""
+        while rclpy.ok():
+            try:
+                ident = self.work.get(timeout=0.5)
+            except queue.Empty:
+                continue
+            try:
+                self.act(ident)
+            except Exception as error:
+                self.log.error(f"imrosc: action {ident} failed: {error}")
+
+    def act(self, ident: str) -> None:
+        """Publish the action's message or call its service."""
+        action = self.actions[ident]
+        if action["target"] == "topic":
+            out = self.action_out.get(ident)
+            if out is None:
+                self.warn(f"imrosc: action {ident} is not ready", throttle_duration_sec=10.0)
+                return
+            publisher, message = out
+            publisher.publish(message)
+            return
+        ready = self.action_clients.get(ident)
+        if ready is None or not ready[0].service_is_ready():
+            self.warn(f"imrosc: action {ident}: service {action['name']} is not available")
+            return
+        client, found = ready
+        request = logic.fill(found.Request(), action["value"], plumbing.fill_class)
+        plumbing.call(client, request, self.timeout)
+
+
+def main(
+    package: str,
+    engine_class: Callable[[Mapping[str, Any]], Any],
+    flatteners: Mapping[str, Flatten],
+    args: Optional[List[str]] = None,
+) -> None:
+    """Run the monitor node of ``package`` until ROS shuts down."""
+    if rclpy is None:
+        sys.exit("imrosc monitor: rclpy is not importable; run it on a ROS 2 system")
+    np.seterr(all="ignore")  # the engine checks NaN and infinities itself
+    rclpy.init(args=args)
+    node = Node(
+        package,
+        allow_undeclared_parameters=True,
+        automatically_declare_parameters_from_overrides=True,
+    )
+    path = str(plumbing.get_param(node, "invariants", "") or default_invariants(package))
+    try:
+        spec = logic.load_spec()
+        document = logic.load_invariants(path)
+    except (OSError, ValueError) as error:
+        node.get_logger().fatal(f"imrosc monitor: {error}")
+        sys.exit(1)
+    Monitor(node, spec, document, engine_class, flatteners)
+    node.get_logger().info(
+        f"imrosc monitor {logic.node_name(node.get_namespace(), node.get_name())}: checking "
+        f"{len(document['invariants'])} invariants from {path}"
+    )
+    executor = MultiThreadedExecutor(num_threads=THREADS)
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()

@@ -1,0 +1,164 @@
+"""rclpy helpers shared by the ROS 2 monitor node and its fail-open watchdog.
+
+Interface classes by name (:func:`message_class`, :func:`service_class`), QoS profiles from
+:class:`logic.Qos` (:func:`profile`), one reading of the graph API (:func:`read_graph`),
+node parameters with defaults that work from Foxy on (:func:`get_param`), a service call
+that waits with a timeout (:func:`call`) and a callback that logs instead of killing the
+executor (:func:`guarded`). Python 3.8 syntax.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+from typing import Any, Callable, Dict, List, Optional, Set, Tuple
+
+from . import logic
+
+try:  # only a ROS 2 system has these; the functions below need them
+    from rclpy.qos import (  # type: ignore[import-not-found, unused-ignore]
+        DurabilityPolicy,
+        HistoryPolicy,
+        QoSProfile,
+        ReliabilityPolicy,
+    )
+except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
+    QoSProfile = None
+
+QUEUE = 100
+"""Depth of the monitor's subscriptions and relays (KEEP_LAST), as ROS 1's queue_size."""
+
+
+def interface_class(name: str, kind: str) -> Any:
+    """The class of a ``msg`` or ``srv`` type by name; ``None`` if it cannot be imported."""
+    try:
+        module, attribute = logic.interface_name(name, kind)
+        return getattr(importlib.import_module(module), attribute)
+    except (ImportError, AttributeError, ValueError):
+        return None
+
+
+def message_class(name: str) -> Any:
+    """A message class (``pkg/msg/Name`` or ``pkg/Name``), or ``None``."""
+    return interface_class(name, "msg")
+
+
+def service_class(name: str) -> Any:
+    """A service class (``pkg/srv/Name`` or ``pkg/Name``), or ``None``."""
+    return interface_class(name, "srv")
+
+
+def fill_class(name: str) -> Any:
+    """A message class for :func:`logic.fill`: ``FillError`` if it is unknown."""
+    found = message_class(name)
+    if found is None:
+        raise logic.FillError(f"unknown message type {name}")
+    return found
+
+
+def profile(qos: logic.Qos, depth: int = QUEUE) -> Any:
+    """An rclpy ``QoSProfile`` (KEEP_LAST ``depth``) with the reliability and durability of
+    ``qos``."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=(
+            ReliabilityPolicy.BEST_EFFORT
+            if qos.reliability == logic.BEST_EFFORT
+            else ReliabilityPolicy.RELIABLE
+        ),
+        durability=(
+            DurabilityPolicy.TRANSIENT_LOCAL
+            if qos.durability == logic.TRANSIENT_LOCAL
+            else DurabilityPolicy.VOLATILE
+        ),
+    )
+
+
+def get_param(node: Any, name: str, default: Any) -> Any:
+    """A parameter of ``node`` (created with ``allow_undeclared_parameters`` and
+    ``automatically_declare_parameters_from_overrides``, so any type given on the command
+    line or in a launch file is accepted); ``default`` when it is not set."""
+    try:
+        value = node.get_parameter(name).value
+    except Exception:
+        return default
+    return default if value is None else value
+
+
+def read_graph(node: Any) -> logic.GraphView:
+    """Publishers, subscribers (with the publishers' QoS) and servers, from rclpy's graph
+    API. A node or topic that vanishes while it is read is skipped; an endpoint whose node
+    is not discovered yet is left out and marks the view incomplete."""
+    topics: Dict[str, Tuple[List[str], List[str]]] = {}
+    types: Dict[str, List[str]] = {}
+    qos: Dict[str, List[Tuple[str, Optional[logic.Qos]]]] = {}
+    complete = True
+    for name, kinds in node.get_topic_names_and_types():
+        try:
+            publishers = node.get_publishers_info_by_topic(name)
+            subscribers = node.get_subscriptions_info_by_topic(name)
+        except Exception:
+            continue
+        pubs: List[str] = []
+        subs: List[str] = []
+        offered: List[Tuple[str, Optional[logic.Qos]]] = []
+        for info in publishers:
+            full = logic.endpoint_node(info.node_namespace, info.node_name)
+            complete = complete and full is not None
+            pubs += [full] if full is not None else []
+            offered.append((full or "", logic.endpoint_qos(info.qos_profile)))  # QoS counts
+        for info in subscribers:
+            full = logic.endpoint_node(info.node_namespace, info.node_name)
+            complete = complete and full is not None
+            subs += [full] if full is not None else []
+        topics[name] = (pubs, subs)
+        types[name] = list(kinds)
+        qos[name] = offered
+    services: Dict[str, List[str]] = {}
+    service_types: Dict[str, List[str]] = {}
+    nodes: Set[str] = set()
+    for name, namespace in node.get_node_names_and_namespaces():
+        full = logic.node_name(namespace, name)
+        nodes.add(full)
+        try:
+            served = node.get_service_names_and_types_by_node(name, namespace)
+        except Exception:
+            continue
+        for service, kinds in served:
+            services.setdefault(service, []).append(full)
+            service_types.setdefault(service, list(kinds))
+    return logic.GraphView(topics, types, qos, services, service_types, sorted(nodes), complete)
+
+
+class CallTimeoutError(Exception):
+    """A service did not answer in time."""
+
+
+def call(client: Any, request: Any, timeout: float) -> Any:
+    """Call a service and wait for its response (at most ``timeout`` seconds). The response
+    arrives in an executor thread: the caller must not hold the only one (the node spins a
+    ``MultiThreadedExecutor`` and puts clients in a reentrant callback group)."""
+    future = client.call_async(request)
+    done = threading.Event()
+    future.add_done_callback(lambda _: done.set())
+    if not done.wait(timeout):
+        remove = getattr(client, "remove_pending_request", None)
+        if remove is not None:
+            remove(future)
+        raise CallTimeoutError(f"no response within {timeout} s")
+    return future.result()
+
+
+def guarded(logger: Any, what: str, callback: Callable[..., Any]) -> Callable[..., Any]:
+    """``callback`` that logs an exception instead of raising it out of the executor's spin
+    (which would end the node)."""
+
+    def run(*args: Any) -> Any:
+        try:
+            return callback(*args)
+        except Exception as error:
+            logger.error(f"imrosc: {what} failed: {type(error).__name__}: {error}")
+            return None
+
+    return run

@@ -1,0 +1,15 @@
+"""``imrosc record``: trace generation on ROS 1 (thesis section 3.2).
+
+rosbag records topics only. ``imrosc record`` runs ``rosbag record`` on the topics of a
+configuration's scope together with imrosc's recording node (``node/imrosc_recorder.py``, a
+rospy script run under the robot's Python), which adds what rosbag misses, as the records of
+``docs/record-format.md``: the node graph (``/imrosc/arch``), the parameters
+(``/imrosc/params``) and every call of the scope's services (``/imrosc/srvs``), relayed
+through the recorder from servers remapped to ``/rec/<srv>`` (Figure 3.4).
+
+* :mod:`imrosc.record.scope`: what a configuration needs recorded;
+* :mod:`imrosc.record.master`: the master over XML-RPC (is there one, what is its graph);
+* :mod:`imrosc.record.launch`: the launch-file copy with the servers remapped;
+* :mod:`imrosc.record.session`: starting and stopping rosbag and the node in order;
+* :mod:`imrosc.record.command`: the command line.
+"""

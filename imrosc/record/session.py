@@ -1,0 +1,404 @@
+"""One recording: ``rosbag record`` and the recording node, started and stopped in order.
+
+Start: ``rosbag record`` first (as the node ``/imrosc_rosbag_<pid>``), and once the master
+lists its subscriptions, the recording node (``/imrosc_recorder_<pid>``, the script
+``node/imrosc_recorder.py`` under the ROS Python). The node publishes nothing before rosbag
+is connected to its three record topics, then publishes the first snapshots, starts its
+relays and says ``ready``: from then on nothing it records can be lost.
+
+Stop (Ctrl-C, SIGTERM, the duration, or a process that died): the node first (its relays are
+withdrawn, calls in flight answered and recorded, every record published), then, after a
+short grace so that rosbag has stored the last records, ``rosbag record`` with SIGINT, which
+closes and indexes the bag (``<name>.bag.active`` becomes ``<name>.bag``). Both run in
+sessions of their own, so a Ctrl-C in the terminal reaches imrosc only and the order holds;
+if imrosc itself dies they get SIGINT from the kernel (``PR_SET_PDEATHSIG``).
+
+Their output goes to ``<output>/.imrosc/`` (a hidden folder: bag discovery skips it).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import queue
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from imrosc import records
+from imrosc.bags import BagError, open_bag
+from imrosc.record.master import MasterError, system_state
+from imrosc.record.scope import Scope
+
+__all__ = [
+    "LOG_FOLDER",
+    "RECORDER_SCRIPT",
+    "ROS_PYTHON",
+    "Outcome",
+    "RecordError",
+    "Recording",
+    "Settings",
+    "find_rosbag_record",
+]
+
+RECORDER_SCRIPT = Path(__file__).resolve().parent / "node" / "imrosc_recorder.py"
+ROS_PYTHON = "/usr/bin/python3"
+LOG_FOLDER = ".imrosc"
+STOP_GRACE = 0.5
+"""Seconds between the recording node's exit and SIGINT to rosbag: rosbag stores the last
+records it was sent (they are on its socket already)."""
+_PROBE = (
+    "import rospy, std_msgs.msg, roslib.packages as p\n"
+    "found = p.find_node('rosbag', 'record')\n"
+    "print(found[0] if found else '')\n"
+)
+
+
+class RecordError(Exception):
+    """Recording cannot start or did not end well; the message is one line."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How to record (the options of ``imrosc record``)."""
+
+    output: Path
+    name: str
+    period: float = 1.0
+    all_topics: bool = False
+    all_params: bool = False
+    python: str = ROS_PYTHON
+    prefix: str = "/rec"
+    ready_timeout: float = 30.0
+
+    @property
+    def bag(self) -> Path:
+        return self.output / f"{self.name}.bag"
+
+    @property
+    def logs(self) -> Path:
+        return self.output / LOG_FOLDER
+
+
+@dataclass
+class Outcome:
+    """What a finished recording holds."""
+
+    bag: Path
+    seconds: float = 0.0
+    messages: dict[str, int] = field(default_factory=dict)
+    published: dict[str, int] = field(default_factory=dict)
+    calls: dict[str, int] = field(default_factory=dict)
+    relayed: set[str] = field(default_factory=set)
+
+
+def child_environment(environment: Mapping[str, str], uri: str) -> dict[str, str]:
+    """The environment of rosbag and the node: ours, with the master, without a namespace
+    (the node names must be the ones imrosc chose) or a foreign Python home.
+
+    >>> env = child_environment({"ROS_NAMESPACE": "/a", "PATH": "/bin"}, "http://h:1")
+    >>> sorted(env.items())
+    [('PATH', '/bin'), ('PYTHONUNBUFFERED', '1'), ('ROS_MASTER_URI', 'http://h:1')]
+    """
+    env = {k: v for k, v in environment.items() if k not in ("ROS_NAMESPACE", "PYTHONHOME")}
+    env["ROS_MASTER_URI"] = uri
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+def find_rosbag_record(python: str, env: Mapping[str, str]) -> str:
+    """The ``rosbag record`` program, as the ROS Python finds it (which also proves that
+    rospy is importable there)."""
+    try:
+        done = subprocess.run(
+            [python, "-c", _PROBE],
+            env=dict(env),
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+    except (OSError, subprocess.TimeoutExpired) as error:
+        raise RecordError(f"cannot run the ROS Python {python}: {error}") from None
+    if done.returncode != 0:
+        last = (done.stderr.strip().splitlines() or ["it failed"])[-1]
+        raise RecordError(f"the ROS Python {python} cannot import rospy: {last}")
+    found = done.stdout.strip()
+    if not found:
+        raise RecordError(f"the ROS Python {python} finds no 'rosbag record' (rosbag missing?)")
+    return found
+
+
+def _parent_death_signal() -> Callable[[], None] | None:
+    """What makes a child get SIGINT from the kernel when imrosc dies (Linux's
+    ``PR_SET_PDEATHSIG``), so that rosbag still closes the bag; None where there is none.
+
+    Everything is looked up here, before the fork: the child only calls into libc.
+    """
+    try:
+        import ctypes
+
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+    request, number = 1, int(signal.SIGINT)  # PR_SET_PDEATHSIG
+
+    def ask() -> None:  # pragma: no cover - runs in the child, between fork and exec
+        prctl(request, number)
+
+    return ask
+
+
+def _tail(path: Path) -> str:
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").strip().splitlines()
+    except OSError:
+        return ""
+    return lines[-1].strip() if lines else ""
+
+
+class _Child:
+    """A process of the recording, in a session of its own, with a log file."""
+
+    def __init__(
+        self,
+        name: str,
+        command: list[str],
+        env: Mapping[str, str],
+        log: Path,
+        stdout: int | IO[bytes] | None = None,
+    ) -> None:
+        self.name = name
+        self.log = log
+        with log.open("wb") as out:
+            self.popen = subprocess.Popen(
+                command,
+                env=dict(env),
+                stdin=subprocess.DEVNULL,
+                stdout=out if stdout is None else stdout,
+                stderr=out,
+                start_new_session=True,
+                preexec_fn=_parent_death_signal(),  # noqa: PLW1509 - only a libc call
+            )
+
+    @property
+    def alive(self) -> bool:
+        return self.popen.poll() is None
+
+    def interrupt(self, timeout: float) -> bool:
+        """SIGINT (what Ctrl-C sends) and wait; SIGKILL after ``timeout``. True if clean."""
+        if not self.alive:
+            return True
+        with contextlib.suppress(ProcessLookupError):
+            self.popen.send_signal(signal.SIGINT)
+        try:
+            self.popen.wait(timeout)
+            return True
+        except subprocess.TimeoutExpired:
+            self.popen.kill()
+            self.popen.wait()
+            return False
+
+    def died(self) -> str:
+        """``rosbag record exited with status 1: its last line`` (or ``was killed``)."""
+        status = self.popen.returncode
+        how = f"was killed (signal {-status})" if status < 0 else f"exited with status {status}"
+        last = _tail(self.log)
+        return f"{self.name} {how}" + (f": {last}" if last else "")
+
+
+class Recording:
+    """Starts, watches and stops one recording; :meth:`finish` must always be called."""
+
+    def __init__(
+        self,
+        scope: Scope,
+        settings: Settings,
+        env: Mapping[str, str],
+        uri: str,
+        *,
+        say: Callable[[str], None],
+        warn: Callable[[str], None],
+    ) -> None:
+        self.scope = scope
+        self.settings = settings
+        self.env = dict(env)
+        self.uri = uri
+        self.say = say
+        self.warn = warn
+        tag = os.getpid()
+        self.rosbag_name = f"/imrosc_rosbag_{tag}"
+        self.node_name = f"/imrosc_recorder_{tag}"
+        self.rosbag: _Child | None = None
+        self.node: _Child | None = None
+        self.events: queue.Queue[dict[str, Any]] = queue.Queue()
+        self.reader: threading.Thread | None = None
+        self.ready = False
+        self.failure: str | None = None
+        self.outcome = Outcome(settings.bag)
+        self.started = 0.0
+
+    # -- start ----------------------------------------------------------------------------
+
+    def start(self, record_program: str, stop: threading.Event) -> bool:
+        """Start rosbag and the node; False if ``stop`` was set before they were ready."""
+        settings = self.settings
+        settings.logs.mkdir(parents=True, exist_ok=True)
+        topics = ["-a"] if settings.all_topics else [*self.scope.topics, *records.RECORD_TOPICS]
+        command = [
+            record_program,
+            "-O",
+            str(settings.bag),
+            f"__name:={self.rosbag_name.lstrip('/')}",
+            *topics,
+        ]
+        self.rosbag = _Child("rosbag record", command, self.env, settings.logs / "rosbag.log")
+        wanted = () if settings.all_topics else (*self.scope.topics, *records.RECORD_TOPICS)
+        if not self._wait(lambda: self._subscribed(wanted), stop, "rosbag record to subscribe"):
+            return False
+        spec = {
+            "node": self.node_name,
+            "rosbag": self.rosbag_name,
+            "services": list(self.scope.services),
+            "params": None if settings.all_params else list(self.scope.params),
+            "period": settings.period,
+            "prefix": settings.prefix,
+            "ready_timeout": settings.ready_timeout,
+        }
+        command = [settings.python, str(RECORDER_SCRIPT), json.dumps(spec)]
+        self.node = _Child(
+            "the recording node",
+            command,
+            self.env,
+            settings.logs / "recorder.log",
+            stdout=subprocess.PIPE,
+        )
+        assert self.node.popen.stdout is not None
+        self.reader = threading.Thread(
+            target=self._read, args=(self.node.popen.stdout,), daemon=True
+        )
+        self.reader.start()
+        if not self._wait(lambda: self.ready, stop, "the recording node"):
+            return False
+        self.started = time.monotonic()
+        return True
+
+    def _subscribed(self, topics: tuple[str, ...]) -> bool:
+        """Whether rosbag subscribes to every topic (with ``-a`` there is nothing to wait
+        for here: the node waits until rosbag is connected to the record topics)."""
+        if not topics:
+            return True
+        try:
+            state = system_state(self.uri)
+        except MasterError as error:
+            raise RecordError(str(error)) from None
+        return all(self.rosbag_name in state.subscribers.get(topic, ()) for topic in topics)
+
+    def _wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
+        deadline = time.monotonic() + self.settings.ready_timeout + 10.0
+        while not stop.is_set():
+            self.pump()
+            self._check_children()
+            if done():
+                return True
+            if time.monotonic() > deadline:
+                raise RecordError(f"timed out waiting for {what}")
+            stop.wait(0.05)
+        return False
+
+    # -- while recording --------------------------------------------------------------------
+
+    def _read(self, stream: IO[bytes]) -> None:
+        """The node's standard output: its events, one JSON object a line."""
+        with self.settings.logs.joinpath("recorder.events").open("ab") as log:
+            for line in stream:
+                try:
+                    event = json.loads(line)
+                except ValueError:
+                    event = None
+                if isinstance(event, dict) and "event" in event:
+                    self.events.put(event)
+                else:
+                    log.write(line)
+
+    def pump(self) -> None:
+        """Handle what the node said since the last call."""
+        while True:
+            try:
+                event = self.events.get_nowait()
+            except queue.Empty:
+                return
+            kind = event.get("event")
+            if kind == "ready":
+                self.ready = True
+            elif kind == "warning":
+                self.warn(str(event.get("message", "")))
+            elif kind == "error":
+                self.failure = str(event.get("message", ""))
+            elif kind == "relay":
+                service = str(event.get("service", ""))
+                self.outcome.relayed.add(service)
+                raw = " (raw: its type cannot be imported)" if event.get("raw") else ""
+                self.say(f"relaying {service} ({event.get('type')}) to {event.get('target')}{raw}")
+            elif kind == "unrelay":
+                self.say(f"{event.get('service')}: its server is gone; relay withdrawn")
+            elif kind == "stats":
+                self.outcome.published = dict(event.get("published") or {})
+                self.outcome.calls = dict(event.get("calls") or {})
+
+    def _check_children(self) -> None:
+        for child in (self.rosbag, self.node):
+            if child is not None and not child.alive:
+                if child is self.node and self.failure:
+                    raise RecordError(f"the recording node stopped: {self.failure}")
+                raise RecordError(child.died())
+
+    def run(self, stop: threading.Event, duration: float | None) -> None:
+        """Record until ``stop`` is set or ``duration`` seconds have passed."""
+        end = None if duration is None else self.started + duration
+        while not stop.is_set():
+            self.pump()
+            self._check_children()
+            now = time.monotonic()
+            if end is not None and now >= end:
+                return
+            stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
+
+    # -- stop -----------------------------------------------------------------------------
+
+    def finish(self) -> Outcome:
+        """Stop the node, then rosbag; check and count the bag."""
+        ended = time.monotonic()
+        if self.node is not None:
+            if not self.node.interrupt(15.0):
+                self.warn("the recording node did not stop in time and was killed")
+            if self.reader is not None:
+                self.reader.join(5.0)
+            self.pump()
+            time.sleep(STOP_GRACE)
+        if self.rosbag is not None and not self.rosbag.interrupt(30.0):
+            self.warn("rosbag record did not stop in time and was killed")
+        self.outcome.seconds = max(0.0, ended - self.started) if self.started else 0.0
+        bag = self.settings.bag
+        active = bag.with_name(bag.name + ".active")
+        if active.exists():
+            raise RecordError(
+                f"rosbag did not close {active}; 'rosbag reindex {active}' may repair it"
+            )
+        if self.rosbag is None or not bag.exists():
+            raise RecordError(f"no bag was written ({self.rosbag.died() if self.rosbag else ''})")
+        try:
+            with open_bag(bag) as reader:
+                counts: dict[str, int] = {}
+                for connection in reader.connections:
+                    counts[connection.topic] = counts.get(connection.topic, 0) + connection.msgcount
+        except BagError as error:
+            raise RecordError(f"{bag}: {error.message}") from None
+        self.outcome.messages = counts
+        return self.outcome

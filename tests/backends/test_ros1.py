@@ -1,0 +1,884 @@
+"""Backend ``ros1``: the catkin package it renders, its flatteners, its adapter's decisions,
+and the guarantee that nothing from a configuration or an invariants file becomes code."""
+
+from __future__ import annotations
+
+import io
+import itertools
+import json
+import math
+import os
+import py_compile
+import shutil
+import stat
+import subprocess
+import sys
+import tokenize
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from lxml import etree
+from rosbags.interfaces import Nodetype
+
+from imrosc import __version__
+from imrosc.backends.registry import GENERATED_MARK, Executable
+from imrosc.cli import main
+from imrosc.monitor_ros1 import logic
+from imrosc.replay import Replayer
+from imrosc.runtime import Violation
+from imrosc.runtime.flatten import make_flattener
+from imrosc.sim import Scenario, write_runs
+from tests.backends.test_monitor_spec import (
+    ROOT,
+    STORE,
+    build_ros1,
+    config_text,
+    import_adapter,
+    invariants_document,
+    landing_sim,  # noqa: F401 - a session fixture
+    write_case,
+    write_package,
+)
+
+PACKAGE = "landing_sim_monitor"
+RUNTIME = ROOT / "imrosc" / "runtime"
+ADAPTER = ROOT / "imrosc" / "monitor_ros1"
+ROS_PYTHON = Path("/usr/bin/python3")
+
+
+def landing_files(folder: Path) -> dict[str, bytes]:
+    result = build_ros1(folder / "landing_sim.xml", [folder / "landing_sim.graph.yaml"])
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    return result.files
+
+
+@pytest.fixture(scope="module")
+def landing_package(landing_sim: Path) -> dict[str, bytes]:  # noqa: F811
+    return landing_files(landing_sim)
+
+
+def python_files(files: Mapping[str, bytes]) -> dict[str, bytes]:
+    return {
+        name: content
+        for name, content in files.items()
+        if name.endswith(".py") or isinstance(content, Executable)
+    }
+
+
+# -- the package ----------------------------------------------------------------------------
+
+
+def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
+    runtime = {f"scripts/imrosc_runtime/{p.name}" for p in RUNTIME.glob("*.py")}
+    adapter = {f"scripts/imrosc_monitor/{p.name}" for p in ADAPTER.glob("*.py")}
+    expected = {
+        "package.xml",
+        "CMakeLists.txt",
+        "config/invariants.json",
+        f"launch/{PACKAGE}.launch",
+        f"scripts/{PACKAGE}",
+        f"scripts/{PACKAGE}_watchdog",
+        "scripts/imrosc_monitor/flatteners.py",
+        "scripts/imrosc_monitor/spec.json",
+        *runtime,
+        *adapter,
+    }
+    assert set(landing_package) == {f"{PACKAGE}/{name}" for name in expected}
+    for name in (f"scripts/{PACKAGE}", f"scripts/{PACKAGE}_watchdog"):
+        script = landing_package[f"{PACKAGE}/{name}"]
+        assert isinstance(script, Executable)
+        assert script.startswith(b"#!/usr/bin/env python3\n")
+
+
+def test_the_runtime_and_the_adapter_are_carried_unchanged(
+    landing_package: dict[str, bytes],
+) -> None:
+    for folder, source in (("imrosc_runtime", RUNTIME), ("imrosc_monitor", ADAPTER)):
+        for path in source.glob("*.py"):
+            copy = landing_package[f"{PACKAGE}/scripts/{folder}/{path.name}"].decode()
+            assert copy.startswith("# " + GENERATED_MARK)
+            lines = copy.splitlines(keepends=True)
+            banner = 1 + sum(
+                1 for _ in itertools.takewhile(lambda x: x.startswith("#   "), lines[1:])
+            )
+            assert "".join(lines[banner:]) == path.read_text(encoding="utf-8")
+
+
+def test_every_file_names_generator_version_and_config(
+    landing_package: dict[str, bytes],
+    landing_sim: Path,  # noqa: F811
+) -> None:
+    source = "".join(str(landing_sim / "landing_sim.xml").split())
+    for name, content in landing_package.items():
+        head = content[:4096].decode("utf-8")
+        assert GENERATED_MARK in head, name
+        assert __version__ in head and "backend ros1" in head, name
+        assert source in "".join(head.replace("#", "").split()), name  # comments wrap paths
+
+
+def test_package_xml_is_format_2_with_its_dependencies(landing_package: dict[str, bytes]) -> None:
+    root = etree.fromstring(landing_package[f"{PACKAGE}/package.xml"])
+    assert root.tag == "package" and root.get("format") == "2"
+    assert root.findtext("name") == PACKAGE
+    depends = {e.text for e in root.iter("exec_depend")}
+    assert {"rospy", "std_msgs", "geometry_msgs", "sensor_msgs", "python3-numpy"} <= depends
+    assert root.findtext("buildtool_depend") == "catkin"
+    cmake = landing_package[f"{PACKAGE}/CMakeLists.txt"].decode()
+    assert f"project({PACKAGE})" in cmake
+    assert (
+        f"catkin_install_python(\n  PROGRAMS scripts/{PACKAGE} scripts/{PACKAGE}_watchdog" in cmake
+    )
+
+
+def test_the_monitor_launch_file_starts_the_node_with_its_parameters(
+    landing_package: dict[str, bytes],
+) -> None:
+    root = etree.fromstring(landing_package[f"{PACKAGE}/launch/{PACKAGE}.launch"])
+    node, watchdog = root.iter("node")
+    assert (node.get("pkg"), node.get("type"), node.get("name")) == (PACKAGE, PACKAGE, PACKAGE)
+    params = {p.get("name"): p.get("value") for p in node.iter("param")}
+    assert params["invariants"] == "$(arg invariants)"
+    assert params["namespace"] == "/m"
+    args = {a.get("name"): a.get("default") for a in root.iter("arg")}
+    assert args["invariants"] == f"$(find {PACKAGE})/config/invariants.json"
+    assert args["period"] == "0.5" and args["fail_open"] == "false"
+    assert watchdog.get("if") == "$(arg fail_open)"
+
+
+def test_python_compiles_and_passes_ruff_for_python_38(
+    landing_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    package = write_package(landing_package, tmp_path)
+    scripts = []
+    for name in python_files(landing_package):
+        path = tmp_path / name
+        py_compile.compile(str(path), doraise=True, cfile=str(tmp_path / "compiled.pyc"))
+        scripts.append(str(path))
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "ruff",
+            "check",
+            "--no-cache",
+            "--config",
+            str(RUNTIME / "ruff.toml"),  # the project's rules, target Python 3.8
+            *scripts,
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=package,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def python38() -> str | None:
+    """A Python 3.8 interpreter that runs (a pyenv shim may name one that is not enabled)."""
+    candidates = [
+        shutil.which("python3.8"),
+        *map(str, Path.home().glob(".pyenv/versions/3.8*/bin/python3.8")),
+    ]
+    for candidate in candidates:
+        if candidate is None:
+            continue
+        probe = subprocess.run([candidate, "-c", "pass"], capture_output=True, check=False)
+        if probe.returncode == 0:
+            return candidate
+    return None
+
+
+def test_python_3_8_compiles_every_generated_file(
+    landing_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    interpreter = python38()
+    if interpreter is None:
+        pytest.skip("no working python3.8")
+    write_package(landing_package, tmp_path)
+    script = (
+        "import ast, sys\n"
+        "for path in sys.argv[1:]:\n"
+        "    ast.parse(open(path, encoding='utf-8').read(), path, feature_version=(3, 8))\n"
+        "    compile(open(path, encoding='utf-8').read(), path, 'exec')\n"
+    )
+    paths = [str(tmp_path / name) for name in python_files(landing_package)]
+    done = subprocess.run(
+        [interpreter, "-I", "-c", script, *paths],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_two_builds_give_identical_bytes(landing_sim: Path) -> None:  # noqa: F811
+    assert landing_files(landing_sim) == landing_files(landing_sim)
+
+
+def test_the_invariants_copy_is_the_same_document(
+    landing_package: dict[str, bytes],
+    landing_sim: Path,  # noqa: F811
+) -> None:
+    original = json.loads((landing_sim / "landing_sim.inv").read_text())
+    copy = json.loads(landing_package[f"{PACKAGE}/config/invariants.json"])
+    assert GENERATED_MARK in copy.pop("$comment")
+    original.pop("$comment")
+    assert copy == original
+
+
+def test_build_writes_an_executable_package_and_keeps_foreign_files(
+    landing_sim: Path,  # noqa: F811
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "out"
+    args = [
+        "build",
+        str(landing_sim / "landing_sim.xml"),
+        "--backend",
+        "ros1",
+        "-o",
+        str(out),
+        "--graph",
+        str(landing_sim / "landing_sim.graph.yaml"),
+    ]
+    runner = CliRunner()
+    first = runner.invoke(main, args)
+    assert first.exit_code == 0, first.output
+    script = out / PACKAGE / "scripts" / PACKAGE
+    assert script.stat().st_mode & stat.S_IXUSR
+    assert os.access(out / PACKAGE / "scripts" / f"{PACKAGE}_watchdog", os.X_OK)
+    assert not os.access(out / PACKAGE / "package.xml", os.X_OK)
+    again = runner.invoke(main, args)  # its own files: overwritten quietly
+    assert again.exit_code == 0, again.output
+    foreign = out / PACKAGE / "CMakeLists.txt"
+    foreign.write_text("# my own build\n")
+    refused = runner.invoke(main, args)
+    assert refused.exit_code == 1
+    assert "not generated by imrosc; use --force" in refused.output
+    assert "Traceback" not in refused.output
+    assert foreign.read_text() == "# my own build\n"
+    forced = runner.invoke(main, [*args, "--force"])
+    assert forced.exit_code == 0
+    assert GENERATED_MARK in foreign.read_text()
+
+
+def test_bad_input_exits_non_zero_with_a_diagnostic_and_no_traceback(tmp_path: Path) -> None:
+    config = write_case(tmp_path, config_text(monitor=""), None)
+    result = CliRunner().invoke(main, ["build", str(config), "--backend", "ros1"])
+    assert result.exit_code == 1
+    assert f"{config}:1:1: error:" in result.output and "[monitor-missing]" in result.output
+    assert "Traceback" not in result.output
+
+
+# -- the flatteners -------------------------------------------------------------------------
+
+_DTYPES = {"byte": "uint8", "char": "uint8"}
+
+
+def _scalar(kind: str, rng: np.random.Generator) -> Any:
+    if kind == "string":
+        return f"frame{int(rng.integers(3))}"
+    if kind == "bool":
+        return bool(rng.random() < 0.5)
+    if kind.startswith("float"):
+        draw = rng.random()
+        return math.nan if draw < 0.1 else math.inf if draw < 0.15 else float(rng.normal())
+    return int(rng.integers(0, 100))
+
+
+def make_message(msgtype: str, rng: np.random.Generator) -> Any:
+    """A message of a rosbags type with random values (NaN, inf, empty arrays included)."""
+    fields: Any = STORE.fielddefs[msgtype][1]
+    values: dict[str, Any] = {}
+    for name, (nodetype, detail) in fields:
+        if nodetype == Nodetype.BASE:
+            values[name] = _scalar(detail[0], rng)
+        elif nodetype == Nodetype.NAME:
+            values[name] = make_message(detail, rng)
+        else:
+            (element, element_detail), size = detail
+            count = size or int(rng.integers(0, 6))
+            if element == Nodetype.BASE and element_detail[0] == "string":
+                values[name] = [_scalar("string", rng) for _ in range(count)]
+            elif element == Nodetype.BASE:
+                dtype = _DTYPES.get(element_detail[0], element_detail[0])
+                items = [_scalar(element_detail[0], rng) for _ in range(count)]
+                values[name] = np.array(items, dtype=dtype)
+            else:
+                values[name] = [make_message(element_detail, rng) for _ in range(count)]
+    return STORE.types[msgtype](**values)
+
+
+def assert_same_values(got: Sequence[Any], expected: Sequence[Any]) -> None:
+    assert len(got) == len(expected)
+    for mine, theirs in zip(got, expected, strict=True):
+        assert type(mine) is type(theirs), (mine, theirs)
+        if isinstance(mine, float) and math.isnan(mine):
+            assert math.isnan(theirs)
+        else:
+            assert mine == theirs
+
+
+FLAT_TYPES = {
+    "/pose": "geometry_msgs/msg/PoseStamped",
+    "/imu": "sensor_msgs/msg/Imu",
+    "/scan": "sensor_msgs/msg/LaserScan",
+    "/text": "std_msgs/msg/String",
+    "/level": "std_msgs/msg/UInt8",
+    "/battery": "sensor_msgs/msg/BatteryState",
+}
+
+
+def flattener_document() -> dict[str, Any]:
+    document = invariants_document(FLAT_TYPES)
+    battery = document["topics"]["/battery"]["variables"]
+    for index in (0, 1, 7):  # elements of a short array, as inference lays them out
+        battery.append(
+            {
+                "name": f"battery.cell_voltage[{index}]",
+                "type": "float",
+                "topic": "/battery",
+                "path": f"cell_voltage[{index}]",
+                "derived": None,
+                "trigger": True,
+            }
+        )
+    return document
+
+
+@pytest.fixture(scope="module")
+def flat_package(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
+    folder = tmp_path_factory.mktemp("flat")
+    document = flattener_document()
+    scope = "\n    ".join(
+        f'<publish id="{ident}">{topic}</publish>'
+        for ident, topic in zip("abcdef", sorted(FLAT_TYPES), strict=True)
+    )
+    config = write_case(folder, config_text(scope=scope), document)
+    result = build_ros1(config)
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    return write_package(result.files, folder / "out"), document
+
+
+def test_generated_flatteners_equal_make_flattener(
+    flat_package: tuple[Path, dict[str, Any]],
+) -> None:
+    package, document = flat_package
+    flatteners = import_adapter(package).FLATTENERS
+    assert set(flatteners) == set(FLAT_TYPES)
+    rng = np.random.default_rng(3)
+    with np.errstate(all="ignore"):
+        for topic, msgtype in FLAT_TYPES.items():
+            reference = make_flattener(document["topics"][topic]["variables"])
+            for _ in range(25):
+                message = make_message(msgtype, rng)
+                assert_same_values(flatteners[topic](message), reference(message))
+
+
+def test_generated_flatteners_read_broken_messages_like_make_flattener(
+    flat_package: tuple[Path, dict[str, Any]],
+) -> None:
+    package, document = flat_package
+    flatteners = import_adapter(package).FLATTENERS
+    broken = [
+        SimpleNamespace(),
+        SimpleNamespace(header=None, data="7", cell_voltage=[1.5], ranges="ab", pose=None),
+        SimpleNamespace(data=None, cell_voltage=None, ranges=[], intensities=[1, "x"]),
+        SimpleNamespace(data=float("nan"), cell_voltage=(2.0, 3.0), ranges=[1.0, 2.0]),
+    ]
+    for topic in FLAT_TYPES:
+        reference = make_flattener(document["topics"][topic]["variables"])
+        for message in broken:
+            assert_same_values(flatteners[topic](message), reference(message))
+
+
+def test_replaying_with_generated_flatteners_finds_the_same_violations(
+    landing_package: dict[str, bytes],
+    landing_sim: Path,  # noqa: F811
+    tmp_path: Path,
+) -> None:
+    package = write_package(landing_package, tmp_path)
+    flatteners = import_adapter(package).FLATTENERS
+    (bag,) = write_runs(
+        tmp_path / "fail", runs=1, seed=7, fmt="ros1", duration=8.0, scenario=Scenario("slowed")
+    )
+    document = json.loads((landing_sim / "landing_sim.inv").read_text())
+    reference = Replayer(document).run(bag)
+    generated = Replayer(document)
+    assert set(generated.flatteners) == set(flatteners)
+    generated.flatteners = dict(flatteners)
+    mine = generated.run(bag)
+    assert reference.violations, "the faulty run should break invariants"
+    assert [v.as_json() for v in mine.violations] == [v.as_json() for v in reference.violations]
+
+
+_ROSPY_CHECK = r"""
+import json, math, random, sys
+sys.path.insert(0, sys.argv[1])
+import roslib.message
+from imrosc_monitor import flatteners
+from imrosc_runtime.flatten import make_flattener
+
+random.seed(5)
+
+def fill(message):
+    for name, kind in zip(message.__slots__, message._slot_types):
+        current = getattr(message, name)
+        if hasattr(current, "__slots__"):
+            fill(current)
+        elif kind in ("uint8[]", "char[]"):
+            setattr(message, name, bytes(random.randrange(256) for _ in range(3)))
+        elif kind.startswith("float") and kind.endswith("[]"):
+            setattr(message, name, [random.gauss(0, 1) for _ in range(random.randrange(5))])
+        elif kind.startswith("float") and "[" in kind:
+            setattr(message, name, tuple(random.gauss(0, 1) for _ in current))
+        elif kind.startswith("float"):
+            setattr(message, name, random.choice([random.gauss(0, 1), float("nan")]))
+        elif kind == "string":
+            setattr(message, name, random.choice(["map", "odom"]))
+        elif kind == "bool":
+            setattr(message, name, random.random() < 0.5)
+        elif "int" in kind and "[" not in kind:
+            setattr(message, name, random.randrange(100))
+    return message
+
+document = json.load(open(sys.argv[2]))
+for topic, info in document["topics"].items():
+    kind = info["type"].replace("/msg/", "/")
+    message_class = roslib.message.get_message_class(kind)
+    reference = make_flattener(info["variables"])
+    for _ in range(20):
+        message = fill(message_class())
+        got, expected = flatteners.FLATTENERS[topic](message), reference(message)
+        same = all(
+            (isinstance(a, float) and math.isnan(a) and math.isnan(b)) or a == b
+            for a, b in zip(got, expected)
+        )
+        assert same and len(got) == len(expected), (topic, got, expected)
+print("ok")
+"""
+
+
+def _has_rospy() -> bool:
+    if not ROS_PYTHON.exists():
+        return False
+    done = subprocess.run(
+        [str(ROS_PYTHON), "-c", "import rospy, numpy, roslib, sensor_msgs.msg"],
+        capture_output=True,
+        check=False,
+    )
+    return done.returncode == 0
+
+
+@pytest.mark.skipif(not _has_rospy(), reason="needs Debian's python3 with rospy and numpy")
+def test_generated_flatteners_equal_make_flattener_on_rospy_messages(
+    flat_package: tuple[Path, dict[str, Any]],
+) -> None:
+    package, _ = flat_package
+    done = subprocess.run(
+        [
+            str(ROS_PYTHON),
+            "-c",
+            _ROSPY_CHECK,
+            str(package / "scripts"),
+            str(package / "config" / "invariants.json"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stdout + done.stderr
+
+
+# -- nothing from the inputs becomes code ---------------------------------------------------
+
+MARKERS = ("zqsrc", "zqproj", "zqtopic", "zqvalue", "zqtext", "zqvar", "zqpoint", "zqframe")
+HOSTILE = "'); import os; os.system('zqvalue') #\"\"\" \\\n--> ]]> {{ }}"
+
+
+def _offsets(text: str) -> list[int]:
+    starts = [0]
+    for line in text.splitlines(keepends=True):
+        starts.append(starts[-1] + len(line))
+    return starts
+
+
+def _quoted_spans(text: str) -> list[tuple[int, int]]:
+    """Character spans of the string literals and comments of Python source."""
+    starts = _offsets(text)
+    spans = []
+    for token in tokenize.generate_tokens(io.StringIO(text).readline):
+        if token.type in (tokenize.STRING, tokenize.COMMENT) or (
+            sys.version_info >= (3, 12) and token.type == tokenize.FSTRING_MIDDLE
+        ):
+            (row, col), (end_row, end_col) = token.start, token.end
+            spans.append((starts[row - 1] + col, starts[end_row - 1] + end_col))
+    return spans
+
+
+def assert_markers_only_quoted(name: str, text: str) -> None:
+    spans = _quoted_spans(text)
+    for marker in MARKERS:
+        at = text.find(marker)
+        while at >= 0:
+            inside = any(start <= at and at + len(marker) <= end for start, end in spans)
+            assert inside, f"{marker} reaches code unquoted in {name}: {text[at - 60 : at + 40]!r}"
+            at = text.find(marker, at + 1)
+
+
+def hostile_case(folder: Path) -> Path:
+    document = invariants_document({"/zqtopic/cmd": "std_msgs/msg/UInt8"})
+    document["source"] = HOSTILE
+    variable = document["topics"]["/zqtopic/cmd"]["variables"][0]
+    variable["name"] = "zqvar" + HOSTILE
+    point = document["points"].pop("a")
+    point["variables"][0]["name"] = "zqvar" + HOSTILE
+    document["points"]["a?zqpoint" + HOSTILE] = {**point, "condition": "zqpoint" + HOSTILE}
+    document["points"]["a"] = point
+    document["invariants"] = [
+        {
+            "id": "zqtext" + HOSTILE,
+            "family": "one-of",
+            "kind": "one-of",
+            "point": "a",
+            "condition": None,
+            "variables": ["zqvar" + HOSTILE],
+            "params": {"values": [1], "zqframe": HOSTILE},
+            "text": "zqtext" + HOSTILE,
+            "support": {"samples": 1, "runs": 1},
+            "confidence": 1.0,
+        }
+    ]
+    value = json.dumps(HOSTILE)  # a double-quoted YAML scalar, escaped as JSON escapes it
+    monitor = (
+        '<monitor inv="demo.inv" launch="system.launch"><block>/zqtopic/cmd</block>'
+        f'<action id="f"><topic>/zqtopic/cmd</topic><value>{{data: {_xml(value)}, '
+        f"frame: zqframe}}</value></action><violation>a -> f</violation></monitor>"
+    )
+    config = write_case(
+        folder,
+        config_text(
+            project="zqproj", scope='<publish id="a">/zqtopic/cmd</publish>', monitor=monitor
+        ),
+        document,
+        name="zqsrc'\"--> x.xml",
+    )
+    (folder / "graph.yaml").write_text(
+        "version: 1\nnodes:\n  /zqtopic/driver:\n    publishes: [/zqtopic/cmd]\n"
+        "  /zqtopic/motor:\n    subscribes: [/zqtopic/cmd]\n"
+    )
+    (folder / "system.launch").write_text(
+        '<launch>\n  <node pkg="zqproj" type="motor" name="motor" ns="zqtopic"/>\n</launch>\n'
+    )
+    return config
+
+
+def _xml(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def test_no_string_from_the_inputs_reaches_generated_code_unquoted(tmp_path: Path) -> None:
+    config = hostile_case(tmp_path)
+    result = build_ros1(config, [tmp_path / "graph.yaml"])
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    files = result.files
+    code = python_files(files)
+    for name, content in code.items():
+        text = content.decode("utf-8")
+        compile(text, name, "exec")
+        assert_markers_only_quoted(name, text)
+    rendered = "".join(c.decode() for c in code.values())
+    assert all(marker in rendered for marker in ("zqsrc", "zqproj", "zqtopic"))  # not vacuous
+    assert "zqproj_monitor/launch/system_monitored.launch" in files
+    spec = json.loads(files["zqproj_monitor/scripts/imrosc_monitor/spec.json"])
+    assert spec["actions"]["f"]["value"] == {"data": HOSTILE, "frame": "zqframe"}
+    assert json.loads(files["zqproj_monitor/config/invariants.json"])["source"] == HOSTILE
+    for name, content in files.items():
+        if name.endswith((".xml", ".launch")):
+            etree.fromstring(content)  # the banner's hostile path stays inside its comment
+    assert HOSTILE not in "".join(c.decode() for c in python_files(files).values())
+
+
+@pytest.mark.parametrize("block", ["/a');import(os)", "/a;__import__('os')", "~private", "/{x}"])
+def test_names_that_try_to_inject_are_refused_before_rendering(tmp_path: Path, block: str) -> None:
+    document = invariants_document({"/cmd": "std_msgs/msg/UInt8"})
+    monitor = f'<monitor inv="demo.inv"><block>/cmd, {_xml(block)}</block></monitor>'
+    config = write_case(tmp_path, config_text(monitor=monitor), document)
+    result = build_ros1(config)
+    assert not result.ok and result.files == {}
+    assert "bad-name" in {d.code for d in result.diagnostics}
+
+
+def test_topic_names_in_the_invariants_file_that_try_to_inject_are_refused(
+    tmp_path: Path,
+) -> None:
+    document = invariants_document({"/cmd": "std_msgs/msg/UInt8"})
+    document["topics"]["/x': 1}; import os #"] = document["topics"]["/cmd"]
+    config = write_case(tmp_path, config_text(), document)
+    result = build_ros1(config)
+    assert result.files == {}
+    assert [d.code for d in result.diagnostics] == ["bad-name"]
+
+
+# -- the adapter's decisions, without ROS ---------------------------------------------------
+
+
+def violation(point: str = "a", **fields: Any) -> Violation:
+    values: dict[str, Any] = {
+        "time": 12.5,
+        "point": point,
+        "invariant": "i1",
+        "family": "bounds",
+        "kind": "range",
+        "text": "0 <= x <= 1",
+        "observed": 3.0,
+        "expected": "[0, 1]",
+    }
+    values.update(fields)
+    return Violation(**values)
+
+
+def test_actions_are_selected_by_scope_id_once_each() -> None:
+    found = [violation("a?cmd.data==3"), violation("v?1"), violation("a"), violation("q")]
+    assert logic.select_actions(found, {"a": ["f"], "v": ["g", "f"]}) == ["f", "g"]
+    assert logic.select_actions([violation("q")], {"a": ["f"]}) == []
+
+
+def test_the_warning_is_json_with_the_invariant_point_family_and_values() -> None:
+    broken = violation(observed=frozenset({"/b", "/a"}), family="architecture")
+    document = json.loads(logic.violation_json(broken, ["f"]))
+    assert document == {
+        "invariant": "i1",
+        "point": "a",
+        "family": "architecture",
+        "kind": "range",
+        "text": "0 <= x <= 1",
+        "observed": ["/a", "/b"],
+        "expected": "[0, 1]",
+        "time": 12.5,
+        "actions": ["f"],
+    }
+    odd = json.loads(logic.violation_json(violation(observed=(math.nan, np.float32(2.5)))))
+    assert odd["observed"] == ["nan", 2.5]
+
+
+STATE = [
+    [["/t", ["/a", "/mon", "/rogue"]], ["/m/t", ["/mon", "/sneaky"]], ["/rosout", ["/a", "/mon"]]],
+    [["/t", ["/mon"]], ["/m/t", ["/b"]], ["/m/broken_inv", ["/logger"]]],
+    [["/s", ["/server"]], ["/m/s", ["/mon"]]],
+]
+
+
+def test_the_logical_graph_folds_relays_back_and_leaves_the_monitor_out() -> None:
+    graph = logic.logical_graph(STATE, {"/mon", "/mon_watchdog"}, {"/t": "/m/t"}, {"/s": "/m/s"})
+    assert graph["pub"] == {
+        "/t": frozenset({"/a", "/rogue", "/sneaky"}),
+        "/rosout": frozenset({"/a"}),
+    }
+    assert graph["sub"] == {"/t": frozenset({"/b"}), "/m/broken_inv": frozenset({"/logger"})}
+    assert graph["srv"] == {"/s": frozenset({"/server"})}
+
+
+def test_unknown_publishers_are_unregistered_where_they_are_registered() -> None:
+    invariants = {
+        "i1": {"kind": "max_pubs", "params": {"resource": "/t", "nodes": ["/a"]}},
+        "i2": {"kind": "min_pubs", "params": {"resource": "/t", "nodes": ["/a"]}},
+    }
+    found = [
+        violation(
+            invariant="i1", family="architecture", kind="max_pubs", observed=["/rogue", "/sneaky"]
+        ),
+        violation(invariant="i2", family="architecture", kind="min_pubs", observed=["/a"]),
+        violation(invariant="i9", family="architecture", kind="max_pubs", observed=["/x"]),
+        violation(invariant="i1", family="architecture", kind="max_pubs", observed=["/mon"]),
+    ]
+    pairs = logic.to_unregister(found, invariants, STATE, {"/mon"}, {"/t": "/m/t"})
+    assert pairs == [("/rogue", "/t"), ("/sneaky", "/m/t")]
+
+
+class FakeMessage:
+    """A stand-in for a genpy message: ``__slots__`` and ``_slot_types``."""
+
+    __slots__: tuple[str, ...] = ()
+    _slot_types: tuple[str, ...] = ()
+
+    def __init__(self) -> None:
+        for name, kind in zip(self.__slots__, self._slot_types, strict=True):
+            default: Any = 0 if "int" in kind else 0.0 if "float" in kind else ""
+            default = [] if "[" in kind else False if kind == "bool" else default
+            setattr(self, name, CLASSES[kind]() if kind in CLASSES else default)
+
+
+class Vector3(FakeMessage):
+    __slots__ = ("x", "y", "z")
+    _slot_types = ("float64", "float64", "float64")
+
+
+class Twist(FakeMessage):
+    __slots__ = ("linear", "angular")  # noqa: RUF023 - genpy order
+    _slot_types = ("geometry_msgs/Vector3", "geometry_msgs/Vector3")
+
+
+class Everything(FakeMessage):
+    __slots__ = ("level", "flag", "name", "points", "raw", "gains", "twist")  # noqa: RUF023
+    _slot_types = (
+        "uint8",
+        "bool",
+        "string",
+        "geometry_msgs/Vector3[]",
+        "uint8[]",
+        "float32[3]",
+        "geometry_msgs/Twist",
+    )
+
+
+CLASSES: dict[str, type[FakeMessage]] = {
+    "geometry_msgs/Vector3": Vector3,
+    "geometry_msgs/Twist": Twist,
+}
+
+
+def test_fill_sets_fields_from_an_action_value() -> None:
+    value = {
+        "level": 3,
+        "flag": True,
+        "name": HOSTILE,
+        "points": [{"x": 1.5}, {"y": 2}],
+        "raw": [1, 2, 255],
+        "gains": [0.5, 1, 2.0],
+        "twist": {"linear": {"x": 0.5}, "angular": {"z": -0.2}},
+    }
+    message = logic.fill(Everything(), value, CLASSES.__getitem__)
+    assert (message.level, message.flag, message.name) == (3, True, HOSTILE)
+    assert [(p.x, p.y) for p in message.points] == [(1.5, 0.0), (0.0, 2.0)]
+    assert message.raw == b"\x01\x02\xff"
+    assert message.gains == [0.5, 1.0, 2.0]
+    assert (message.twist.linear.x, message.twist.angular.z) == (0.5, -0.2)
+
+
+@pytest.mark.parametrize(
+    ("value", "problem"),
+    [
+        ({"levle": 3}, "no such field"),
+        ({"level": 256}, "out of range"),
+        ({"level": -1}, "out of range"),
+        ({"level": 2.5}, "not an integer"),
+        ({"level": "3"}, "not an integer"),
+        ({"flag": "yes"}, "not a bool"),
+        ({"twist": {"linear": 3}}, "not a mapping"),
+        ({"twist": {"linear": {"w": 1}}}, "no such field"),
+        ({"points": {"x": 1}}, "not a list"),
+        ({"name": {"a": 1}}, "mapping"),
+    ],
+)
+def test_fill_refuses_values_that_do_not_fit(value: dict[str, Any], problem: str) -> None:
+    with pytest.raises(logic.FillError, match=problem):
+        logic.fill(Everything(), value, CLASSES.__getitem__)
+
+
+def test_a_service_call_becomes_request_response_and_delay_values() -> None:
+    class Stamp:
+        __slots__ = ("nsecs", "secs")
+
+        def __init__(self) -> None:
+            self.secs, self.nsecs = 3, 500_000_000
+
+    class Request(FakeMessage):
+        __slots__ = ("task_id", "names")  # noqa: RUF023 - pairs with _slot_types
+        _slot_types = ("int32", "string[]")
+        task_id: int
+        names: list[str]
+
+    class Response(FakeMessage):
+        __slots__ = ("status", "stamp")  # noqa: RUF023 - pairs with _slot_types
+        _slot_types = ("string", "time")
+        status: str
+        stamp: Any
+
+    request, response = Request(), Response()
+    request.task_id, request.names = 4, ["a", "b"]
+    response.status = "ok"
+    response.stamp = Stamp()
+    assert logic.message_values(request, response, 0.25) == {
+        "request.task_id": 4,
+        "len(request.names)": 2,
+        "response.status": "ok",
+        "response.stamp": 3.5,
+        "delay": 0.25,
+    }
+    assert logic.request_values(request) == {"request.task_id": 4, "len(request.names)": 2}
+
+
+def test_the_request_check_keeps_request_only_value_invariants_of_blocked_services() -> None:
+    variables = [
+        {"name": "srv.request.a", "path": "request.a"},
+        {"name": "srv.response.b", "path": "response.b"},
+        {"name": "srv.delay", "path": "delay"},
+    ]
+    document = {
+        "points": {
+            "c": {"kind": "call", "trigger": "/srv", "variables": variables},
+            "d": {"kind": "call", "trigger": "/other", "variables": variables},
+        },
+        "invariants": [
+            {"id": "i1", "point": "c", "family": "bounds", "variables": ["srv.request.a"]},
+            {"id": "i2", "point": "c", "family": "bounds", "variables": ["srv.response.b"]},
+            {
+                "id": "i3",
+                "point": "c",
+                "family": "order",
+                "variables": ["srv.request.a", "srv.delay"],
+            },
+            {"id": "i4", "point": "c", "family": "frequency", "variables": ["srv.request.a"]},
+            {"id": "i5", "point": "d", "family": "bounds", "variables": ["srv.request.a"]},
+        ],
+    }
+    reduced = logic.request_document(document, ["/srv"])
+    assert [i["id"] for i in reduced["invariants"]] == ["i1"]
+    assert reduced["points"] is document["points"]
+
+
+def test_parameters_are_polled_flattened_and_missing_ones_left_out() -> None:
+    server = {"/a/gain": 2.5, "/a/pid": {"p": 1, "i": [1, 2]}, "/a/mode": "fast"}
+
+    def read(name: str) -> Any:
+        return server[name]
+
+    assert logic.param_values(read, ["/a/gain", "/a/pid", "/a/missing", "/a/mode"]) == {
+        "/a/gain": 2.5,
+        "/a/pid.p": 1,
+        "len(/a/pid.i)": 2,
+        "/a/mode": "fast",
+    }
+
+
+def test_the_watchdog_relays_only_while_the_heartbeat_is_silent() -> None:
+    assert not logic.should_relay(10.0, 12.9, 3.0)
+    assert logic.should_relay(10.0, 13.1, 3.0)
+
+
+def test_the_adapter_keeps_python_3_8_syntax() -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys, vermin; sys.argv[0] = 'vermin'; sys.exit(vermin.main())",
+            "-t=3.8-",
+            "--no-tips",
+            "--violations",
+            "--eval-annotations",
+            str(ADAPTER),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr

@@ -1,0 +1,1229 @@
+"""Backend ``ros2``: the ament_python package it renders, its flatteners, its rclpy adapter's
+decisions, and the same violations as ROS 1 on a ROS 2 bag of the same run.
+
+ROS 2 cannot be installed here (README, "ROS 1 and ROS 2"): what the package is made of is
+checked by compiling, linting and parsing it, installing it the way colcon installs an
+ament_python package, and running its logic (the generated flatteners, the adapter's plain
+functions and the shared engine) on ROS 2 bags (sqlite3 and MCAP) read with rosbags.
+"""
+
+from __future__ import annotations
+
+import ast
+import configparser
+import importlib.util
+import itertools
+import json
+import math
+import os
+import py_compile
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType, SimpleNamespace
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from lxml import etree
+from rosbags.highlevel import AnyReader
+from rosbags.interfaces import Nodetype
+from rosbags.typesys import Stores, get_typestore
+
+from imrosc import __version__, records
+from imrosc.backends.registry import GENERATED_MARK
+from imrosc.build import BuildResult, build
+from imrosc.cli import main
+from imrosc.detect import run_detect
+from imrosc.invariants import dumps
+from imrosc.monitor_ros1 import logic as ros1_logic
+from imrosc.monitor_ros2 import logic
+from imrosc.msgtypes import flatten
+from imrosc.runtime import Engine, Violation
+from imrosc.runtime.flatten import make_flattener
+from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
+from imrosc.sim.recording import START_NS
+from imrosc.translate.layout import short_names, topic_layout
+from tests.backends.test_monitor_spec import (
+    EXAMPLES,
+    ROOT,
+    build_ros1,
+    config_text,
+    import_adapter,
+    write_case,
+    write_package,
+)
+from tests.backends.test_ros1 import (
+    HOSTILE,
+    _xml,
+    assert_markers_only_quoted,
+    assert_same_values,
+    hostile_case,
+    python38,
+)
+
+PACKAGE = "landing_sim_monitor"
+RUNTIME = ROOT / "imrosc" / "runtime"
+ADAPTER = ROOT / "imrosc" / "monitor_ros2"
+ROS1_ADAPTER = ROOT / "imrosc" / "monitor_ros1"
+SHARED = ("flat.py", "logic.py")
+VENDOR = f"{PACKAGE}/imrosc"
+STORE2 = get_typestore(Stores.ROS2_HUMBLE)
+OWN = frozenset({f"/{PACKAGE}", f"/{PACKAGE}_watchdog"})
+_COUNTER = itertools.count()
+
+
+def build_ros2(config: Path, graph: Sequence[Path] = (), bags: Sequence[Path] = ()) -> BuildResult:
+    """``imrosc build --backend ros2`` without writing."""
+    return build(config, "ros2", graph_files=graph, bags=bags)
+
+
+@pytest.fixture(scope="module")
+def landing_ros2(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """examples/landing_sim.xml with its graph and invariants inferred from two short
+    simulated nominal runs written as ROS 2 (sqlite3) bags."""
+    folder = tmp_path_factory.mktemp("landing_ros2")
+    for name in ("landing_sim.xml", "landing_sim.graph.yaml"):
+        shutil.copy(EXAMPLES / name, folder / name)
+    write_runs(folder / "bags" / "nominal", runs=2, seed=0, fmt="sqlite3", duration=8.0)
+    result = run_detect(
+        folder / "landing_sim.xml", workers=1, graph_files=[folder / "landing_sim.graph.yaml"]
+    )
+    assert result.document is not None, [d.as_text() for d in result.diagnostics]
+    (folder / "landing_sim.inv").write_text(dumps(result.document), encoding="utf-8")
+    return folder
+
+
+def landing_files(folder: Path) -> dict[str, bytes]:
+    result = build_ros2(folder / "landing_sim.xml", [folder / "landing_sim.graph.yaml"])
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    return result.files
+
+
+@pytest.fixture(scope="module")
+def landing_package(landing_ros2: Path) -> dict[str, bytes]:
+    return landing_files(landing_ros2)
+
+
+def python_files(files: Mapping[str, bytes]) -> dict[str, bytes]:
+    return {name: content for name, content in files.items() if name.endswith(".py")}
+
+
+def import_package(package: Path) -> ModuleType:
+    """Import a written package's Python package under a fresh name; its ``main``."""
+    name = f"ros2_monitor_test_{next(_COUNTER)}"
+    copy = package.parent / f"{name}_src" / name
+    shutil.copytree(package / package.name, copy)
+    spec = importlib.util.spec_from_file_location(
+        name, copy / "__init__.py", submodule_search_locations=[str(copy)]
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return importlib.import_module(f"{name}.main")
+
+
+# -- the package ----------------------------------------------------------------------------
+
+
+def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
+    runtime = {f"{VENDOR}/runtime/{p.name}" for p in RUNTIME.glob("*.py")}
+    adapter = {f"{VENDOR}/monitor_ros2/{p.name}" for p in ADAPTER.glob("*.py")}
+    shared = {f"{VENDOR}/monitor_ros1/{name}" for name in (*SHARED, "__init__.py")}
+    expected = {
+        "package.xml",
+        "setup.py",
+        "setup.cfg",
+        f"resource/{PACKAGE}",
+        "config/invariants.json",
+        f"launch/{PACKAGE}.launch.xml",
+        f"{PACKAGE}/__init__.py",
+        f"{PACKAGE}/main.py",
+        f"{PACKAGE}/flatteners.py",
+        f"{PACKAGE}/spec.json",
+        f"{VENDOR}/__init__.py",
+        *runtime,
+        *adapter,
+        *shared,
+    }
+    assert set(landing_package) == {f"{PACKAGE}/{name}" for name in expected}
+
+
+def _without_banner(text: str) -> str:
+    lines = text.splitlines(keepends=True)
+    banner = 1 + sum(1 for _ in itertools.takewhile(lambda x: x.startswith("#   "), lines[1:]))
+    return "".join(lines[banner:])
+
+
+def test_the_runtime_and_the_adapters_are_carried_unchanged(
+    landing_package: dict[str, bytes],
+) -> None:
+    sources = [(f"{VENDOR}/runtime", p) for p in RUNTIME.glob("*.py")]
+    sources += [(f"{VENDOR}/monitor_ros2", p) for p in ADAPTER.glob("*.py")]
+    sources += [(f"{VENDOR}/monitor_ros1", ROS1_ADAPTER / name) for name in SHARED]
+    for folder, path in sources:
+        copy = landing_package[f"{PACKAGE}/{folder}/{path.name}"].decode()
+        assert copy.startswith("# " + GENERATED_MARK)
+        assert _without_banner(copy) == path.read_text(encoding="utf-8"), path
+    # the rospy modules of the ROS 1 adapter stay behind
+    assert f"{PACKAGE}/{VENDOR}/monitor_ros1/node.py" not in landing_package
+
+
+def test_every_file_names_generator_version_and_config(
+    landing_package: dict[str, bytes], landing_ros2: Path
+) -> None:
+    source = "".join(str(landing_ros2 / "landing_sim.xml").split())
+    for name, content in landing_package.items():
+        head = content[:4096].decode("utf-8")
+        assert GENERATED_MARK in head, name
+        assert __version__ in head and "backend ros2" in head, name
+        assert source in "".join(head.replace("#", "").split()), name  # comments wrap paths
+
+
+def test_package_xml_is_format_3_for_ament_python(landing_package: dict[str, bytes]) -> None:
+    root = etree.fromstring(landing_package[f"{PACKAGE}/package.xml"])
+    assert root.tag == "package" and root.get("format") == "3"
+    assert root.findtext("name") == PACKAGE
+    assert root.findtext("version") == __version__
+    assert (root.findtext("description") or "").startswith("Monitor of the invariants of")
+    (maintainer,) = root.iter("maintainer")
+    assert maintainer.text and maintainer.get("email")
+    assert root.findtext("license") == "Apache-2.0"
+    assert [e.text for e in root.iter("buildtool_depend")] == ["ament_python"]
+    depends = [e.text or "" for e in root.iter("exec_depend")]
+    assert depends == sorted(set(depends))
+    assert {
+        "rclpy",
+        "std_msgs",
+        "rcl_interfaces",
+        "builtin_interfaces",
+        "python3-numpy",
+        "geometry_msgs",
+        "sensor_msgs",
+    } <= set(depends)
+    assert root.findtext("export/build_type") == "ament_python"
+    # REP 149's order: the elements format 3 requires come first, export last
+    tags = [child.tag for child in root if isinstance(child.tag, str)]
+    assert tags[:5] == ["name", "version", "description", "maintainer", "license"]
+    assert tags[-1] == "export"
+
+
+def setup_arguments(package: Path) -> dict[str, Any]:
+    """What ``setup.py`` passes to ``setuptools.setup`` (run with setup replaced)."""
+    captured: dict[str, Any] = {}
+    source = (package / "setup.py").read_text()
+    namespace: dict[str, Any] = {"__name__": "__main__", "__file__": str(package / "setup.py")}
+    code = compile(source.replace("from setuptools import setup", ""), "setup.py", "exec")
+    namespace["setup"] = lambda **kwargs: captured.update(kwargs)
+    exec(code, namespace)
+    return captured
+
+
+def test_setup_py_and_setup_cfg_describe_an_ament_python_package(
+    landing_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    package = write_package(landing_package, tmp_path)
+    tree = ast.parse((package / "setup.py").read_text())
+    assert any(isinstance(n, ast.ImportFrom) and n.module == "setuptools" for n in tree.body)
+    arguments = setup_arguments(package)
+    assert arguments["name"] == PACKAGE and arguments["version"] == __version__
+    for dotted in arguments["packages"]:
+        assert (package / dotted.replace(".", "/") / "__init__.py").is_file(), dotted
+    assert arguments["package_data"] == {PACKAGE: ["spec.json"]}
+    data = dict(arguments["data_files"])
+    assert data["share/ament_index/resource_index/packages"] == [f"resource/{PACKAGE}"]
+    assert data[f"share/{PACKAGE}"] == ["package.xml"]
+    assert data[f"share/{PACKAGE}/config"] == ["config/invariants.json"]
+    assert data[f"share/{PACKAGE}/launch"] == [f"launch/{PACKAGE}.launch.xml"]
+    for paths in data.values():
+        assert all((package / path).is_file() for path in paths)
+    scripts = arguments["entry_points"]["console_scripts"]
+    assert scripts == [
+        f"{PACKAGE} = {PACKAGE}.main:monitor",
+        f"{PACKAGE}_watchdog = {PACKAGE}.main:watchdog",
+    ]
+    main_tree = ast.parse((package / PACKAGE / "main.py").read_text())
+    functions = {n.name for n in main_tree.body if isinstance(n, ast.FunctionDef)}
+    assert {"monitor", "watchdog"} <= functions
+    config = configparser.ConfigParser()
+    config.read_string((package / "setup.cfg").read_text())
+    assert config["develop"]["script_dir"] == f"$base/lib/{PACKAGE}"
+    assert config["install"]["install_scripts"] == f"$base/lib/{PACKAGE}"
+
+
+def test_colcon_style_install_puts_scripts_data_and_modules_in_place(
+    landing_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    """``colcon build`` runs ``setup.py egg_info build install`` for an ament_python package;
+    the same command puts the executables in ``lib/<pkg>`` (``ros2 run``), the launch
+    and config files in ``share/<pkg>``, the ament index marker and the modules with
+    ``spec.json``; the installed executable starts and, without rclpy, says so."""
+    package = write_package(landing_package, tmp_path / "src")
+    prefix, work = tmp_path / "install", tmp_path / "work"
+    (work / "egg").mkdir(parents=True)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "setup.py",
+            "-q",
+            "egg_info",
+            "--egg-base",
+            str(work / "egg"),
+            "build",
+            "--build-base",
+            str(work / "build"),
+            "install",
+            "--prefix",
+            str(prefix),
+            "--record",
+            str(work / "installed.txt"),
+            "--single-version-externally-managed",
+        ],
+        cwd=package,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    for name in (PACKAGE, f"{PACKAGE}_watchdog"):
+        assert os.access(prefix / "lib" / PACKAGE / name, os.X_OK)
+    share = prefix / "share" / PACKAGE
+    assert (share / "launch" / f"{PACKAGE}.launch.xml").is_file()
+    assert (share / "config" / "invariants.json").is_file()
+    assert (share / "package.xml").is_file()
+    assert (prefix / "share/ament_index/resource_index/packages" / PACKAGE).is_file()
+    (site,) = prefix.glob("lib/python3*/site-packages")
+    assert (site / PACKAGE / "spec.json").is_file()
+    assert (site / PACKAGE / "imrosc" / "runtime" / "engine.py").is_file()
+    assert sorted(p.name for p in package.iterdir()) == sorted(
+        ["config", "launch", "package.xml", "resource", "setup.cfg", "setup.py", PACKAGE]
+    )  # the source package stays clean
+    started = subprocess.run(
+        [sys.executable, str(prefix / "lib" / PACKAGE / PACKAGE)],
+        capture_output=True,
+        text=True,
+        check=False,
+        env={**os.environ, "PYTHONPATH": str(site)},
+        timeout=120,
+    )
+    assert started.returncode == 1
+    assert "rclpy is not importable" in started.stderr
+
+
+def test_the_monitor_launch_file_starts_the_node_with_its_parameters(
+    landing_package: dict[str, bytes],
+) -> None:
+    root = etree.fromstring(landing_package[f"{PACKAGE}/launch/{PACKAGE}.launch.xml"])
+    assert root.tag == "launch"
+    node, watchdog = root.iter("node")
+    assert (node.get("pkg"), node.get("exec"), node.get("name")) == (PACKAGE, PACKAGE, PACKAGE)
+    params = {p.get("name"): p.get("value") for p in node.iter("param")}
+    assert params == {
+        "invariants": "$(var invariants)",
+        "period": "$(var period)",
+        "namespace": "/m",
+        "watchdog": f"{PACKAGE}_watchdog",
+        "service_timeout": "$(var service_timeout)",
+    }
+    args = {a.get("name"): a.get("default") for a in root.iter("arg")}
+    assert args["invariants"] == f"$(find-pkg-share {PACKAGE})/config/invariants.json"
+    assert args["period"] == "0.5" and args["fail_open"] == "false"
+    assert all(a.get("description") for a in root.iter("arg"))
+    assert watchdog.get("if") == "$(var fail_open)"
+    assert watchdog.get("exec") == f"{PACKAGE}_watchdog"
+
+
+def test_python_compiles_and_passes_ruff_for_python_38(
+    landing_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    package = write_package(landing_package, tmp_path)
+    scripts = []
+    for name in python_files(landing_package):
+        path = tmp_path / name
+        py_compile.compile(str(path), doraise=True, cfile=str(tmp_path / "compiled.pyc"))
+        scripts.append(str(path))
+    done = subprocess.run(
+        [
+            *(sys.executable, "-m", "ruff", "check", "--no-cache"),
+            *("--config", str(ADAPTER / "ruff.toml")),  # the project's rules, Python 3.8
+            *scripts,
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=package,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_python_3_8_compiles_every_generated_file(
+    landing_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    interpreter = python38()
+    if interpreter is None:
+        pytest.skip("no working python3.8")
+    write_package(landing_package, tmp_path)
+    script = (
+        "import ast, sys\n"
+        "for path in sys.argv[1:]:\n"
+        "    ast.parse(open(path, encoding='utf-8').read(), path, feature_version=(3, 8))\n"
+        "    compile(open(path, encoding='utf-8').read(), path, 'exec')\n"
+    )
+    paths = [str(tmp_path / name) for name in python_files(landing_package)]
+    done = subprocess.run(
+        [interpreter, "-I", "-c", script, *paths],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_two_builds_give_identical_bytes(landing_ros2: Path) -> None:
+    assert landing_files(landing_ros2) == landing_files(landing_ros2)
+
+
+def test_the_invariants_copy_and_the_spec_are_data(
+    landing_package: dict[str, bytes], landing_ros2: Path
+) -> None:
+    original = json.loads((landing_ros2 / "landing_sim.inv").read_text())
+    copy = json.loads(landing_package[f"{PACKAGE}/config/invariants.json"])
+    assert GENERATED_MARK in copy.pop("$comment")
+    original.pop("$comment")
+    assert copy == original
+    spec = json.loads(landing_package[f"{PACKAGE}/{PACKAGE}/spec.json"])
+    topics = {t["name"]: t for t in spec["topics"]}
+    assert topics["/a/car_pose"]["ros2_type"] == "geometry_msgs/msg/PoseStamped"
+    assert topics["/a/task_waypose"]["relay"] == "/m/a/task_waypose"
+    assert spec["actions"]["f"]["ros2_type"] == "std_msgs/msg/UInt8"
+
+
+def test_the_resource_marker_is_the_banner_only(landing_package: dict[str, bytes]) -> None:
+    marker = landing_package[f"{PACKAGE}/resource/{PACKAGE}"].decode()
+    assert marker.count("\n") == 1 and marker.startswith(GENERATED_MARK)
+
+
+def test_build_writes_the_package_and_keeps_foreign_files(
+    landing_ros2: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    args = [
+        *("build", str(landing_ros2 / "landing_sim.xml"), "--backend", "ros2"),
+        *("-o", str(out), "--graph", str(landing_ros2 / "landing_sim.graph.yaml")),
+    ]
+    runner = CliRunner()
+    first = runner.invoke(main, args)
+    assert first.exit_code == 0, first.output
+    assert (out / PACKAGE / "setup.py").is_file()
+    again = runner.invoke(main, args)  # its own files, the marker included: overwritten
+    assert again.exit_code == 0, again.output
+    foreign = out / PACKAGE / "setup.cfg"
+    foreign.write_text("[develop]\n")
+    refused = runner.invoke(main, args)
+    assert refused.exit_code == 1 and "not generated by imrosc; use --force" in refused.output
+    assert foreign.read_text() == "[develop]\n"
+
+
+def test_bad_input_exits_non_zero_with_a_diagnostic_and_no_traceback(tmp_path: Path) -> None:
+    config = write_case(tmp_path, config_text(monitor=""), None)
+    result = CliRunner().invoke(main, ["build", str(config), "--backend", "ros2"])
+    assert result.exit_code == 1
+    assert f"{config}:1:1: error:" in result.output and "[monitor-missing]" in result.output
+    assert "Traceback" not in result.output
+
+
+# -- the flatteners -------------------------------------------------------------------------
+
+FLAT_TYPES = {
+    "/pose": "geometry_msgs/msg/PoseStamped",
+    "/imu": "sensor_msgs/msg/Imu",
+    "/scan": "sensor_msgs/msg/LaserScan",
+    "/text": "std_msgs/msg/String",
+    "/level": "std_msgs/msg/UInt8",
+    "/battery": "sensor_msgs/msg/BatteryState",
+}
+
+
+def ros2_document(topics: Mapping[str, str]) -> dict[str, Any]:
+    """A small invariants document laid out from ROS 2 message definitions (no
+    ``header.seq``), a publish point per topic."""
+    shorts = short_names(topics)
+    layouts = {}
+    for topic, msgtype in sorted(topics.items()):
+        layout = topic_layout(topic, msgtype, flatten(STORE2, msgtype), shorts[topic], trigger=True)
+        layouts[topic] = [
+            {
+                "name": v.name,
+                "type": v.type,
+                "topic": v.topic,
+                "path": v.path,
+                "derived": v.derived,
+                "trigger": v.trigger,
+            }
+            for v in layout.variables
+        ]
+    battery = layouts.get("/battery", [])
+    for index in (0, 1, 7):  # elements of a short array, as inference lays them out
+        battery.append(
+            {
+                "name": f"battery.cell_voltage[{index}]",
+                "type": "float",
+                "topic": "/battery",
+                "path": f"cell_voltage[{index}]",
+                "derived": None,
+                "trigger": True,
+            }
+        )
+    points = {
+        ident: {
+            "kind": "publish",
+            "trigger": topic,
+            "condition": None,
+            "support": {"samples": 10, "runs": 1},
+            "variables": layouts[topic],
+            "inputs": [],
+            "params": [],
+            "events": [],
+            "filter": [],
+        }
+        for ident, topic in zip("abcdefghijklmnop", sorted(topics), strict=False)
+    }
+    return {
+        "$comment": "generated by imrosc (tests)",
+        "format": "imrosc-invariants",
+        "version": 1,
+        "project": "demo",
+        "source": "demo.xml",
+        "bags": [],
+        "tunables": {},
+        "topics": {t: {"type": m, "variables": layouts[t]} for t, m in sorted(topics.items())},
+        "points": points,
+        "invariants": [],
+    }
+
+
+def _scalar(kind: str, rng: np.random.Generator) -> Any:
+    if kind == "string":
+        return f"frame{int(rng.integers(3))}"
+    if kind == "bool":
+        return bool(rng.random() < 0.5)
+    if kind.startswith("float"):
+        draw = rng.random()
+        return math.nan if draw < 0.1 else math.inf if draw < 0.15 else float(rng.normal())
+    return int(rng.integers(0, 100))
+
+
+def make_message(msgtype: str, rng: np.random.Generator) -> Any:
+    """A rosbags ROS 2 message with random values (NaN, inf, empty arrays included)."""
+    fields: Any = STORE2.fielddefs[msgtype][1]
+    values: dict[str, Any] = {}
+    for name, (nodetype, detail) in fields:
+        if nodetype == Nodetype.BASE:
+            values[name] = _scalar(detail[0], rng)
+        elif nodetype == Nodetype.NAME:
+            values[name] = make_message(detail, rng)
+        else:
+            (element, element_detail), size = detail
+            count = size or int(rng.integers(0, 6))
+            if element == Nodetype.BASE and element_detail[0] == "string":
+                values[name] = [_scalar("string", rng) for _ in range(count)]
+            elif element == Nodetype.BASE:
+                dtype = {"byte": "uint8", "char": "uint8"}.get(element_detail[0], element_detail[0])
+                items = [_scalar(element_detail[0], rng) for _ in range(count)]
+                values[name] = np.array(items, dtype=dtype)
+            else:
+                values[name] = [make_message(element_detail, rng) for _ in range(count)]
+    return STORE2.types[msgtype](**values)
+
+
+@pytest.fixture(scope="module")
+def flat_package(tmp_path_factory: pytest.TempPathFactory) -> tuple[ModuleType, dict[str, Any]]:
+    folder = tmp_path_factory.mktemp("flat2")
+    document = ros2_document(FLAT_TYPES)
+    scope = "\n    ".join(
+        f'<publish id="{ident}">{topic}</publish>'
+        for ident, topic in zip("abcdef", sorted(FLAT_TYPES), strict=True)
+    )
+    config = write_case(folder, config_text(scope=scope), document)
+    result = build_ros2(config)
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    package = write_package(result.files, folder / "out")
+    return import_package(package), document
+
+
+def test_generated_flatteners_equal_make_flattener_on_ros2_messages(
+    flat_package: tuple[ModuleType, dict[str, Any]],
+) -> None:
+    main_module, document = flat_package
+    flatteners = main_module.flatteners.FLATTENERS
+    assert set(flatteners) == set(FLAT_TYPES)
+    rng = np.random.default_rng(3)
+    with np.errstate(all="ignore"):
+        for topic, msgtype in FLAT_TYPES.items():
+            reference = make_flattener(document["topics"][topic]["variables"])
+            for _ in range(25):
+                message = make_message(msgtype, rng)
+                assert_same_values(flatteners[topic](message), reference(message))
+
+
+def test_generated_flatteners_read_broken_messages_like_make_flattener(
+    flat_package: tuple[ModuleType, dict[str, Any]],
+) -> None:
+    main_module, document = flat_package
+    flatteners = main_module.flatteners.FLATTENERS
+    broken = [
+        SimpleNamespace(),
+        SimpleNamespace(header=None, data="7", cell_voltage=[1.5], ranges="ab", pose=None),
+        SimpleNamespace(data=None, cell_voltage=None, ranges=[], intensities=[1, "x"]),
+        SimpleNamespace(data=float("nan"), cell_voltage=(2.0, 3.0), ranges=[1.0, 2.0]),
+    ]
+    for topic in FLAT_TYPES:
+        reference = make_flattener(document["topics"][topic]["variables"])
+        for message in broken:
+            assert_same_values(flatteners[topic](message), reference(message))
+
+
+# -- the same run as a ROS 1 and a ROS 2 bag: the same violations ---------------------------
+
+
+def ros1_message(value: Any) -> Any:
+    """JSON data as rospy-like messages (``__slots__``), for the ROS 1 adapter's logic."""
+    if not isinstance(value, dict):
+        return [ros1_message(v) for v in value] if isinstance(value, list) else value
+    kind = type("Ros1Message", (), {"__slots__": tuple(value)})
+    message = kind()
+    for key, item in value.items():
+        setattr(message, key, ros1_message(item))
+    return message
+
+
+def ros2_message(value: Any) -> Any:
+    """JSON data as rclpy-like messages (``get_fields_and_field_types``)."""
+    if not isinstance(value, dict):
+        return [ros2_message(v) for v in value] if isinstance(value, list) else value
+    fields = {key: "unknown" for key in value}
+    message = SimpleNamespace(**{key: ros2_message(item) for key, item in value.items()})
+    message.get_fields_and_field_types = lambda: fields
+    return message
+
+
+PARAMETER_TYPES = ((bool, 1, "bool_value"), (int, 2, "integer_value"), (float, 3, "double_value"))
+
+
+def parameter_value(value: Any) -> SimpleNamespace:
+    """An ``rcl_interfaces/ParameterValue`` as a ROS 2 parameter service answers it."""
+    answer = SimpleNamespace(type=0)
+    for kind, code, field in PARAMETER_TYPES:
+        if isinstance(value, kind):
+            answer.type = code
+            setattr(answer, field, value)
+            return answer
+    if isinstance(value, str):
+        answer.type, answer.string_value = 4, value
+    elif isinstance(value, list) and all(isinstance(v, float) for v in value):
+        answer.type, answer.double_array_value = 8, value
+    return answer
+
+
+@dataclass
+class Flavour:
+    """How one middleware's node turns what happens into the engine's input."""
+
+    flatteners: Mapping[str, Callable[[Any], list[Any]]]
+    graph: Callable[[records.ArchSnapshot], Any]
+    params: Callable[[Mapping[str, Any]], dict[str, Any]]
+    call: Callable[[records.ServiceCall], dict[str, Any]]
+
+
+def ros1_flavour(
+    flatteners: Mapping[str, Callable[[Any], list[Any]]], spec: Mapping[str, Any]
+) -> Flavour:
+    relays = {t["name"]: t["relay"] for t in spec["topics"] if t["relay"]}
+    services = {s["name"]: s["relay"] for s in spec["services"]}
+
+    def graph(arch: records.ArchSnapshot) -> Any:
+        state = [
+            [[t, sorted(ends.pubs)] for t, ends in sorted(arch.topics.items())],
+            [[t, sorted(ends.subs)] for t, ends in sorted(arch.topics.items())],
+            [[s, sorted(nodes)] for s, nodes in sorted(arch.services.items())],
+        ]  # the master's getSystemState
+        return ros1_logic.logical_graph(state, OWN, relays, services)
+
+    def params(server: Mapping[str, Any]) -> dict[str, Any]:
+        return ros1_logic.param_values(server.__getitem__, spec["params"])  # rospy.get_param
+
+    def call(record: records.ServiceCall) -> dict[str, Any]:
+        request, response = ros1_message(record.request), ros1_message(record.response)
+        return ros1_logic.message_values(request, response, record.delay)
+
+    return Flavour(flatteners, graph, params, call)
+
+
+def ros2_flavour(
+    flatteners: Mapping[str, Callable[[Any], list[Any]]],
+    spec: Mapping[str, Any],
+    offered: Mapping[str, Any],
+) -> Flavour:
+    relays = {t["name"]: t["relay"] for t in spec["topics"] if t["relay"]}
+    services = {s["name"]: s["relay"] for s in spec["services"]}
+
+    def view(arch: records.ArchSnapshot) -> logic.GraphView:
+        """What rclpy's graph API answers for this graph (QoS as the bag recorded it)."""
+        topics = {t: (sorted(e.pubs), sorted(e.subs)) for t, e in arch.topics.items()}
+        qos = {
+            t: [(node, logic.endpoint_qos(offered.get(t))) for node in sorted(e.pubs)]
+            for t, e in arch.topics.items()
+        }
+        nodes = {n for e in arch.topics.values() for n in e.pubs | e.subs}
+        nodes |= {n for served in arch.services.values() for n in served}
+        served = {s: sorted(n) for s, n in arch.services.items()}
+        return logic.GraphView(topics, {}, qos, served, {}, sorted(nodes))
+
+    latest: dict[str, logic.GraphView] = {}
+
+    def graph(arch: records.ArchSnapshot) -> Any:
+        latest["view"] = view(arch)
+        return logic.snapshot(latest["view"], OWN, relays, services)
+
+    def params(server: Mapping[str, Any]) -> dict[str, Any]:
+        nodes = latest["view"].nodes if latest else ()
+        answers: dict[str, Any] = {}
+        for owner, asked in logic.parameter_requests(spec["params"], nodes).items():
+            values = [  # GetParameters on <owner>/get_parameters
+                parameter_value(server.get(owner.rstrip("/") + "/" + name.replace(".", "/")))
+                for _, name in asked
+            ]
+            answered, _ = logic.parameter_answers(asked, values)
+            answers.update(answered)
+        return logic.param_values(answers, spec["params"])
+
+    def call(record: records.ServiceCall) -> dict[str, Any]:
+        request, response = ros2_message(record.request), ros2_message(record.response)
+        return logic.message_values(request, response, record.delay)
+
+    return Flavour(flatteners, graph, params, call)
+
+
+def feed_like_a_node(
+    bag: Path, document: Mapping[str, Any], flavour: Flavour, period: float
+) -> list[Violation]:
+    """Feed a bag to the engine as a monitor node's callbacks do: each message of a watched
+    topic flattened (after advancing the clock), each relayed service call as it ends, and
+    a poll every ``period`` (from the first message on) that advances the clock and feeds
+    the graph and the parameters in force when they changed."""
+    engine = Engine(document)
+    found: list[Violation] = []
+    world: dict[str, Any] = {}
+    seen: dict[str, Any] = {}
+
+    def poll(now: float) -> list[Violation]:
+        out = engine.advance(now)
+        if "graph" in world:
+            graph = flavour.graph(world["graph"])
+            if graph != seen.get("graph"):
+                seen["graph"] = graph
+                out += engine.graph(now, graph)
+        if "params" in world:
+            params = flavour.params(world["params"])
+            if params != seen.get("params"):
+                seen["params"] = params
+                out += engine.params(now, params)
+        return out
+
+    next_poll: float | None = None
+    with AnyReader([bag]) as reader, np.errstate(all="ignore"):
+        for connection, stamp, raw in reader.messages():
+            now = stamp / 1e9
+            next_poll = now if next_poll is None else next_poll
+            while next_poll <= now:
+                found += poll(next_poll)
+                next_poll += period
+            message: Any = reader.deserialize(raw, connection.msgtype)
+            topic = connection.topic
+            if topic == records.ARCH_TOPIC:
+                world["graph"] = records.decode_arch(message.data)
+            elif topic == records.PARAMS_TOPIC:
+                world["params"] = records.decode_params(message.data).params
+            elif topic == records.SRVS_TOPIC:
+                call = records.decode_call(message.data)
+                found += engine.advance(now)
+                found += engine.call(call.service, now, flavour.call(call))
+            elif topic in flavour.flatteners:
+                found += engine.advance(now)
+                found += engine.message(topic, now, flavour.flatteners[topic](message))
+    return found
+
+
+def offered_qos(bag: Path) -> dict[str, Any]:
+    with AnyReader([bag]) as reader:
+        extensions: dict[str, Any] = {c.topic: c.ext for c in reader.connections}
+    return {topic: ext.offered_qos_profiles[0] for topic, ext in extensions.items()}
+
+
+@pytest.fixture(scope="module")
+def both_packages(
+    landing_ros2: Path, landing_package: dict[str, bytes], tmp_path_factory: pytest.TempPathFactory
+) -> tuple[Any, Any, dict[str, Any]]:
+    """The ROS 1 and the ROS 2 package of the same config and invariants: their generated
+    flatteners and the ROS 2 spec."""
+    folder = tmp_path_factory.mktemp("both")
+    ros1 = build_ros1(landing_ros2 / "landing_sim.xml", [landing_ros2 / "landing_sim.graph.yaml"])
+    assert ros1.ok, [d.as_text() for d in ros1.diagnostics]
+    flatteners1 = import_adapter(write_package(ros1.files, folder / "ros1")).FLATTENERS
+    main2 = import_package(write_package(landing_package, folder / "ros2"))
+    spec = json.loads(landing_package[f"{PACKAGE}/{PACKAGE}/spec.json"])
+    return flatteners1, main2.flatteners.FLATTENERS, spec
+
+
+@pytest.mark.parametrize("kind", ["spoofed", "tilt", "extra_publisher"])
+def test_a_ros2_bag_breaks_the_same_invariants_as_the_ros1_bag_of_the_same_run(
+    kind: ScenarioKind,
+    landing_ros2: Path,
+    both_packages: tuple[Any, Any, dict[str, Any]],
+    tmp_path: Path,
+) -> None:
+    flatteners1, flatteners2, spec = both_packages
+    document = json.loads((landing_ros2 / "landing_sim.inv").read_text())
+    scenario = Scenario(kind, start=4.0)
+    bags = {  # the twin of a training run: only the fault breaks invariants
+        fmt: write_run(
+            tmp_path / ("run.bag" if fmt == "ros1" else f"run_{fmt}"),
+            seed=0,
+            fmt=fmt,
+            duration=8.0,
+            scenario=scenario,
+        )
+        for fmt in ("ros1", "sqlite3", "mcap")
+    }
+    period = float(spec["period"])
+    ros1 = feed_like_a_node(bags["ros1"], document, ros1_flavour(flatteners1, spec), period)
+    found = {"ros1": [v.as_json() for v in ros1]}
+    for fmt in ("sqlite3", "mcap"):
+        flavour = ros2_flavour(flatteners2, spec, offered_qos(bags[fmt]))
+        found[fmt] = [v.as_json() for v in feed_like_a_node(bags[fmt], document, flavour, period)]
+    assert found["ros1"], f"the {kind} run should break invariants"
+    assert found["sqlite3"] == found["ros1"]
+    assert found["mcap"] == found["ros1"]
+    families = {v.family for v in ros1}
+    assert families & set(FAMILIES[kind]), (kind, families)
+    assert min(v.time for v in ros1) >= START_NS / 1e9 + scenario.start
+    if kind == "extra_publisher":  # ROS 2 can only warn, and says so
+        (broken,) = [v for v in ros1 if v.kind == "max_pubs"]
+        assert broken.observed == ["/a/car2"]
+        warning = json.loads(logic.warning(broken, ["f"]))
+        assert warning["note"] == logic.NO_MASTER
+        assert warning["invariant"] == broken.invariant and warning["actions"] == ["f"]
+
+
+def test_both_nodes_see_the_same_graph_parameters_and_calls(
+    landing_ros2: Path, both_packages: tuple[Any, Any, dict[str, Any]]
+) -> None:
+    flatteners1, flatteners2, spec = both_packages
+    (bag,) = sorted((landing_ros2 / "bags" / "nominal").iterdir())[:1]
+    ros1 = ros1_flavour(flatteners1, spec)
+    ros2 = ros2_flavour(flatteners2, spec, offered_qos(bag))
+    seen: dict[str, Any] = {}
+    with AnyReader([bag]) as reader:
+        for connection, _, raw in reader.messages():
+            if connection.topic in records.RECORD_TOPICS and connection.topic not in seen:
+                record: Any = reader.deserialize(raw, connection.msgtype)
+                seen[connection.topic] = record.data
+    arch = records.decode_arch(seen[records.ARCH_TOPIC])
+    graph = ros2.graph(arch)
+    assert graph == ros1.graph(arch) and graph["sub"] and graph["srv"]
+    server = records.decode_params(seen[records.PARAMS_TOPIC]).params
+    params = ros2.params(server)
+    assert params == ros1.params(server)
+    assert set(params) == set(spec["params"])
+    call = records.decode_call(seen[records.SRVS_TOPIC])
+    assert ros2.call(call) == ros1.call(call)
+    assert set(ros2.call(call)) == {"delay", "response.state", "response.status"}
+
+
+def test_a_nominal_ros2_run_breaks_nothing(
+    landing_ros2: Path, both_packages: tuple[Any, Any, dict[str, Any]]
+) -> None:
+    _, flatteners2, spec = both_packages
+    document = json.loads((landing_ros2 / "landing_sim.inv").read_text())
+    (bag,) = sorted((landing_ros2 / "bags" / "nominal").iterdir())[:1]
+    flavour = ros2_flavour(flatteners2, spec, offered_qos(bag))
+    found = feed_like_a_node(bag, document, flavour, float(spec["period"]))
+    assert [v.as_json() for v in found] == []
+
+
+# -- nothing from the inputs becomes code ---------------------------------------------------
+
+ROS2_SYSTEM = (
+    '<launch>\n  <node pkg="zqproj" exec="motor" name="motor" namespace="zqtopic"/>\n</launch>\n'
+)
+
+
+def hostile_ros2_case(folder: Path) -> Path:
+    config = hostile_case(folder)
+    config.write_text(
+        config.read_text().replace('launch="system.launch"', 'launch="system.launch.xml"')
+    )
+    (folder / "system.launch.xml").write_text(ROS2_SYSTEM)
+    return config
+
+
+def test_no_string_from_the_inputs_reaches_generated_code_unquoted(tmp_path: Path) -> None:
+    config = hostile_ros2_case(tmp_path)
+    result = build_ros2(config, [tmp_path / "graph.yaml"])
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    files = result.files
+    code = python_files(files)
+    for name, content in code.items():
+        text = content.decode("utf-8")
+        compile(text, name, "exec")
+        assert_markers_only_quoted(name, text)
+    rendered = "".join(c.decode() for c in code.values())
+    assert all(marker in rendered for marker in ("zqsrc", "zqproj", "zqtopic"))  # not vacuous
+    assert HOSTILE not in rendered
+    assert "zqproj_monitor/launch/system_monitored.launch.xml" in files
+    spec = json.loads(files["zqproj_monitor/zqproj_monitor/spec.json"])
+    assert spec["actions"]["f"]["value"] == {"data": HOSTILE, "frame": "zqframe"}
+    assert json.loads(files["zqproj_monitor/config/invariants.json"])["source"] == HOSTILE
+    for name, content in files.items():
+        if name.endswith(".xml"):
+            etree.fromstring(content)  # the banner's hostile path stays inside its comment
+    parsed = configparser.ConfigParser()
+    parsed.read_string(files["zqproj_monitor/setup.cfg"].decode())  # the banner is a comment
+    assert set(parsed.sections()) == {"develop", "install"}
+    assert files["zqproj_monitor/resource/zqproj_monitor"].count(b"\n") == 1
+
+
+@pytest.mark.parametrize("block", ["/a');import(os)", "/a;__import__('os')", "~private", "/{x}"])
+def test_names_that_try_to_inject_are_refused_before_rendering(tmp_path: Path, block: str) -> None:
+    document = ros2_document({"/cmd": "std_msgs/msg/UInt8"})
+    monitor = f'<monitor inv="demo.inv"><block>/cmd, {_xml(block)}</block></monitor>'
+    config = write_case(tmp_path, config_text(monitor=monitor), document)
+    result = build_ros2(config)
+    assert not result.ok and result.files == {}
+    assert "bad-name" in {d.code for d in result.diagnostics}
+
+
+def test_a_python_launch_file_is_not_rewritten(tmp_path: Path) -> None:
+    document = ros2_document({"/cmd": "std_msgs/msg/UInt8"})
+    monitor = '<monitor inv="demo.inv" launch="system.launch.py"/>'
+    config = write_case(tmp_path, config_text(monitor=monitor), document)
+    (tmp_path / "system.launch.py").write_text("import os\n")
+    result = build_ros2(config)
+    assert result.files == {}
+    (diagnostic,) = result.diagnostics
+    assert diagnostic.code == "launch-error" and "ROS 2 launch XML" in diagnostic.message
+
+
+def test_the_backend_is_registered() -> None:
+    from imrosc.backends.launch import REWRITERS, rewrite_ros1, rewrite_ros2
+    from imrosc.backends.registry import available
+
+    assert "ros2" in available()
+    assert REWRITERS["ros1"] is rewrite_ros1 and REWRITERS["ros2"] is rewrite_ros2
+
+
+# -- the adapter's decisions, without ROS ---------------------------------------------------
+
+RELIABLE = logic.Qos(logic.RELIABLE, logic.VOLATILE)
+BEST_EFFORT = logic.Qos(logic.BEST_EFFORT, logic.VOLATILE)
+LATCHED = logic.Qos(logic.RELIABLE, logic.TRANSIENT_LOCAL)
+
+
+@pytest.mark.parametrize(
+    ("publishers", "msgtype", "subscription", "relay"),
+    [
+        ([], "sensor_msgs/msg/Imu", BEST_EFFORT, BEST_EFFORT),  # qos_profile_sensor_data
+        ([], "std_msgs/msg/UInt8", RELIABLE, RELIABLE),
+        ([None], "std_msgs/msg/UInt8", RELIABLE, RELIABLE),  # a QoS it does not report
+        ([RELIABLE], "sensor_msgs/msg/Imu", RELIABLE, RELIABLE),
+        ([BEST_EFFORT], "std_msgs/msg/UInt8", BEST_EFFORT, BEST_EFFORT),
+        ([RELIABLE, BEST_EFFORT], "std_msgs/msg/UInt8", BEST_EFFORT, RELIABLE),
+        ([LATCHED], "std_msgs/msg/String", LATCHED, LATCHED),
+        ([LATCHED, RELIABLE], "std_msgs/msg/String", RELIABLE, LATCHED),
+    ],
+)
+def test_subscriptions_match_every_publisher_and_relays_offer_the_source_qos(
+    publishers: list[logic.Qos | None],
+    msgtype: str,
+    subscription: logic.Qos,
+    relay: logic.Qos,
+) -> None:
+    assert logic.subscription_qos(publishers, msgtype) == subscription
+    assert logic.relay_qos(publishers, msgtype) == relay
+
+
+def test_qos_changes_when_publishers_ask_for_it_and_stays_when_they_leave() -> None:
+    battery = "sensor_msgs/msg/BatteryState"
+    first = logic.qos_update(None, [], battery)
+    assert first == logic.SENSOR_DATA
+    assert logic.qos_update(first, [], battery) is None
+    changed = logic.qos_update(first, [RELIABLE], battery)
+    assert changed == RELIABLE
+    assert logic.qos_update(changed, [RELIABLE], battery) is None
+    assert logic.qos_update(changed, [None], battery) is None
+    offer = logic.qos_update(None, [LATCHED], battery, logic.relay_qos)
+    assert offer == LATCHED
+
+
+def test_endpoint_qos_reads_rmw_values_of_enums_and_integers() -> None:
+    class Reliability(int):
+        pass
+
+    rclpy_like = SimpleNamespace(reliability=Reliability(2), durability=Reliability(1))
+    assert logic.endpoint_qos(rclpy_like) == logic.Qos(logic.BEST_EFFORT, logic.TRANSIENT_LOCAL)
+    assert logic.endpoint_qos(SimpleNamespace(reliability=0, durability=2)) is None  # default
+    assert logic.endpoint_qos(SimpleNamespace(reliability=3, durability=2)) is None  # unknown
+    assert logic.endpoint_qos(None) is None
+
+
+def graph_view() -> logic.GraphView:
+    return logic.GraphView(
+        topics={
+            "/t": (["/a", "/mon", "/rogue"], ["/mon"]),
+            "/m/t": (["/mon"], ["/b"]),
+            "/rosout": (["/a", "/mon"], []),
+        },
+        types={"/t": ["std_msgs/msg/UInt8"]},
+        publisher_qos={"/t": [("/a", RELIABLE), ("/mon", LATCHED), ("/rogue", BEST_EFFORT)]},
+        services={"/s": ["/server"], "/m/s": ["/mon"], "/a/get_parameters": ["/a"]},
+        service_types={"/s": ["std_srvs/srv/Trigger"]},
+        nodes=["/a", "/b", "/mon", "/rogue", "/server"],
+    )
+
+
+def test_the_graph_from_rclpy_folds_relays_back_and_leaves_the_monitor_out() -> None:
+    graph = logic.snapshot(graph_view(), {"/mon", "/mon_watchdog"}, {"/t": "/m/t"}, {"/s": "/m/s"})
+    assert graph["pub"] == {"/t": frozenset({"/a", "/rogue"}), "/rosout": frozenset({"/a"})}
+    assert graph["sub"] == {"/t": frozenset({"/b"})}
+    assert graph["srv"] == {"/s": frozenset({"/server"}), "/a/get_parameters": frozenset({"/a"})}
+    assert logic.publisher_qos(graph_view(), "/t", {"/mon"}) == [RELIABLE, BEST_EFFORT]
+    assert logic.node_name("/", "x") == "/x" and logic.resolve_node("/a", "w") == "/a/w"
+
+
+def test_parameters_are_asked_of_their_node_and_answered_by_type() -> None:
+    names = ["/a/car_ctrl/landing_radius", "/a/car_ctrl/gains/p", "/a/car_ctrl/missing", "/z/k"]
+    requests = logic.parameter_requests(names, ["/a", "/a/car_ctrl"])
+    assert requests == {
+        "/a/car_ctrl": [
+            ("/a/car_ctrl/gains/p", "gains.p"),
+            ("/a/car_ctrl/landing_radius", "landing_radius"),
+            ("/a/car_ctrl/missing", "missing"),
+        ],
+        "/z": [("/z/k", "k")],
+    }
+    values = [parameter_value(0.5), parameter_value(2.5), SimpleNamespace(type=0)]
+    answered, missing = logic.parameter_answers(requests["/a/car_ctrl"], values)
+    assert answered == {"/a/car_ctrl/gains/p": 0.5, "/a/car_ctrl/landing_radius": 2.5}
+    assert missing == ["/a/car_ctrl/missing"]
+    assert logic.parameter_answers([("/x", "x")], []) == ({}, ["/x"])  # no answer: not set
+    typed = [
+        (SimpleNamespace(type=1, bool_value=True), True),
+        (SimpleNamespace(type=2, integer_value=3), 3),
+        (SimpleNamespace(type=4, string_value="fast"), "fast"),
+        (SimpleNamespace(type=7, integer_array_value=np.array([1, 2])), [1, 2]),
+        (SimpleNamespace(type=9, string_array_value=["a"]), ["a"]),
+    ]
+    for value, expected in typed:
+        assert logic.parameter_value(value) == expected
+    with pytest.raises(KeyError):
+        logic.parameter_value(SimpleNamespace(type=0))
+    flat = logic.param_values({"/a/k": [1.0, 2.0], "/a/m": "x"}, ["/a/k", "/a/m", "/a/none"])
+    assert flat == {"len(/a/k)": 2, "/a/m": "x"}
+
+
+class FakeRos2Message:
+    """A stand-in for an rclpy message: ``get_fields_and_field_types`` and attributes."""
+
+    FIELDS: ClassVar[dict[str, str]] = {}
+
+    def __init__(self) -> None:
+        for name, kind in self.FIELDS.items():
+            setattr(self, name, _default(kind))
+
+    @classmethod
+    def get_fields_and_field_types(cls) -> dict[str, str]:
+        return dict(cls.FIELDS)
+
+
+class Vector3(FakeRos2Message):
+    FIELDS: ClassVar[dict[str, str]] = {"x": "double", "y": "double", "z": "double"}
+
+
+class Twist(FakeRos2Message):
+    FIELDS: ClassVar[dict[str, str]] = {
+        "linear": "geometry_msgs/Vector3",
+        "angular": "geometry_msgs/Vector3",
+    }
+
+
+class Time(FakeRos2Message):
+    FIELDS: ClassVar[dict[str, str]] = {"sec": "int32", "nanosec": "uint32"}
+
+
+class Header(FakeRos2Message):
+    FIELDS: ClassVar[dict[str, str]] = {"stamp": "builtin_interfaces/Time", "frame_id": "string"}
+
+
+class Everything(FakeRos2Message):
+    FIELDS: ClassVar[dict[str, str]] = {
+        "header": "std_msgs/Header",
+        "level": "uint8",
+        "flag": "boolean",
+        "name": "string",
+        "short": "string<=4",
+        "points": "sequence<geometry_msgs/Vector3>",
+        "raw": "sequence<uint8>",
+        "octets": "sequence<octet, 2>",
+        "gains": "double[3]",
+        "twist": "geometry_msgs/Twist",
+    }
+
+
+CLASSES: dict[str, type[FakeRos2Message]] = {
+    "geometry_msgs/Vector3": Vector3,
+    "geometry_msgs/Twist": Twist,
+    "builtin_interfaces/Time": Time,
+    "std_msgs/Header": Header,
+}
+
+
+def _default(kind: str) -> Any:
+    if kind in CLASSES:
+        return CLASSES[kind]()
+    if kind.startswith("sequence") or kind.endswith("]"):
+        return []
+    return {"boolean": False, "double": 0.0, "string": ""}.get(kind.split("<", 1)[0], 0)
+
+
+def test_fill_sets_fields_of_a_ros2_message_from_an_action_value() -> None:
+    value = {
+        "header": {"stamp": 3.25, "frame_id": "map"},
+        "level": 3,
+        "flag": True,
+        "name": HOSTILE,
+        "short": "abcd",
+        "points": [{"x": 1.5}, {"y": 2}],
+        "raw": [1, 2, 255],
+        "octets": [7, 255],
+        "gains": [0.5, 1, 2.0],
+        "twist": {"linear": {"x": 0.5}, "angular": {"z": -0.2}},
+    }
+    message: Any = logic.fill(Everything(), value, CLASSES.__getitem__)
+    assert (message.level, message.flag, message.name, message.short) == (3, True, HOSTILE, "abcd")
+    assert (message.header.stamp.sec, message.header.stamp.nanosec) == (3, 250_000_000)
+    assert message.header.frame_id == "map"
+    assert [(p.x, p.y) for p in message.points] == [(1.5, 0.0), (0.0, 2.0)]
+    assert message.raw == [1, 2, 255]
+    assert message.octets == [b"\x07", b"\xff"]
+    assert message.gains == [0.5, 1.0, 2.0]
+    assert (message.twist.linear.x, message.twist.angular.z) == (0.5, -0.2)
+    assert logic.message_data(message)["header"] == {"stamp": 3.25, "frame_id": "map"}
+
+
+@pytest.mark.parametrize(
+    ("value", "problem"),
+    [
+        ({"levle": 3}, "no such field"),
+        ({"level": 256}, "out of range"),
+        ({"level": -1}, "out of range"),
+        ({"level": 2.5}, "not an integer"),
+        ({"level": "3"}, "not an integer"),
+        ({"flag": "yes"}, "not a bool"),
+        ({"short": "abcde"}, "longer than 4"),
+        ({"twist": {"linear": 3}}, "not a mapping"),
+        ({"twist": {"linear": {"w": 1}}}, "no such field"),
+        ({"points": {"x": 1}}, "not a list"),
+        ({"gains": [1.0]}, "1 values for an array of 3"),
+        ({"octets": [1, 2, 3]}, "more than 2"),
+        ({"name": {"a": 1}}, "mapping"),
+        ({"header": {"stamp": "now"}}, "not a number of seconds"),
+    ],
+)
+def test_fill_refuses_values_that_do_not_fit(value: dict[str, Any], problem: str) -> None:
+    with pytest.raises(logic.FillError, match=problem):
+        logic.fill(Everything(), value, CLASSES.__getitem__)
+
+
+def test_a_ros2_service_call_becomes_request_response_and_delay_values() -> None:
+    class Request(FakeRos2Message):
+        FIELDS: ClassVar[dict[str, str]] = {
+            "task_id": "int32",
+            "names": "sequence<string>",
+            "gains": "double[2]",
+        }
+
+    class Response(FakeRos2Message):
+        FIELDS: ClassVar[dict[str, str]] = {"status": "string", "stamp": "builtin_interfaces/Time"}
+
+    request: Any = Request()
+    response: Any = Response()
+    request.task_id, request.names, request.gains = 4, ["a", "b"], np.array([0.5, 1.5])
+    response.status = "ok"
+    response.stamp.sec, response.stamp.nanosec = 3, 500_000_000
+    assert logic.message_values(request, response, 0.25) == {
+        "request.task_id": 4,
+        "len(request.names)": 2,
+        "len(request.gains)": 2,
+        "response.status": "ok",
+        "response.stamp": 3.5,
+        "delay": 0.25,
+    }
+    assert logic.request_values(request) == {
+        "request.task_id": 4,
+        "len(request.names)": 2,
+        "len(request.gains)": 2,
+    }
+
+
+def test_interface_names_are_checked_before_they_are_imported() -> None:
+    assert logic.interface_name("std_msgs/msg/UInt8") == ("std_msgs.msg", "UInt8")
+    assert logic.interface_name("std_srvs/srv/Trigger", "srv") == ("std_srvs.srv", "Trigger")
+    for bad in ("std_msgs/srv/UInt8", "a.b/msg/C", "x/msg/Y; import os", "../x/msg/Y", "x/msg/"):
+        with pytest.raises(ValueError, match="type name"):
+            logic.interface_name(bad, "msg")
+
+
+def test_only_an_unknown_publisher_gets_a_note() -> None:
+    arch = Violation(1.0, "d", "i1", "architecture", "max_pubs", "t", ["/x"], "only {/a}")
+    bounds = Violation(1.0, "a", "i2", "bounds", "range", "t", 3.0, "[0, 1]")
+    assert json.loads(logic.warning(arch))["note"] == logic.NO_MASTER
+    assert logic.warning(bounds, ["f"]) == ros1_logic.violation_json(bounds, ["f"])
+
+
+def test_the_spec_and_invariants_load_or_say_why(tmp_path: Path) -> None:
+    (tmp_path / "spec.json").write_text('{"package": "p"}')
+    assert logic.load_spec(str(tmp_path)) == {"package": "p"}
+    bad = tmp_path / "bad.inv"
+    bad.write_text('{"format": "other"}')
+    with pytest.raises(ValueError, match="not an imrosc invariants file"):
+        logic.load_invariants(str(bad))
+    bad.write_text('{"format": "imrosc-invariants", "topics": {}}')
+    with pytest.raises(ValueError, match="missing 'points'"):
+        logic.load_invariants(str(bad))
+
+
+def test_the_adapter_keeps_python_3_8_syntax() -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys, vermin; sys.argv[0] = 'vermin'; sys.exit(vermin.main())",
+            "-t=3.8-",
+            "--no-tips",
+            "--violations",
+            "--eval-annotations",
+            str(ADAPTER),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr

@@ -1,0 +1,37 @@
+#!/usr/bin/python3
+"""A plain rospy relay, the baseline of ``bench/monitor_latency.py``.
+
+    bench_relay.py --type PKG/Msg --input T --output T2
+
+It subscribes with the message class (messages are decoded, as the monitor decodes them)
+and republishes each one as it comes; queues of 100, as the monitor's.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import rospy  # type: ignore[import-not-found]
+from roslib.message import get_message_class  # type: ignore[import-not-found]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--type", required=True)
+    parser.add_argument("--input", required=True)
+    parser.add_argument("--output", required=True)
+    args = parser.parse_args(rospy.myargv()[1:])
+    rospy.init_node("bench_relay")
+    cls = get_message_class(args.type)
+    publisher = rospy.Publisher(args.output, cls, queue_size=100)
+
+    def relay(message: Any) -> None:
+        publisher.publish(message)
+
+    rospy.Subscriber(args.input, cls, relay, queue_size=100)
+    rospy.spin()
+
+
+if __name__ == "__main__":
+    main()
