@@ -57,9 +57,12 @@ def run_stability(
     problems += found
     count = folds or len(bags)
     if len(bags) < 2 or not 2 <= count <= len(bags):
+        found_text = f"{len(bags)} detect bag(s) found"
+        if problems:
+            found_text += f" ({len(problems)} problem(s), the first: {problems[0].as_text()})"
         raise CheckStageError(
-            f"{config_path}: {len(bags)} detect bag(s) cannot make {count} folds "
-            "(need at least 2 bags and 2 <= folds <= bags)"
+            f"{config_path}: {found_text}; stability needs at least 2 bags and "
+            f"2 <= folds <= bags (folds: {count})"
         )
     rounds: list[dict[str, Any]] = []
     totals: dict[str, list[int]] = {}

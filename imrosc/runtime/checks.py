@@ -213,8 +213,9 @@ class Checks:
                     )
         if len(self.one_of_at):
             x = row.take(self.one_of_at)
-            bad = ~(x[:, None] == self.one_of_values).any(axis=1) & ~np.isnan(x)
-            if _count(bad):
+            held = (x[:, None] == self.one_of_values).any(axis=1)
+            if _count(held) < len(held):  # NaN holds nothing, yet breaks nothing either
+                bad = ~held & ~np.isnan(x)
                 for k in bad.nonzero()[0].tolist():
                     inv = self.one_of_inv[k]
                     expected = "one of " + show(set(inv["params"]["values"]))
