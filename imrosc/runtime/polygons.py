@@ -2,11 +2,12 @@
 
 A polygon invariant holds ``A [x, y] <= b`` (one row per edge, a margin for rounding built
 into ``b``). Evaluating every edge of every polygon on every sample would be the bulk of a
-point's checking cost, so each polygon gets, once, a grid of ``GRID x GRID`` cells over its
-bounding box plus a ring of border cells, each cell marked *inside* when its corners
-(widened a little) pass every edge with room for float64 rounding, so that every point of
-the cell passes too (the polygon is convex). A sample costs a handful of array operations
-for all polygons together: its cell in each grid and one table lookup. Only the polygons
+point's checking cost. So each variable gets a grid of ``GRID`` cells over the polygons'
+vertices on it (a hull's bounding box is its variables' range) plus a border cell on each
+side, and each polygon, once, a table over the cells of its two variables' grids: a cell is
+*inside* when its corners (widened a little) pass every edge with room for float64 rounding,
+so that every point of the cell passes too (the polygon is convex). A sample is quantised
+once per variable; looking up all polygons is then a few array operations. Only the polygons
 whose cell is not inside (the boundary, the border, missing values) have their edges
 evaluated, as one padded array operation.
 
@@ -61,36 +62,48 @@ class PolygonChecks:
         self.x = np.asarray([ax[0] for ax in axes], dtype=np.int64)
         self.y = np.asarray([ax[1] for ax in axes], dtype=np.int64)
         self.at = np.stack([self.x, self.y], axis=1).ravel()
-        origin = np.zeros((count, 2))
-        scale = np.zeros((count, 2))
+        # one grid per variable over the range of the polygons' vertices on it (a hull's
+        # bounding box is its variables' range): a sample is quantised once per variable
+        size = int(max(self.x.max(), self.y.max())) + 1 if count else 0
+        low = np.full(size, np.inf)
+        high = np.full(size, -np.inf)
+        for owner, polygon in enumerate(polygons):
+            points = np.asarray(polygon["params"]["vertices"], dtype=np.float64).reshape(-1, 2)
+            if len(points):
+                for axis, var in enumerate(axes[owner]):
+                    low[var] = min(low[var], points[:, axis].min())
+                    high[var] = max(high[var], points[:, axis].max())
+        with np.errstate(all="ignore"):
+            cell = (high - low) / GRID
+            usable = np.isfinite(cell) & (cell > 0) & np.isfinite(1.0 / cell)
+            self.scale = np.where(usable, 1.0 / np.where(usable, cell, 1.0), 0.0)
+        # the origin sits one cell below the range: inner cells are 1..GRID, 0 and GRID + 1
+        # the border
+        self.origin = np.where(usable, low - cell, 0.0)
+        self.size = size
         need = np.ones((count, _SIDE, _SIDE), dtype=bool)
         for owner, polygon in enumerate(polygons):
-            grid = _grid(polygon["params"]["vertices"], per[owner])
-            if grid is not None:
-                origin[owner], scale[owner], need[owner] = grid
-        # x cells of polygon p are numbered from p * _SIDE (its table's first row), y cells
-        # from 0; the origins sit one cell below the box, so inner cells start at 1
-        first = np.stack([np.arange(count) * _SIDE, np.zeros(count)], axis=1)
-        cell = 1.0 / np.where(scale > 0, scale, 1.0)
-        self.origin = (origin - (first + 1.0) * cell).ravel()
-        self.scale = scale.ravel()
-        self.low = first.astype(np.int64).ravel()
-        self.high = self.low + GRID + 1
-        self.weights = np.tile(np.array([_SIDE, 1], np.int64), count)
+            x, y = axes[owner]
+            if len(polygon["params"]["vertices"]) >= 3 and usable[x] and usable[y]:
+                box = np.array([low[x], low[y]]), np.array([cell[x], cell[y]])
+                reach = np.array([max(abs(low[x]), abs(high[x])), max(abs(low[y]), abs(high[y]))])
+                need[owner] = _grid(per[owner], box[0], box[1], reach)
         self.need = need.ravel()
+        self.base = np.arange(count, dtype=np.int64) * (_SIDE * _SIDE)
 
     def candidates(self, row: Any) -> Any:
         """The polygons whose grid cell for ``row`` is not certainly inside."""
-        g = row.take(self.at)
-        g -= self.origin
+        g = row[: self.size] - self.origin
         g *= self.scale
         # NaN and huge values cast to garbage, clipped into the border: an exact check
         # follows there, which finds no violation for NaN (callers ignore the cast warning)
         cells = g.astype(np.int64)
-        np.maximum(cells, self.low, out=cells)  # (np.clip costs three times as much)
-        np.minimum(cells, self.high, out=cells)
-        cells *= self.weights
-        return self.need.take(cells[0::2] + cells[1::2]).nonzero()[0]
+        np.maximum(cells, 0, out=cells)  # (np.clip costs three times as much)
+        np.minimum(cells, GRID + 1, out=cells)
+        flat = (cells * _SIDE).take(self.x)
+        flat += cells.take(self.y)
+        flat += self.base
+        return self.need.take(flat).nonzero()[0]
 
     def broken(self, row: Any, candidates: Any = None) -> Any:
         """Which polygons (of ``candidates``, default all) ``row`` is outside of."""
@@ -110,28 +123,19 @@ class PolygonChecks:
         return candidates[hit & finite]
 
 
-def _grid(
-    vertices: Sequence[Sequence[float]], edges: Sequence[Tuple[float, float, float]]
-) -> Tuple[Any, Any, Any] | None:
-    """``(origin, cells per unit, needs-a-check table)`` of one polygon, or None."""
-    if len(vertices) < 3 or not edges:
-        return None
-    points = np.asarray(vertices, dtype=np.float64)
-    low = points.min(axis=0)
-    size = (points.max(axis=0) - low) / GRID
-    if not (np.all(size > 0) and np.all(np.isfinite(size))):
-        return None
-    with np.errstate(all="ignore"):
-        scale = 1.0 / size
-    if not np.all(np.isfinite(scale)):
-        return None
+def _grid(edges: Sequence[Tuple[float, float, float]], low: Any, size: Any, reach: Any) -> Any:
+    """The needs-a-check table of one polygon on the grids of its two variables (cells of
+    ``size`` from ``low``; ``reach`` bounds the magnitude of the coordinates)."""
+    need = np.ones((_SIDE, _SIDE), dtype=bool)
+    if not edges:
+        return need
     # corners of cell (i, j) of the inner grid, widened; cell k covers [k - 1, k) in units
     steps = np.arange(GRID + 1, dtype=np.float64)
     xs_lo = low[0] + (steps[:-1] - _WIDEN) * size[0]
     xs_hi = low[0] + (steps[1:] + _WIDEN) * size[0]
     ys_lo = low[1] + (steps[:-1] - _WIDEN) * size[1]
     ys_hi = low[1] + (steps[1:] + _WIDEN) * size[1]
-    big_x, big_y = np.abs(points).max(axis=0) + 2 * size
+    big_x, big_y = reach + 2 * size
     inside = np.ones((GRID, GRID), dtype=bool)
     for a, b, c in edges:
         room = c - _SAFETY * (abs(a) * big_x + abs(b) * big_y + abs(c))
@@ -139,6 +143,5 @@ def _grid(
         x_worst = np.where(a >= 0, xs_hi, xs_lo) * a
         y_worst = np.where(b >= 0, ys_hi, ys_lo) * b
         inside &= (x_worst[:, None] + y_worst[None, :]) <= room
-    need = np.ones((_SIDE, _SIDE), dtype=bool)
     need[1:-1, 1:-1] = ~inside
-    return low, scale, need
+    return need
