@@ -279,6 +279,7 @@ def test_the_backend_writes_and_installs_the_rewritten_launch(
     data = dict(setup_arguments(out / "landing_sim_monitor")["data_files"])
     assert data["share/landing_sim_monitor/launch"] == [
         "launch/landing_sim_monitor.launch.xml",
+        "launch/landing_sim_monitor_recorder.launch.xml",
         "launch/system_monitored.launch.xml",
     ]
 

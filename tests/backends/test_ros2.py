@@ -135,6 +135,9 @@ def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
     runtime = {f"{VENDOR}/runtime/{p.name}" for p in RUNTIME.glob("*.py")}
     adapter = {f"{VENDOR}/monitor_ros2/{p.name}" for p in ADAPTER.glob("*.py")}
     shared = {f"{VENDOR}/monitor_ros1/{name}" for name in (*SHARED, "__init__.py")}
+    recorder = {
+        f"{VENDOR}/record_ros2/{p.name}" for p in (ROOT / "imrosc" / "record_ros2").glob("*.py")
+    }
     expected = {
         "package.xml",
         "setup.py",
@@ -150,6 +153,11 @@ def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
         *runtime,
         *adapter,
         *shared,
+        # the recorder node (tests/backends/test_ros2_recorder.py)
+        f"{PACKAGE}/recorder.py",
+        f"{PACKAGE}/recorder.json",
+        f"launch/{PACKAGE}_recorder.launch.xml",
+        *recorder,
     }
     assert set(landing_package) == {f"{PACKAGE}/{name}" for name in expected}
 
@@ -234,18 +242,22 @@ def test_setup_py_and_setup_cfg_describe_an_ament_python_package(
     assert arguments["name"] == PACKAGE and arguments["version"] == __version__
     for dotted in arguments["packages"]:
         assert (package / dotted.replace(".", "/") / "__init__.py").is_file(), dotted
-    assert arguments["package_data"] == {PACKAGE: ["spec.json"]}
+    assert arguments["package_data"] == {PACKAGE: ["spec.json", "recorder.json"]}
     data = dict(arguments["data_files"])
     assert data["share/ament_index/resource_index/packages"] == [f"resource/{PACKAGE}"]
     assert data[f"share/{PACKAGE}"] == ["package.xml"]
     assert data[f"share/{PACKAGE}/config"] == ["config/invariants.json"]
-    assert data[f"share/{PACKAGE}/launch"] == [f"launch/{PACKAGE}.launch.xml"]
+    assert data[f"share/{PACKAGE}/launch"] == [
+        f"launch/{PACKAGE}.launch.xml",
+        f"launch/{PACKAGE}_recorder.launch.xml",
+    ]
     for paths in data.values():
         assert all((package / path).is_file() for path in paths)
     scripts = arguments["entry_points"]["console_scripts"]
     assert scripts == [
         f"{PACKAGE} = {PACKAGE}.main:monitor",
         f"{PACKAGE}_watchdog = {PACKAGE}.main:watchdog",
+        f"{PACKAGE}_recorder = {PACKAGE}.recorder:main",
     ]
     main_tree = ast.parse((package / PACKAGE / "main.py").read_text())
     functions = {n.name for n in main_tree.body if isinstance(n, ast.FunctionDef)}

@@ -24,15 +24,22 @@ filters (:mod:`imrosc.backends.ros1`): every name or literal from the configurat
 invariants file reaches Python as a JSON/``repr`` literal or a ``#`` comment, XML through
 autoescaping, and field paths, the only text that becomes code, are checked to be field
 names first. ``docs/monitor.md`` describes the package and the node.
+
+With a :class:`RecorderScope` (:data:`RENDER_RECORDER`), the package also holds the ROS 2
+recorder (``docs/record.md``, "ROS 2"): ``<package>/recorder.py`` (entry point
+``<package>_recorder``), ``<package>/recorder.json`` (the scope's services and parameters),
+the rclpy adapter ``imrosc/record_ros2`` (copied unchanged, like ``monitor_ros2``, which
+it imports) and ``launch/<package>_recorder.launch.xml``.
 """
 
 from __future__ import annotations
 
 import re
 import textwrap
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
@@ -42,6 +49,9 @@ from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy
 from imrosc.backends.registry import BuildInputs, register
 from imrosc.backends.ros1 import hash_comment, py_literal, xml_comment_filter
 from imrosc.diagnostics import make
+
+if TYPE_CHECKING:
+    from imrosc import ir
 
 BACKEND = "ros2"
 SYSTEM_LAUNCH = "launch/system_monitored.launch.xml"
@@ -58,6 +68,13 @@ EXEC_DEPENDS = (
     "ros2launch",
     "std_msgs",
 )
+RECORDER_SPEC = "recorder.json"
+RECORDER_FORMAT = "imrosc-recorder"
+RENDER_RECORDER = True
+"""Whether ``imrosc build --backend ros2`` puts the recorder into the package. Off until
+``tests/backends/test_ros2.py`` expects the recorder's files (it checks the package's file
+list, its launch ``data_files`` and its console scripts exactly); ``render_package`` with
+a :class:`RecorderScope` renders it already (``tests/backends/test_ros2_recorder.py``)."""
 _VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+")
 LAUNCH_SUFFIXES = (".launch.xml", ".xml")
 """Launch files the ``ros2`` backend rewrites (ROS 2 launch XML); Python and YAML launch
@@ -78,6 +95,34 @@ _DOCSTRINGS = {
         "which the ROS 2 adapter shares; the rospy modules are not carried."
     ),
 }
+
+
+@dataclass(frozen=True)
+class RecorderScope:
+    """What the package's recorder records besides the graph: the services of the
+    ``<call>`` points (through service introspection) and the parameters, sorted."""
+
+    services: tuple[str, ...] = ()
+    params: tuple[str, ...] = ()
+
+    def document(self, spec: MonitorSpec, banner: str) -> dict[str, Any]:
+        """``recorder.json``: what the recorder node reads at start."""
+        return {
+            "$comment": banner,
+            "format": RECORDER_FORMAT,
+            "version": 1,
+            "services": list(self.services),
+            "params": list(self.params),
+            "period": spec.period,
+        }
+
+
+def recorder_scope(project: ir.Project) -> RecorderScope:
+    """The recorder's scope of a configuration (that of ``imrosc record``)."""
+    from imrosc.record.scope import scope_of  # record imports the compiler, which imports us
+
+    scope = scope_of(project)
+    return RecorderScope(tuple(scope.services), tuple(scope.params))
 
 
 def environment() -> Environment:
@@ -131,11 +176,24 @@ def chunks(text: str, width: int = 72) -> list[str]:
     return [piece + " " for piece in pieces[:-1]] + pieces[-1:]
 
 
-def python_packages(spec: MonitorSpec) -> list[str]:
+def python_packages(spec: MonitorSpec, recorder: bool = False) -> list[str]:
     """The Python packages ``setup.py`` installs (dotted names)."""
     root = spec.package
     vendor = f"{root}.{VENDOR}"
-    return [root, vendor, f"{vendor}.monitor_ros1", f"{vendor}.monitor_ros2", f"{vendor}.runtime"]
+    packages = [root, vendor, f"{vendor}.monitor_ros1", f"{vendor}.monitor_ros2"]
+    if recorder:
+        packages.append(f"{vendor}.record_ros2")
+    return [*packages, f"{vendor}.runtime"]
+
+
+def recorder_script(spec: MonitorSpec) -> str:
+    """The recorder's console script."""
+    return f"{spec.package}_recorder = {spec.package}.recorder:main"
+
+
+def recorder_launch(spec: MonitorSpec) -> str:
+    """The recorder's launch file."""
+    return f"launch/{spec.package}_recorder.launch.xml"
 
 
 def data_files(spec: MonitorSpec, launch_files: list[str]) -> list[tuple[str, list[str]]]:
@@ -151,10 +209,14 @@ def data_files(spec: MonitorSpec, launch_files: list[str]) -> list[tuple[str, li
 
 
 def render_package(
-    spec: MonitorSpec, banner: str, extra_launch: tuple[str, ...] = ()
+    spec: MonitorSpec,
+    banner: str,
+    extra_launch: tuple[str, ...] = (),
+    recorder: RecorderScope | None = None,
 ) -> dict[str, bytes]:
     """The files of the package (paths relative to the package folder); ``extra_launch``
-    names launch files written beside the monitor's own (the rewritten system launch)."""
+    names launch files written beside the monitor's own (the rewritten system launch);
+    with ``recorder`` the package holds the recorder too."""
     env = environment()
     version = __version__ if _VERSION.fullmatch(__version__) else "0.0.0"
     flattened = [t for t in spec.topics if t.flattener is not None]
@@ -164,6 +226,13 @@ def render_package(
         "publishes or calls a service when one breaks."
     )
     monitor_launch = f"launch/{spec.package}.launch.xml"
+    launch_files = [monitor_launch, *extra_launch]
+    scripts = [f"{spec.node} = {root}.main:monitor", f"{spec.watchdog} = {root}.main:watchdog"]
+    package_data = ["spec.json"]
+    if recorder is not None:
+        launch_files.append(recorder_launch(spec))
+        scripts.append(recorder_script(spec))
+        package_data.append(RECORDER_SPEC)
 
     def render(template: str, **extra: Any) -> bytes:
         context = {"spec": spec, "banner": banner, **extra}
@@ -180,13 +249,11 @@ def render_package(
         "setup.py": render(
             "setup.py.j2",
             version=version,
-            packages=python_packages(spec),
-            data_files=data_files(spec, [monitor_launch, *extra_launch]),
+            packages=python_packages(spec, recorder is not None),
+            package_data=package_data,
+            data_files=data_files(spec, launch_files),
             description=chunks(description),
-            scripts=[
-                f"{spec.node} = {root}.main:monitor",
-                f"{spec.watchdog} = {root}.main:watchdog",
-            ],
+            scripts=scripts,
         ),
         "setup.cfg": render("setup.cfg.j2"),
         f"resource/{root}": f"{banner}\n".encode(),
@@ -207,6 +274,11 @@ def render_package(
     files.update(
         _copies("imrosc.monitor_ros1", f"{vendor}/monitor_ros1", banner, only=SHARED_ADAPTER)
     )
+    if recorder is not None:
+        files[f"{root}/recorder.py"] = render("recorder.py.j2")
+        files[f"{root}/{RECORDER_SPEC}"] = dumps(recorder.document(spec, banner))
+        files[recorder_launch(spec)] = render("recorder.launch.xml.j2")
+        files.update(_copies("imrosc.record_ros2", f"{vendor}/record_ros2", banner))
     return dict(sorted(files.items()))
 
 
@@ -261,6 +333,7 @@ def render(inputs: BuildInputs) -> dict[str, bytes]:
         return {}
     banner = inputs.banner(BACKEND)
     system = rewrite_system_launch(inputs, spec, banner)
-    files = render_package(spec, banner, tuple(system))
+    recorder = recorder_scope(inputs.project) if RENDER_RECORDER else None
+    files = render_package(spec, banner, tuple(system), recorder)
     files.update(system)
     return {f"{spec.package}/{name}": content for name, content in sorted(files.items())}

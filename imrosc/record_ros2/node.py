@@ -1,0 +1,303 @@
+"""The ROS 2 recorder node (rclpy): publishes the record topics that ``ros2 bag record`` saves.
+
+Every ``period`` seconds (and at start) it reads the graph (rclpy's graph API, through
+``monitor_ros2``'s :func:`plumbing.read_graph`) and asks the nodes for the scope's
+parameters (``GetParameters`` on ``/<node>/get_parameters``), and publishes an
+architecture (``/imrosc/arch``) or parameter (``/imrosc/params``) snapshot when it differs
+from the last one it published. A half-discovered graph (an endpoint whose node DDS has not
+named yet) is not published; the next poll reads it again.
+
+Service calls come from service introspection (ROS 2 Iron and later): for each ``<call>``
+service of the scope it subscribes to ``<service>/_service_event`` as soon as the topic
+shows up with its ``<pkg>/srv/<Name>_Event`` type, pairs the events of each call
+(:class:`logic.Pairing`) and publishes one ``/imrosc/srvs`` record per call. The server and
+client must have introspection enabled (``configure_introspection(clock, qos,
+ServiceIntrospectionState.CONTENTS)``); without it no event topic appears and the calls are
+not recorded (the node says so once).
+
+The record topics are reliable and transient local (the last snapshot, the last calls), so
+``ros2 bag record`` started later still gets the current snapshots. Python 3.8 syntax.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import Any, Dict, List, Optional, Set, Tuple
+
+from ..monitor_ros2 import logic as graph
+from ..monitor_ros2 import plumbing
+from . import logic
+
+try:  # only a ROS 2 system has these
+    import rclpy  # type: ignore[import-not-found, unused-ignore]
+    from rcl_interfaces.srv import (  # type: ignore[import-not-found, unused-ignore]
+        GetParameters,
+    )
+    from rclpy.callback_groups import (  # type: ignore[import-not-found, unused-ignore]
+        MutuallyExclusiveCallbackGroup,
+        ReentrantCallbackGroup,
+    )
+    from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
+        MultiThreadedExecutor,
+    )
+    from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
+    from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
+except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
+    rclpy = None
+
+THREADS = 4
+SNAPSHOT_DEPTH = 1
+"""The record topics keep the last snapshot for late joiners (transient local)."""
+CALL_DEPTH = 100
+"""... and the last calls."""
+EVENT_DEPTH = 100
+
+
+def event_class_of(type_name: str) -> Any:
+    """The message class of ``<pkg>/srv/<Name>_Event`` (``<Name>.Event``), or ``None``."""
+    found = logic.event_service(type_name)
+    if found is None:
+        return None
+    service_class = plumbing.interface_class(found[0].split(".")[0] + "/" + found[1], "srv")
+    return getattr(service_class, "Event", None)
+
+
+class Recorder:
+    """The node's state: what it published last, the event subscriptions, waiting calls."""
+
+    def __init__(self, node: Any, spec: Dict[str, Any]) -> None:
+        self.node = node
+        self.log = node.get_logger()
+        self.warn = getattr(self.log, "warning", None) or self.log.warn  # Foxy has warn only
+        self.period = float(plumbing.get_param(node, "period", spec["period"]))
+        self.name = graph.node_name(node.get_namespace(), node.get_name())
+        self.services: List[str] = list(spec["services"])
+        self.params: List[str] = list(spec["params"])
+        self.lock = threading.Lock()
+        self.changes = logic.Changes()
+        self.pairing = logic.Pairing(
+            settle=max(1.0, self.period),
+            timeout=float(plumbing.get_param(node, "call_timeout", 10.0)),
+        )
+        self.answers: Dict[str, Any] = {}
+        self.answered_once = not self.params
+        self.param_clients: Dict[str, Any] = {}
+        self.param_pending: Set[str] = set()
+        self.events: Dict[str, Any] = {}
+        self.writers: Dict[str, List[Tuple[bytes, str]]] = {}
+        self.event_publishers: Dict[str, List[str]] = {}
+        self.servers: Dict[str, List[str]] = {}
+        self.told: Set[str] = set()
+        self.started = time.monotonic()
+        self.polls = MutuallyExclusiveCallbackGroup()
+        self.calls = ReentrantCallbackGroup()
+        snapshot = plumbing.profile(
+            graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL), SNAPSHOT_DEPTH
+        )
+        calls = plumbing.profile(graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL), CALL_DEPTH)
+        self.publishers = {
+            logic.ARCH_TOPIC: node.create_publisher(String, logic.ARCH_TOPIC, snapshot),
+            logic.PARAMS_TOPIC: node.create_publisher(String, logic.PARAMS_TOPIC, snapshot),
+            logic.SRVS_TOPIC: node.create_publisher(String, logic.SRVS_TOPIC, calls),
+        }
+        self.published = dict.fromkeys(logic.RECORD_TOPICS, 0)
+        self.tick()
+        self.timer = node.create_timer(
+            self.period, plumbing.guarded(self.log, "poll", self.tick), callback_group=self.polls
+        )
+
+    def publish(self, topic: str, text: str) -> None:
+        message = String()
+        message.data = text
+        self.publishers[topic].publish(message)
+        self.published[topic] += 1
+
+    def tick(self) -> None:
+        """The timer: the graph, the parameters, the event subscriptions, late calls."""
+        try:
+            view: Optional[graph.GraphView] = plumbing.read_graph(self.node)
+        except Exception as error:
+            self.warn(f"imrosc recorder: cannot read the graph: {error}")
+            view = None
+        if view is not None and view.complete:  # else a node is half discovered: wait
+            topics, services = logic.arch_of(view, [self.name])
+            text = logic.arch_text(topics, services)
+            if self.changes.changed(logic.ARCH_TOPIC, text):
+                self.publish(logic.ARCH_TOPIC, text)
+        with self.lock:
+            params = logic.params_of(self.answers, self.params) if self.answered_once else None
+        if params is not None:
+            text = logic.params_text(params)
+            if self.changes.changed(logic.PARAMS_TOPIC, text):
+                self.publish(logic.PARAMS_TOPIC, text)
+        if view is not None:
+            self.ask_params(view)
+            self.connect(view)
+        self.flush(self.pairing_due())
+
+    def pairing_due(self) -> List[logic.Call]:
+        with self.lock:
+            return self.pairing.due(time.monotonic())
+
+    def ask_params(self, view: graph.GraphView) -> None:
+        """Ask each node for the scope's parameters, one ``GetParameters`` call per parameter
+        (rclpy answers a call that names one undeclared parameter with no values at all).
+        The answers arrive in an executor thread and are published at the next poll."""
+        requests = graph.parameter_requests(self.params, view.nodes)
+        for owner, asked in requests.items():
+            if owner == self.name:
+                continue
+            if owner not in view.nodes:  # not running (yet): its parameters are not set
+                with self.lock:
+                    for record, _ in asked:
+                        self.answers.pop(record, None)
+                continue
+            client = self.param_clients.get(owner)
+            if client is None:
+                client = self.node.create_client(
+                    GetParameters, owner.rstrip("/") + "/get_parameters", callback_group=self.calls
+                )
+                self.param_clients[owner] = client
+            if not client.service_is_ready():
+                continue
+            for record, name in asked:
+                with self.lock:
+                    if record in self.param_pending:
+                        continue
+                    self.param_pending.add(record)
+                future = client.call_async(GetParameters.Request(names=[name]))
+                future.add_done_callback(self.on_param_of(owner, (record, name)))
+        with self.lock:
+            if not self.param_pending:  # nothing to wait for: publish what is known
+                self.answered_once = True
+
+    def on_param_of(self, owner: str, asked: Tuple[str, str]) -> Any:
+        def on_param(future: Any) -> None:
+            try:
+                response = future.result()
+                answered, missing = graph.parameter_answers([asked], list(response.values))
+            except Exception as error:
+                self.warn(f"imrosc recorder: parameter {asked[0]} of {owner}: {error}")
+                answered, missing = {}, []
+            with self.lock:
+                self.answers.update(answered)
+                for name in missing:
+                    self.answers.pop(name, None)
+                self.param_pending.discard(asked[0])
+                self.answered_once = True
+
+        return on_param
+
+    def connect(self, view: graph.GraphView) -> None:
+        """Subscribe to the event topic of each scope service once it has a type; note
+        who writes its requests, publishes its events and serves it."""
+        for service in self.services:
+            topic = logic.event_topic(service)
+            self.servers[service] = list(view.services.get(service, ()))
+            self.event_publishers[service] = list(view.topics.get(topic, ((), ()))[0])
+            try:
+                writers = self.node.get_publishers_info_by_topic(
+                    logic.request_topic(service), no_mangle=True
+                )
+                self.writers[service] = [
+                    (
+                        logic.gid_bytes(getattr(info, "endpoint_gid", b"")),
+                        graph.node_name(info.node_namespace, info.node_name),
+                    )
+                    for info in writers
+                ]
+            except Exception:
+                self.writers[service] = []
+            if service in self.events:
+                continue
+            kinds = [k for k in view.types.get(topic, ()) if logic.event_service(k)]
+            if not kinds:
+                waited = time.monotonic() - self.started
+                if service not in self.told and waited > 5 * self.period + 2.0:
+                    self.told.add(service)
+                    self.warn(
+                        f"imrosc recorder: no {topic} yet: calls of {service} are recorded "
+                        "only when its server or clients enable service introspection "
+                        "(ROS 2 Iron and later)"
+                    )
+                continue
+            event_class = event_class_of(kinds[0])
+            if event_class is None:
+                if service not in self.told:
+                    self.told.add(service)
+                    self.warn(f"imrosc recorder: no class {kinds[0]} for {topic}: not recorded")
+                continue
+            self.events[service] = self.node.create_subscription(
+                event_class,
+                topic,
+                plumbing.guarded(self.log, f"event of {service}", self.on_event_of(service)),
+                plumbing.profile(graph.DEFAULT, EVENT_DEPTH),
+                callback_group=self.calls,
+            )
+            self.log.info(f"imrosc recorder: recording calls of {service} from {topic}")
+
+    def on_event_of(self, service: str) -> Any:
+        def on_event(message: Any) -> None:
+            event = logic.event_of(message)
+            with self.lock:
+                calls = self.pairing.add(service, event, time.monotonic())
+            self.flush(calls)
+
+        return on_event
+
+    def flush(self, calls: List[logic.Call]) -> None:
+        """Publish paired calls."""
+        for call in calls:
+            client = logic.client_node(
+                call.client_gid,
+                self.writers.get(call.service, []),
+                self.event_publishers.get(call.service, []),
+                self.servers.get(call.service, []),
+            )
+            server = logic.server_node(self.servers.get(call.service, []))
+            self.publish(logic.SRVS_TOPIC, logic.call_record(call, client, server))
+
+    def close(self) -> None:
+        """Publish the calls still waiting."""
+        with self.lock:
+            calls = self.pairing.drain()
+        self.flush(calls)
+
+
+def main(package: str, args: Optional[List[str]] = None) -> None:
+    """Run the recorder node of ``package`` until ROS shuts down."""
+    if rclpy is None:
+        sys.exit("imrosc recorder: rclpy is not importable; run it on a ROS 2 system")
+    rclpy.init(args=args)
+    node = Node(
+        package + "_recorder",
+        allow_undeclared_parameters=True,
+        automatically_declare_parameters_from_overrides=True,
+    )
+    try:
+        spec = logic.load_spec()
+    except (OSError, ValueError) as error:
+        node.get_logger().fatal(f"imrosc recorder: {error}")
+        sys.exit(1)
+    recorder = Recorder(node, spec)
+    node.get_logger().info(
+        f"imrosc recorder {recorder.name}: recording the graph, {len(recorder.params)} "
+        f"parameters and the calls of {len(recorder.services)} services"
+    )
+    executor = MultiThreadedExecutor(num_threads=THREADS)
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        try:
+            recorder.close()
+        except Exception as error:
+            node.get_logger().error(f"imrosc recorder: last calls: {error}")
+        executor.shutdown()
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()

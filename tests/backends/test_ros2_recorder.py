@@ -1,0 +1,514 @@
+"""The ROS 2 recorder in the ``ros2`` package: its files (compiled, linted for Python 3.8,
+installed by ``setup.py``, launched by XML), and its plain logic: records that the
+translator's readers (:mod:`imrosc.records`) accept, change detection, and service calls
+paired from synthetic introspection events.
+
+The live half (the rendered recorder node on a ROS 2 graph with service introspection)
+runs only with an rclpy interpreter (``IMROSC_ROS2_PYTHON``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import py_compile
+import subprocess
+import sys
+import textwrap
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+from lxml import etree
+
+import imrosc.backends.ros2 as ros2_backend
+from imrosc import records
+from imrosc.backends.registry import GENERATED_MARK
+from imrosc.monitor_ros2 import logic as graph
+from imrosc.record_ros2 import logic
+from tests.backends.test_monitor_spec import ROOT, write_package
+from tests.backends.test_ros1 import python38
+from tests.backends.test_ros2 import (
+    PACKAGE,
+    VENDOR,
+    _without_banner,
+    build_ros2,
+    landing_ros2,
+    python_files,
+    setup_arguments,
+)
+
+__all__ = ["landing_ros2"]  # the fixture, shared with test_ros2
+
+RECORDER = ROOT / "imrosc" / "record_ros2"
+GID = bytes(range(16))
+OTHER = bytes(range(1, 17))
+
+
+@pytest.fixture(scope="module")
+def recorder_package(landing_ros2: Path) -> Iterator[dict[str, bytes]]:
+    """The landing example's ros2 package, built with the recorder."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ros2_backend, "RENDER_RECORDER", True)
+        result = build_ros2(
+            landing_ros2 / "landing_sim.xml", [landing_ros2 / "landing_sim.graph.yaml"]
+        )
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    yield result.files
+
+
+# -- the package ----------------------------------------------------------------------------
+
+
+def _without_recorder(landing_ros2: Path) -> dict[str, bytes]:
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ros2_backend, "RENDER_RECORDER", False)
+        result = build_ros2(
+            landing_ros2 / "landing_sim.xml", [landing_ros2 / "landing_sim.graph.yaml"]
+        )
+    assert result.ok
+    return result.files
+
+
+def test_the_ros2_package_carries_the_recorder_by_default() -> None:
+    assert ros2_backend.RENDER_RECORDER is True
+
+
+def test_without_the_switch_the_package_has_no_recorder(landing_ros2: Path) -> None:
+    files = _without_recorder(landing_ros2)
+    assert not [name for name in files if "recorder" in name or "record_ros2" in name]
+
+
+def test_the_recorder_adds_its_files_and_leaves_the_monitor_alone(
+    recorder_package: dict[str, bytes], landing_ros2: Path
+) -> None:
+    plain_files = _without_recorder(landing_ros2)
+    added = set(recorder_package) - set(plain_files)
+    copies = {f"{PACKAGE}/{VENDOR}/record_ros2/{p.name}" for p in RECORDER.glob("*.py")}
+    assert added == {
+        f"{PACKAGE}/{PACKAGE}/recorder.py",
+        f"{PACKAGE}/{PACKAGE}/recorder.json",
+        f"{PACKAGE}/launch/{PACKAGE}_recorder.launch.xml",
+        *copies,
+    }
+    changed = {n for n in plain_files if plain_files[n] != recorder_package[n]}
+    assert changed == {f"{PACKAGE}/setup.py"}
+    for path in RECORDER.glob("*.py"):
+        copy = recorder_package[f"{PACKAGE}/{VENDOR}/record_ros2/{path.name}"].decode()
+        assert copy.startswith("# " + GENERATED_MARK)
+        assert _without_banner(copy) == path.read_text(encoding="utf-8"), path
+
+
+def test_the_recorder_spec_is_the_scope(recorder_package: dict[str, bytes]) -> None:
+    spec = logic.check_spec(json.loads(recorder_package[f"{PACKAGE}/{PACKAGE}/recorder.json"]))
+    assert spec["services"] == ["/a/execute_task", "/a/poll_status"]
+    assert "/a/car_ctrl/landing_radius" in spec["params"]
+    assert spec["params"] == sorted(spec["params"])
+    assert spec["period"] > 0
+    assert GENERATED_MARK in spec["$comment"]
+
+
+def test_setup_py_installs_the_recorder(recorder_package: dict[str, bytes], tmp_path: Path) -> None:
+    package = write_package(recorder_package, tmp_path)
+    arguments = setup_arguments(package)
+    scripts = arguments["entry_points"]["console_scripts"]
+    assert f"{PACKAGE}_recorder = {PACKAGE}.recorder:main" in scripts
+    assert f"{PACKAGE} = {PACKAGE}.main:monitor" in scripts
+    assert f"{PACKAGE}.{VENDOR.split('/')[1]}.record_ros2" in arguments["packages"]
+    for dotted in arguments["packages"]:
+        assert (package / dotted.replace(".", "/") / "__init__.py").is_file(), dotted
+    assert arguments["package_data"] == {PACKAGE: ["spec.json", "recorder.json"]}
+    data = dict(arguments["data_files"])
+    assert f"launch/{PACKAGE}_recorder.launch.xml" in data[f"share/{PACKAGE}/launch"]
+    for paths in data.values():
+        assert all((package / path).is_file() for path in paths)
+
+
+def test_the_recorder_launch_file_starts_the_node(recorder_package: dict[str, bytes]) -> None:
+    root = etree.fromstring(recorder_package[f"{PACKAGE}/launch/{PACKAGE}_recorder.launch.xml"])
+    assert root.tag == "launch"
+    (node,) = root.iter("node")
+    name = f"{PACKAGE}_recorder"
+    assert (node.get("pkg"), node.get("exec"), node.get("name")) == (PACKAGE, name, name)
+    params = {p.get("name"): p.get("value") for p in node.iter("param")}
+    assert params == {"period": "$(var period)", "call_timeout": "$(var call_timeout)"}
+    args = {a.get("name"): a.get("default") for a in root.iter("arg")}
+    assert float(args["period"] or "") > 0 and float(args["call_timeout"] or "") > 0
+    assert all(a.get("description") for a in root.iter("arg"))
+
+
+def test_the_recorder_compiles_and_passes_ruff_for_python_38(
+    recorder_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    package = write_package(recorder_package, tmp_path)
+    scripts = []
+    for name in python_files(recorder_package):
+        path = tmp_path / name
+        py_compile.compile(str(path), doraise=True, cfile=str(tmp_path / "compiled.pyc"))
+        scripts.append(str(path))
+    done = subprocess.run(
+        [
+            *(sys.executable, "-m", "ruff", "check", "--no-cache"),
+            *("--config", str(RECORDER / "ruff.toml")),
+            *scripts,
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=package,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    interpreter = python38()
+    if interpreter is None:
+        return
+    script = (
+        "import ast, sys\n"
+        "for path in sys.argv[1:]:\n"
+        "    ast.parse(open(path, encoding='utf-8').read(), path, feature_version=(3, 8))\n"
+    )
+    checked = subprocess.run(
+        [interpreter, "-I", "-c", script, *scripts], capture_output=True, text=True, check=False
+    )
+    assert checked.returncode == 0, checked.stderr
+
+
+def test_the_rendered_recorder_imports_and_says_when_rclpy_is_missing(
+    recorder_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    package = write_package(recorder_package, tmp_path)
+    probe = subprocess.run(
+        [sys.executable, "-c", "import rclpy"],
+        capture_output=True,
+        check=False,
+    )
+    if probe.returncode == 0:
+        pytest.skip("rclpy is importable here")
+    done = subprocess.run(
+        [sys.executable, "-c", f"from {PACKAGE}.recorder import main; main()"],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=package,
+        timeout=120,
+    )
+    assert done.returncode == 1
+    assert "rclpy is not importable" in done.stderr
+
+
+# -- records the readers accept -------------------------------------------------------------
+
+
+def test_architecture_records_decode_and_leave_the_machinery_out() -> None:
+    view = graph.GraphView(
+        topics={
+            "/a/pose": (["/a/car", "/rec"], ["/a/ctrl", "/rosbag2_recorder"]),
+            "/imrosc/arch": (["/rec"], ["/rosbag2_recorder"]),
+            "/a/reset/_service_event": (["/a/car"], ["/rec"]),
+            "/parameter_events": (["/a/car"], []),
+            "/lonely": (["/rec"], []),
+        },
+        types={},
+        publisher_qos={},
+        services={"/a/reset": ["/a/car"], "/rec/get_parameters": ["/rec"]},
+        service_types={},
+        nodes=["/a/car", "/a/ctrl", "/rec", "/_ros2cli_daemon_0"],
+    )
+    topics, services = logic.arch_of(view, ["/rec"])
+    text = logic.arch_text(topics, services)
+    decoded = records.decode_arch(text)
+    assert records.encode(decoded) == text
+    assert decoded.topics["/a/pose"] == records.TopicEnds(
+        frozenset({"/a/car"}), frozenset({"/a/ctrl"})
+    )
+    assert set(decoded.topics) == {"/a/pose", "/parameter_events"}
+    assert decoded.services == {"/a/reset": frozenset({"/a/car"})}
+
+
+def test_parameter_records_decode_identically() -> None:
+    answers = {"/a/car_ctrl/gain": 2.5, "/a/car_ctrl/mode": "x", "/a/raw": [b"\x01", b"\x02"]}
+    answers["/a/nan"] = math.nan
+    text = logic.params_text(logic.params_of(answers, [*answers, "/a/unset"]))
+    decoded = records.decode_params(text)
+    assert records.encode(decoded) == text
+    assert decoded.params["/a/raw"] == [1, 2] and "/a/unset" not in decoded.params
+    assert logic.params_text({}) == records.encode(records.ParamSnapshot({}))
+
+
+def test_change_detection_publishes_only_on_change() -> None:
+    changes = logic.Changes()
+    first = logic.arch_text({"/t": (["/a"], [])}, {})
+    same = logic.arch_text({"/t": ({"/a"}, ())}, {})
+    other = logic.arch_text({"/t": (["/a", "/b"], [])}, {})
+    published = [
+        text
+        for topic, text in [
+            (logic.ARCH_TOPIC, first),
+            (logic.ARCH_TOPIC, same),
+            (logic.PARAMS_TOPIC, logic.params_text({})),
+            (logic.ARCH_TOPIC, other),
+            (logic.PARAMS_TOPIC, logic.params_text({})),
+            (logic.ARCH_TOPIC, first),
+        ]
+        if changes.changed(topic, text)
+    ]
+    assert published == [first, logic.params_text({}), other, first]
+
+
+# -- service calls from introspection events ------------------------------------------------
+
+
+def event(
+    kind: int, stamp: float, gid: bytes = GID, sequence: int = 1, **data: Any
+) -> logic.ServiceEvent:
+    return logic.ServiceEvent(kind, stamp, gid, sequence, data.get("request"), data.get("response"))
+
+
+def record(
+    call: logic.Call, client: str = "/a/ctrl", server: str = "/a/car"
+) -> records.ServiceCall:
+    text = logic.call_record(call, client, server)
+    decoded = records.decode_call(text)
+    assert records.encode(decoded) == text
+    return decoded
+
+
+def test_four_events_make_one_call_timed_by_the_client() -> None:
+    pairing = logic.Pairing()
+    calls = []
+    calls += pairing.add("/a/reset", event(logic.REQUEST_SENT, 10.0, request={"data": 1.5}), 0.0)
+    calls += pairing.add(
+        "/a/reset", event(logic.REQUEST_RECEIVED, 10.1, request={"data": 1.5}), 0.0
+    )
+    calls += pairing.add(
+        "/a/reset", event(logic.RESPONSE_SENT, 10.2, response={"success": True}), 0.0
+    )
+    assert calls == []  # the client's side is still missing
+    calls += pairing.add(
+        "/a/reset", event(logic.RESPONSE_RECEIVED, 10.25, response={"success": True}), 0.0
+    )
+    (call,) = calls
+    decoded = record(call)
+    assert decoded.service == "/a/reset" and decoded.ok
+    assert decoded.request == {"data": 1.5} and decoded.response == {"success": True}
+    assert decoded.stamp == 10.0 and math.isclose(decoded.delay, 0.25)
+    assert (decoded.client, decoded.server) == ("/a/ctrl", "/a/car")
+    # a repeated event of a finished call starts nothing that completes
+    assert pairing.add("/a/reset", event(logic.RESPONSE_RECEIVED, 10.25), 0.0) == []
+    assert pairing.drain() == [] and pairing.dropped == 1
+
+
+def test_server_side_introspection_alone_records_calls() -> None:
+    pairing = logic.Pairing()
+    assert pairing.add("/s", event(logic.REQUEST_RECEIVED, 5.0, request={"a": 1}), 0.0) == []
+    (call,) = pairing.add("/s", event(logic.RESPONSE_SENT, 5.5, response={"b": [1, 2]}), 0.1)
+    decoded = record(call)
+    assert decoded.stamp == 5.0 and math.isclose(decoded.delay, 0.5)
+    assert decoded.response == {"b": [1, 2]}
+
+
+def test_calls_of_two_clients_with_the_same_sequence_number_stay_apart() -> None:
+    pairing = logic.Pairing()
+    pairing.add("/s", event(logic.REQUEST_RECEIVED, 1.0, GID, 7, request={"x": 1}), 0.0)
+    pairing.add("/s", event(logic.REQUEST_RECEIVED, 1.1, OTHER, 7, request={"x": 2}), 0.0)
+    (second,) = pairing.add("/s", event(logic.RESPONSE_SENT, 1.3, OTHER, 7, response={"y": 2}), 0.0)
+    (first,) = pairing.add("/s", event(logic.RESPONSE_SENT, 1.2, GID, 7, response={"y": 1}), 0.0)
+    assert (first.request, first.response, first.client_gid) == ({"x": 1}, {"y": 1}, GID)
+    assert (second.request, second.response, second.client_gid) == ({"x": 2}, {"y": 2}, OTHER)
+
+
+def test_a_call_without_response_is_recorded_as_failed_after_the_timeout() -> None:
+    pairing = logic.Pairing(settle=1.0, timeout=5.0)
+    pairing.add("/s", event(logic.REQUEST_RECEIVED, 1.0, request={"x": 1}), 100.0)
+    assert pairing.due(104.0) == []
+    (call,) = pairing.due(105.0)
+    decoded = record(call)
+    assert not decoded.ok and decoded.response is None and decoded.delay == 0.0
+
+
+def test_a_side_that_stops_introspecting_delays_the_call_by_settle_only() -> None:
+    pairing = logic.Pairing(settle=1.0, timeout=5.0)
+    for kind in (
+        logic.REQUEST_SENT,
+        logic.REQUEST_RECEIVED,
+        logic.RESPONSE_SENT,
+        logic.RESPONSE_RECEIVED,
+    ):
+        pairing.add("/s", event(kind, 1.0 + kind / 10, sequence=1), 0.0)
+    # the client stops introspecting: call 2 has the server's events only
+    pairing.add("/s", event(logic.REQUEST_RECEIVED, 2.0, sequence=2), 10.0)
+    assert pairing.add("/s", event(logic.RESPONSE_SENT, 2.5, sequence=2), 10.0) == []
+    assert pairing.due(10.5) == []
+    (call,) = pairing.due(11.0)
+    assert call.stamp == 2.0 and math.isclose(call.delay, 0.5)
+    assert record(call).response == {}  # metadata only: no contents
+
+
+def test_a_response_without_its_request_is_dropped() -> None:
+    pairing = logic.Pairing(settle=0.0)
+    assert pairing.add("/s", event(logic.RESPONSE_SENT, 1.0), 0.0) == []
+    assert pairing.due(0.0) == [] and pairing.dropped == 1
+
+
+def test_events_are_read_from_rclpy_messages() -> None:
+    class Request:
+        def __init__(self) -> None:
+            self.data = True
+            self.name = "x"
+            self.raw = b"\x01\x02"
+
+        @staticmethod
+        def get_fields_and_field_types() -> dict[str, str]:
+            return {"data": "boolean", "name": "string", "raw": "sequence<uint8>"}
+
+    info = SimpleNamespace(
+        event_type=logic.REQUEST_SENT,
+        stamp=SimpleNamespace(sec=3, nanosec=500_000_000),
+        client_gid=list(GID),
+        sequence_number=4,
+    )
+    found = logic.event_of(SimpleNamespace(info=info, request=[Request()], response=[]))
+    assert found == logic.ServiceEvent(
+        logic.REQUEST_SENT, 3.5, GID, 4, {"data": True, "name": "x", "raw": [1, 2]}, None
+    )
+
+
+def test_the_client_is_named_by_its_gid_or_the_event_publishers() -> None:
+    writers = [(GID + b"\x00" * 8, "/a/ctrl"), (OTHER, "/b/ctrl")]
+    assert logic.client_node(GID, writers) == "/a/ctrl"
+    assert logic.client_node(OTHER, writers) == "/b/ctrl"
+    assert logic.client_node(b"\x09" * 16, writers, ["/a/car", "/c"], ["/a/car"]) == "/c"
+    assert logic.client_node(b"\x09" * 16, writers) == logic.UNKNOWN_NODE
+    assert (
+        records.decode_call(
+            logic.call_text("/s", logic.UNKNOWN_NODE, logic.UNKNOWN_NODE, {}, None, 1.0, 0.0)
+        ).client
+        == logic.UNKNOWN_NODE
+    )
+
+
+# -- live: the rendered recorder on a ROS 2 graph -------------------------------------------
+
+
+def _ros2_python() -> str | None:
+    candidate = os.environ.get("IMROSC_ROS2_PYTHON")
+    if not candidate or not Path(candidate).exists():
+        return None
+    probe = subprocess.run(
+        [candidate, "-c", "import rclpy, std_srvs.srv, rcl_interfaces.srv, service_msgs.msg"],
+        capture_output=True,
+        check=False,
+        timeout=60,
+    )
+    return candidate if probe.returncode == 0 else None
+
+
+DRIVER = textwrap.dedent(
+    """
+    import json, sys, time
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile, DurabilityPolicy, ReliabilityPolicy
+    from rclpy.service_introspection import ServiceIntrospectionState
+    from std_msgs.msg import String
+    from std_srvs.srv import SetBool
+
+    rclpy.init()
+    car = Node("car", namespace="/a", parameter_overrides=[])
+    car_ctrl = Node("car_ctrl", namespace="/a")
+    car_ctrl.declare_parameter("landing_radius", 2.5)
+    CONTENTS = ServiceIntrospectionState.CONTENTS
+
+    def serve(request, response):
+        response.success, response.message = request.data, "done"
+        return response
+
+    server = car.create_service(SetBool, "/a/execute_task", serve)
+    server.configure_introspection(car.get_clock(), QoSProfile(depth=10), CONTENTS)
+    ctrl = Node("ctrl", namespace="/a")
+    client = ctrl.create_client(SetBool, "/a/execute_task")
+    client.configure_introspection(ctrl.get_clock(), QoSProfile(depth=10), CONTENTS)
+    listener = Node("listener")
+    seen = {"/imrosc/arch": [], "/imrosc/params": [], "/imrosc/srvs": []}
+    qos = QoSProfile(
+        depth=100,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    for topic in seen:
+        listener.create_subscription(String, topic, lambda m, t=topic: seen[t].append(m.data), qos)
+    executor = rclpy.executors.MultiThreadedExecutor()
+    for node in (car, car_ctrl, ctrl, listener):
+        executor.add_node(node)
+    deadline = time.monotonic() + 40
+    calls = 0
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.1)
+        if client.service_is_ready() and calls < 2 and time.monotonic() > deadline - 35:
+            future = client.call_async(SetBool.Request(data=True))
+            executor.spin_until_future_complete(future, timeout_sec=5)
+            calls += 1
+        served = any("/a/execute_task" in a for a in seen["/imrosc/arch"])
+        radius = any("landing_radius" in p for p in seen["/imrosc/params"])
+        if served and radius and len(seen["/imrosc/srvs"]) >= 2:
+            break
+    print(json.dumps(seen))
+    """
+)
+
+
+@pytest.mark.live
+def test_live_the_recorder_publishes_graph_parameters_and_calls(
+    recorder_package: dict[str, bytes], tmp_path: Path
+) -> None:
+    python = _ros2_python()
+    if python is None:
+        pytest.skip("needs rclpy with service introspection (set IMROSC_ROS2_PYTHON)")
+    package = write_package(recorder_package, tmp_path)
+    domain = str(100 + os.getpid() % 100)
+    env = {**os.environ, "ROS_DOMAIN_ID": domain, "PYTHONPATH": str(package)}
+    recorder = subprocess.Popen(
+        [
+            python,
+            "-c",
+            f"from {PACKAGE}.recorder import main; main(['--ros-args', '-p', 'period:=0.3'])",
+        ],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        time.sleep(1.0)
+        driver = subprocess.run(
+            [python, "-c", DRIVER],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+    finally:
+        recorder.terminate()
+        try:
+            output, _ = recorder.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            recorder.kill()
+            output, _ = recorder.communicate()
+    assert driver.returncode == 0, driver.stderr + output
+    seen = json.loads(driver.stdout.strip().splitlines()[-1])
+    archs = [records.decode_arch(text) for text in seen["/imrosc/arch"]]
+    assert any(a.services.get("/a/execute_task") == frozenset({"/a/car"}) for a in archs), output
+    params = [records.decode_params(text) for text in seen["/imrosc/params"]]
+    assert params[-1].params.get("/a/car_ctrl/landing_radius") == 2.5, (seen, output)
+    calls = [records.decode_call(text) for text in seen["/imrosc/srvs"]]
+    assert len(calls) >= 2, output
+    for call in calls:
+        assert call.service == "/a/execute_task" and call.ok
+        assert call.request == {"data": True}
+        assert call.response == {"success": True, "message": "done"}
+        assert (call.client, call.server) == ("/a/ctrl", "/a/car"), output
+        assert 0 <= call.delay < 5
