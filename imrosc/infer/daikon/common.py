@@ -21,7 +21,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from imrosc.infer.core import FinalizeContext, FloatArray, Samples, Variable, confidence
+from imrosc.infer.core import (
+    FinalizeContext,
+    FloatArray,
+    Invariant,
+    Samples,
+    Variable,
+    confidence,
+)
 
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
@@ -292,6 +299,33 @@ class Distinct:
     def confidence(self, i: int) -> float:
         """The one-of invariant's confidence."""
         return confidence(self.stable(i))
+
+    def invariant(
+        self,
+        i: int,
+        variable: Variable,
+        family: str,
+        shown: Sequence[str],
+        context: FinalizeContext,
+    ) -> Invariant:
+        """The one-of invariant of variable ``i``: ``x == v`` or ``x one of {...}``; ``shown``
+        are its sorted values as text."""
+        if len(shown) == 1:
+            text = f"{variable.name} == {shown[0]}"
+        else:
+            text = f"{variable.name} one of {{{', '.join(shown)}}}"
+        return Invariant(
+            family=family,
+            kind=family,
+            point=context.point,
+            variables=(variable.name,),
+            params={"values": sorted(self.values[i])},
+            text=text,
+            samples=self.count[i],
+            confidence=self.confidence(i),
+            condition=context.condition,
+            runs=context.runs,
+        )
 
 
 def pair_index(i: int, j: int, size: int) -> int:

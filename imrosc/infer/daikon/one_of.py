@@ -55,22 +55,5 @@ class OneOfState:
             if variable.type == "bool" and len(values) == 2:
                 continue
             shown = [number_text(v, variable.type) for v in values]
-            if len(values) == 1:
-                text = f"{variable.name} == {shown[0]}"
-            else:
-                text = f"{variable.name} one of {{{', '.join(shown)}}}"
-            found.append(
-                Invariant(
-                    family=self.family,
-                    kind="one-of",
-                    point=context.point,
-                    variables=(variable.name,),
-                    params={"values": values},
-                    text=text,
-                    samples=self.distinct.count[i],
-                    confidence=self.distinct.confidence(i),
-                    condition=context.condition,
-                    runs=context.runs,
-                )
-            )
+            found.append(self.distinct.invariant(i, variable, self.family, shown, context))
         return found

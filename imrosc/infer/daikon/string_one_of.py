@@ -45,22 +45,5 @@ class StringOneOfState:
                 continue
             values = sorted(self.distinct.values[i])
             shown = [string_text(v) for v in values]
-            if len(values) == 1:
-                text = f"{variable.name} == {shown[0]}"
-            else:
-                text = f"{variable.name} one of {{{', '.join(shown)}}}"
-            found.append(
-                Invariant(
-                    family=self.family,
-                    kind="string-one-of",
-                    point=context.point,
-                    variables=(variable.name,),
-                    params={"values": values},
-                    text=text,
-                    samples=self.distinct.count[i],
-                    confidence=self.distinct.confidence(i),
-                    condition=context.condition,
-                    runs=context.runs,
-                )
-            )
+            found.append(self.distinct.invariant(i, variable, self.family, shown, context))
         return found
