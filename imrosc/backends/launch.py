@@ -276,6 +276,53 @@ class _Rewriter:
         self.out.remaps.setdefault(full, []).append((name, relay))
 
 
+@dataclass(frozen=True)
+class _Dialect:
+    """What differs between roslaunch XML and ROS 2 launch XML when a file is rewritten."""
+
+    rewriter: type[_Rewriter]
+    find: str
+    """The substitution that names a package's share folder."""
+    doc: str
+    """The attribute that documents an argument."""
+    value: str
+    """The substitution that reads an argument."""
+
+
+def _rewrite(
+    dialect: _Dialect,
+    path: Path,
+    *,
+    interception: Interception,
+    graph: Graph | None,
+    monitor: MonitorLaunch,
+    banner: str,
+    label: str | None = None,
+) -> Rewritten:
+    shown = label if label is not None else str(path)
+    tree, problems = read_launch(path, shown)
+    if tree is None:
+        return Rewritten(None, diagnostics=problems)
+    rewriter = dialect.rewriter(shown, interception, graph)
+    root = tree.getroot()
+    if b"$(dirname)" in etree.tostring(root):
+        rewriter.report(
+            root,
+            "launch-unrewritten",
+            "the launch file uses $(dirname), which in the rewritten copy names the monitor "
+            f"package's launch folder; make those paths $({dialect.find} pkg)/... instead",
+        )
+    rewriter.scope(root, "/")
+    rewriter.out.content = _finish(
+        root,
+        banner,
+        argument={dialect.doc: "true: relay the blocked names unchecked when the monitor dies"},
+        include_file=f"$({dialect.find} {monitor.package})/launch/{monitor.launch_file}",
+        passed=f"$({dialect.value} {FAIL_OPEN_ARG})",
+    )
+    return rewriter.out
+
+
 def rewrite_ros1(
     path: Path,
     *,
@@ -286,28 +333,15 @@ def rewrite_ros1(
     label: str | None = None,
 ) -> Rewritten:
     """The rewritten copy of the roslaunch file at ``path`` (see the module docstring)."""
-    shown = label if label is not None else str(path)
-    tree, problems = read_launch(path, shown)
-    if tree is None:
-        return Rewritten(None, diagnostics=problems)
-    rewriter = _Rewriter(shown, interception, graph)
-    root = tree.getroot()
-    if b"$(dirname)" in etree.tostring(root):
-        rewriter.report(
-            root,
-            "launch-unrewritten",
-            "the launch file uses $(dirname), which in the rewritten copy names the monitor "
-            "package's launch folder; make those paths $(find pkg)/... instead",
-        )
-    rewriter.scope(root, "/")
-    rewriter.out.content = _finish(
-        root,
-        banner,
-        argument={"doc": "true: relay the blocked names unchecked when the monitor dies"},
-        include_file=f"$(find {monitor.package})/launch/{monitor.launch_file}",
-        passed=f"$(arg {FAIL_OPEN_ARG})",
+    return _rewrite(
+        _Dialect(_Rewriter, "find", "doc", "arg"),
+        path,
+        interception=interception,
+        graph=graph,
+        monitor=monitor,
+        banner=banner,
+        label=label,
     )
-    return rewriter.out
 
 
 def _finish(
@@ -468,28 +502,15 @@ def rewrite_ros2(
     """The rewritten copy of the ROS 2 launch XML file at ``path`` (see the module
     docstring): remaps added to the ``<node>`` elements, the monitor's
     ``<package>.launch.xml`` included through ``$(find-pkg-share ...)``."""
-    shown = label if label is not None else str(path)
-    tree, problems = read_launch(path, shown)
-    if tree is None:
-        return Rewritten(None, diagnostics=problems)
-    rewriter = _Ros2Rewriter(shown, interception, graph)
-    root = tree.getroot()
-    if b"$(dirname)" in etree.tostring(root):
-        rewriter.report(
-            root,
-            "launch-unrewritten",
-            "the launch file uses $(dirname), which in the rewritten copy names the monitor "
-            "package's launch folder; make those paths $(find-pkg-share pkg)/... instead",
-        )
-    rewriter.scope(root, "/")
-    rewriter.out.content = _finish(
-        root,
-        banner,
-        argument={"description": "true: relay the blocked names unchecked when the monitor dies"},
-        include_file=f"$(find-pkg-share {monitor.package})/launch/{monitor.launch_file}",
-        passed=f"$(var {FAIL_OPEN_ARG})",
+    return _rewrite(
+        _Dialect(_Ros2Rewriter, "find-pkg-share", "description", "var"),
+        path,
+        interception=interception,
+        graph=graph,
+        monitor=monitor,
+        banner=banner,
+        label=label,
     )
-    return rewriter.out
 
 
 def xml_comment(text: str) -> str:
