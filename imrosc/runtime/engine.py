@@ -83,6 +83,10 @@ class _Point:
         self.numeric_names = [v["name"] for v in numeric]
         self.string_names = [v["name"] for v in strings]
         index = {name: k for k, name in enumerate(self.numeric_names)}
+        self.numeric_index = index
+        self.direct = False
+        """A publish point whose row is its one source's values as they are (the engine sets
+        it)."""
         string_index = {name: k for k, name in enumerate(self.string_names)}
         stats = [v["name"] for v in numeric if v.get("derived") in ("avg", "std")]
         self.invariants = invariants
@@ -125,19 +129,13 @@ class _Point:
         for pattern in self.patterns:
             pattern.reset()
 
-    def accepts(
-        self,
-        row: Any,
-        names: Mapping[str, int],
-        latest: Mapping[str, Any],
-        texts: Sequence[Any] = (),
-    ) -> bool:
+    def accepts(self, row: Any, latest: Mapping[str, Any], texts: Sequence[Any] = ()) -> bool:
         """Whether every condition of the point holds for this sample (``texts``: its
         string values, in ``string_names`` order)."""
         for condition in self.filters:
             if condition.variable is not None:
-                if condition.variable in names:
-                    value = row[names[condition.variable]]
+                if condition.variable in self.numeric_index:
+                    value = row[self.numeric_index[condition.variable]]
                 elif condition.variable in self.string_names and texts:
                     # a discovered condition may be on a discrete string (``mode=='land'``)
                     value = texts[self.string_names.index(condition.variable)]
@@ -276,13 +274,13 @@ class Engine:
                 None if numeric == list(range(len(variables))) else _picker(numeric),
                 _picker(strings) if strings else None,
             )
-        self._direct = {
-            key
-            for key, (sources, gather, _) in self._gather.items()
-            if len(sources) == 1
-            and not self.points[key].params
-            and gather.tolist() == list(range(len(self._numeric_at.get(sources[0], {}))))
-        }
+        for key, (sources, gather, _) in self._gather.items():
+            # one source whose numeric values are the row as they are
+            self.points[key].direct = (
+                len(sources) == 1
+                and not self.points[key].params
+                and gather.tolist() == list(range(len(self._numeric_at.get(sources[0], {}))))
+            )
         self._timed = [
             p for p in self.points.values() if p.intervals or (p.windows and p.min_frequency > 0)
         ]
@@ -382,7 +380,7 @@ class Engine:
 
     def _publish_sample(self, point: _Point, time: float) -> Found:
         sources, gather, strings = self._gather[point.key]
-        if point.key in self._direct:  # one source whose numeric values are the row
+        if point.direct:
             row = self.latest_numeric[point.trigger]
         else:
             parts = []
@@ -409,8 +407,7 @@ class Engine:
         return self._check(point, time, row, texts)
 
     def _check(self, point: _Point, time: float, row: Any, texts: Sequence[Any]) -> Found:
-        names = {name: k for k, name in enumerate(point.numeric_names)} if point.filters else {}
-        if point.filters and not point.accepts(row, names, self.latest_named, texts):
+        if point.filters and not point.accepts(row, self.latest_named, texts):
             return []
         return point.sample(time, row, texts, self.trace)
 
@@ -465,7 +462,7 @@ class Engine:
             return found
         for point in self._arch_points:
             assert point.arch is not None
-            if point.filters and not point.accepts(np.empty(0), {}, self.latest_named):
+            if point.filters and not point.accepts(np.empty(0), self.latest_named):
                 continue
             found += point.arch.check(time, self.snapshot, self.snapshot_kinds)
         return found
