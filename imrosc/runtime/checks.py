@@ -140,6 +140,12 @@ class Checks:
             table[row, : len(values)] = values
         self.one_of_values = table
         self.one_of_inv = [o[2] for o in one_of]
+        # a few sets: one membership test each beats four array operations
+        self.one_of_few = (
+            [(at, frozenset(values), k) for k, (at, values, _) in enumerate(one_of)]
+            if len(one_of) <= _FEW_SETS
+            else None
+        )
         self.nonzero_at = _ints([n[0] for n in nonzero])
         self.nonzero_inv = [n[1] for n in nonzero]
         self.forms = _Forms(len(self.index))
@@ -163,7 +169,9 @@ class Checks:
             expected = "within {} of the relation".format(show(inv["params"]["tolerance"]))
             self.forms.add(inv, terms, tolerance, expected)
             self.forms.add(inv, [(i, -w) for i, w in terms], tolerance, expected)
-        self.forms.freeze()
+        polygons = self.polygon_checks
+        guards = [(int(v), float(polygons.low[v]), float(polygons.high[v])) for v in polygons.used]
+        self.forms.freeze(guards)
         self.pair_count = len(
             {id(inv) for inv, _ in self.forms.owners} - {id(b) for b in self.bounds_inv}
         )
@@ -185,41 +193,55 @@ class Checks:
         """The violations of one sample (``row``: float64 values in ``index`` order)."""
         found: Found = []
         forms = self.forms
-        if forms.size:
-            z = np.concatenate((row, _TAIL))
-            bad = (z.take(forms.at) * forms.weights).sum(axis=1) > forms.limit
-            if _count(bad):
-                found += forms.violations(time, point, z, bad)
+        in_range = None
+        dense = forms.dense
+        if dense is not None:
+            # one product gives every form, the polygons' range guards and the sum of the
+            # sample: finite exactly when every value is (NaN and inf need the exact path)
+            out = dense.dot(row)
+            total = out[-1]
+            if total - total == 0:
+                bad = out > forms.dense_limit
+                in_range = True
+                if _count(bad):
+                    hits = bad.nonzero()[0]
+                    if hits[0] < forms.size:
+                        z = np.concatenate((row, _TAIL))
+                        found += forms.violations(time, point, z, hits[hits < forms.size])
+                    in_range = hits[-1] < forms.size
+            else:
+                found += forms.gathered(time, point, row)
+        elif forms.size:
+            found += forms.gathered(time, point, row)
         if self.polygon_checks.count:
-            candidates = self.polygon_checks.candidates(row)
-            if len(candidates):
-                for owner in self.polygon_checks.broken(row, candidates).tolist():
-                    inv = self.polygons[owner]
-                    first, second = inv["variables"]
-                    observed = (float(row[self.index[first]]), float(row[self.index[second]]))
-                    found.append(
-                        Violation(
-                            time,
-                            point,
-                            inv["id"],
-                            "polygon",
-                            inv["kind"],
-                            "({}, {}) inside a {}-gon".format(
-                                first, second, len(inv["params"]["b"])
-                            ),
-                            observed,
-                            "inside the polygon",
-                        )
+            for owner in self.polygon_checks.broken(row, in_range):
+                inv = self.polygons[owner]
+                first, second = inv["variables"]
+                observed = (float(row[self.index[first]]), float(row[self.index[second]]))
+                found.append(
+                    Violation(
+                        time,
+                        point,
+                        inv["id"],
+                        "polygon",
+                        inv["kind"],
+                        "({}, {}) inside a {}-gon".format(first, second, len(inv["params"]["b"])),
+                        observed,
+                        "inside the polygon",
                     )
-        if len(self.one_of_at):
+                )
+        if self.one_of_few is not None:
+            for at, held, k in self.one_of_few:
+                number = row[at]
+                if number not in held and not math.isnan(number):  # NaN breaks nothing
+                    found.append(self._not_one_of(time, point, k, float(number)))
+        elif len(self.one_of_at):
             x = row.take(self.one_of_at)
             held = (x[:, None] == self.one_of_values).any(axis=1)
             if _count(held) < len(held):  # NaN holds nothing, yet breaks nothing either
                 bad = ~held & ~np.isnan(x)
                 for k in bad.nonzero()[0].tolist():
-                    inv = self.one_of_inv[k]
-                    expected = "one of " + show(set(inv["params"]["values"]))
-                    found.append(_violation(time, point, inv, float(x[k]), expected))
+                    found.append(self._not_one_of(time, point, k, float(x[k])))
         if len(self.nonzero_at):
             bad = row.take(self.nonzero_at) == 0
             if _count(bad):
@@ -234,24 +256,43 @@ class Checks:
             found = [v for v in found if v.invariant not in self.cleared]
         return found
 
+    def _not_one_of(self, time: float, point: str, k: int, observed: float) -> Violation:
+        inv = self.one_of_inv[k]
+        expected = "one of " + show(set(inv["params"]["values"]))
+        return _violation(time, point, inv, observed, expected)
+
 
 _TAIL = np.array([0.0, 1.0])
 """Appended to a sample: the zero that pads short forms and the one of constants."""
 _WIDTH = 4
+_FEW_SETS = 8
+"""Up to this many one-of invariants are tested one by one."""
+_DENSE_CELLS = 2**15
+"""Largest dense form matrix (rows times sample width) worth one matrix-vector product;
+larger points gather their forms."""
 
 
 class _Forms:
     """Linear forms ``w . z > limit`` of up to four terms over the sample ``z`` extended by
-    ``(0, 1)``: one array operation checks bounds, orderings, equalities and linear and
-    ternary relations together. Padding terms read the zero slot, so a form of one term is
-    the value itself (``x + 0 + 0 + 0``, exact, infinities kept), a difference ``x - y`` is
-    rounded once (its sign exact)."""
+    ``(0, 1)``: bounds, orderings, equalities and linear and ternary relations together.
+
+    Two ways to evaluate them, with the same answers. Dense (a point of modest size): one
+    matrix-vector product over the sample, the constant term moved into the limit, with
+    extra rows for the polygons' range guards and one that sums the sample; a term
+    ``w * x`` is exact for ``w`` of 1 and -1 and the other terms add zeros, so a bound is
+    the value itself and a difference ``x - y`` is rounded once (its sign exact); linear
+    and ternary relations allow for any summation order in their tolerance. It needs
+    every value finite (``0 * inf`` is NaN). Gathered (a sample with NaN or inf, a large
+    point): the terms taken from ``z``, padding terms reading the zero slot (``x + 0 + 0 +
+    0``, exact, infinities kept)."""
 
     def __init__(self, width: int) -> None:
         self.zero = width
         self.one = width + 1
         self.rows: List[Tuple[List[Tuple[int, float]], float]] = []
         self.owners: List[Tuple[Mapping[str, Any], str]] = []
+        self.dense: Any = None
+        self.dense_limit: Any = None
 
     def add(
         self, inv: Mapping[str, Any], terms: List[Tuple[int, float]], limit: float, expected: str
@@ -259,7 +300,8 @@ class _Forms:
         self.rows.append((terms, limit))
         self.owners.append((inv, expected))
 
-    def freeze(self) -> None:
+    def freeze(self, guards: Sequence[Tuple[int, float, float]] = ()) -> None:
+        """Build the arrays; ``guards`` are the polygons' variables and their ranges."""
         self.size = len(self.rows)
         at = np.full((self.size, _WIDTH), self.zero, dtype=np.int64)
         weights = np.zeros((self.size, _WIDTH))
@@ -270,11 +312,42 @@ class _Forms:
         self.at = at
         self.weights = weights
         self.limit = np.asarray([limit for _, limit in self.rows], dtype=np.float64)
+        height = self.size + 2 * len(guards) + 1
+        if height == 1 or height * self.zero > _DENSE_CELLS:
+            return
+        dense = np.zeros((height, self.zero))
+        limit = np.empty(height)
+        for k, (terms, bound) in enumerate(self.rows):
+            constant = 0.0
+            for index, weight in terms:
+                if index == self.one:
+                    constant += weight
+                elif index != self.zero:
+                    dense[k, index] += weight
+            limit[k] = bound - constant
+        for k, (index, low, high) in enumerate(guards):
+            dense[self.size + 2 * k, index] = 1.0
+            limit[self.size + 2 * k] = high
+            dense[self.size + 2 * k + 1, index] = -1.0
+            limit[self.size + 2 * k + 1] = -low
+        dense[-1] = 1.0
+        limit[-1] = math.inf
+        self.dense = dense
+        self.dense_limit = limit
 
-    def violations(self, time: float, point: str, z: Any, bad: Any) -> Found:
+    def gathered(self, time: float, point: str, row: Any) -> Found:
+        """The violations of ``row`` (any values), the terms gathered."""
+        z = np.concatenate((row, _TAIL))
+        bad = (z.take(self.at) * self.weights).sum(axis=1) > self.limit
+        if not _count(bad):
+            return []
+        return self.violations(time, point, z, bad.nonzero()[0])
+
+    def violations(self, time: float, point: str, z: Any, broken: Any) -> Found:
+        """The violations of the forms at ``broken`` (indices) on ``z``."""
         found: Found = []
         seen = set()
-        for k in bad.nonzero()[0].tolist():
+        for k in broken.tolist():
             inv, expected = self.owners[k]
             if id(inv) in seen:  # an equality or relation has a form for each side
                 continue

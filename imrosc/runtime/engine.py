@@ -87,6 +87,9 @@ class _Point:
         self.direct = False
         """A publish point whose row is its one source's values as they are (the engine sets
         it)."""
+        self.plain = False
+        """A direct point with no condition, no strings and no windows: checking a sample is
+        checking the row (the engine sets it)."""
         string_index = {name: k for k, name in enumerate(self.string_names)}
         stats = [v["name"] for v in numeric if v.get("derived") in ("avg", "std")]
         self.invariants = invariants
@@ -281,6 +284,13 @@ class Engine:
                 and not self.points[key].params
                 and gather.tolist() == list(range(len(self._numeric_at.get(sources[0], {}))))
             )
+        for point in self.points.values():
+            point.plain = (
+                point.direct and not point.filters and not point.string_names and not point.windows
+            )
+        self._publish_events = {
+            name: points for (kind, name), points in self._events.items() if kind == "publish"
+        }
         self._timed = [
             p for p in self.points.values() if p.intervals or (p.windows and p.min_frequency > 0)
         ]
@@ -373,9 +383,15 @@ class Engine:
                 layout = self.layouts[topic]
                 self.latest_named[topic] = {v["name"]: values[k] for k, v in enumerate(layout)}
             for point in self._publish.get(topic, ()):
-                found += self._publish_sample(point, time)
-        for point in self._events.get(("publish", topic), ()):
-            found += self._event(point, time, point.events[("publish", topic)])
+                if point.plain and self.trace is None:
+                    # the common case: the message is the row, nothing else to do
+                    found += point.checks.check(time, point.key, array)
+                else:
+                    found += self._publish_sample(point, time)
+        events = self._publish_events.get(topic)
+        if events is not None:
+            for point in events:
+                found += self._event(point, time, point.events[("publish", topic)])
         return found
 
     def _publish_sample(self, point: _Point, time: float) -> Found:

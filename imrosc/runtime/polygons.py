@@ -1,44 +1,92 @@
-"""Polygon checks: a lookup grid first, the half-planes only near the boundary.
+"""Polygon checks: a lookup table first, the edges near the sample only.
 
 A polygon invariant holds ``A [x, y] <= b`` (one row per edge, a margin for rounding built
 into ``b``). Evaluating every edge of every polygon on every sample would be the bulk of a
-point's checking cost. So each variable gets a grid of ``GRID`` cells over the polygons'
-vertices on it (a hull's bounding box is its variables' range) plus a border cell on each
-side, and each polygon, once, a table over the cells of its two variables' grids: a cell is
-*inside* when its corners (widened a little) pass every edge with room for float64 rounding,
-so that every point of the cell passes too (the polygon is convex). A sample is quantised
-once per variable; looking up all polygons is then a few array operations. Only the polygons
-whose cell is not inside (the boundary, the border, missing values) have their edges
-evaluated, as one padded array operation.
+point's checking cost, so each polygon gets, once, a table over a grid on its two
+variables, and a sample costs a few array operations over all polygons plus the exact
+test of the few edges that pass near it.
+
+The grid. Each variable the polygons use gets ``grid`` cells over the range of the
+polygons' vertices on it (a hull's bounding box is its variables' range): the range's low
+end at the middle of the first cell, its high end at the middle of the last. A sample
+inside every range (the common case; callers say so, or :meth:`PolygonChecks.in_range`
+finds out) is quantised once per variable. Outside a range, or not finite, the sample
+takes the slow path below.
+
+The table. For each polygon and each cell pair, one byte: the cyclic run of edges a sample
+in the cell may break (0 when none: the cell is inside; see :data:`DECODE`). An edge can
+only be broken in a cell when the float64 value ``a*x + b*y`` at the cell's worst corner
+exceeds ``c``: rounding is monotone, so ``fl(fl(a*x) + fl(b*y))`` is largest at that
+corner for every point of the cell, however each sample rounds. The cell is the box its
+samples can lie in: widened by the rounding of the quantisation, cut to the variables'
+ranges (the fast path only runs inside them, so an edge along a range's end is never
+broken there). Cells whose edges are not one cyclic run get the smallest run holding them
+(checking an edge more is harmless).
+
+A sample: the cells of all polygons at once (quantise, gather, look up), then for the few
+polygons whose cell is not inside, the edges of their cell, in float64 as the invariant
+reads. Many candidates (a sample far off) or the slow path: every edge of the candidate
+polygons as one padded array operation. The answer is the same either way: exactly the
+polygons with an edge ``a*x + b*y > c``, finite samples only.
 
 >>> square = {"params": {"A": [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]],
 ...                      "b": [1.0, 1.0, 1.0, 1.0],
 ...                      "vertices": [[-1, -1], [1, -1], [1, 1], [-1, 1]]}}
 >>> rows = [(0, 1, a, b, c, 0) for (a, b), c in zip(square["params"]["A"], square["params"]["b"])]
 >>> checks = PolygonChecks([square], rows)
->>> [checks.broken(np.array(p)).tolist() for p in ([0.5, 2.0], [0.999, -0.999], [0.1, 0.2])]
+>>> [checks.broken(np.array(p)) for p in ([0.5, 2.0], [0.999, -0.999], [0.1, 0.2])]
 [[0], [], []]
 """
 
 from __future__ import annotations
 
-from typing import Any, List, Mapping, Sequence, Tuple
+from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-GRID = 64
-"""Cells per axis over a polygon's bounding box (plus one border cell on each side)."""
-_SIDE = GRID + 2
-_SAFETY = 16 * 2.0**-53
-"""Relative rounding allowance (of the edge's magnitude) kept between an inside cell and
-an edge."""
+Edge = Tuple[float, float, float]
+
+TABLE_BUDGET = 8 * 2**20
+"""Bytes the tables of one point may take: the grid is 64 cells per axis while it fits,
+coarser for points with thousands of polygons."""
 _WIDEN = 1e-6
-"""Cells are classified widened by this fraction of their size: a sample that float64
-rounding puts in the wrong cell is still inside the widened one."""
+"""Cells are widened by this fraction of their size (and a few ulps of the values'
+magnitude): a sample that float64 rounding puts in the wrong cell is still inside the
+widened one."""
+_MANY = 24
+"""Beyond this many candidate polygons, one array operation over all their edges is
+cheaper than testing their cells' edges one by one."""
+_RUNS = 6
+"""Longest run of edges a table code names; a longer run (a cell well outside the
+polygon) reads as every edge."""
+_FIRSTS = 42
+"""Edges a run may start at (polygons with more edges test all of them in the cells past
+this)."""
+_ALL = 255
+"""Table code: test every edge of the polygon."""
+DECODE: List[Tuple[int, int]] = [(0, 0)] * 256
+"""Table code -> ``(first, stop)`` of the run of edges to test (code 0: none; 255: all,
+read by the caller)."""
+for _first in range(_FIRSTS):
+    for _count in range(1, _RUNS + 1):
+        DECODE[1 + _first * _RUNS + _count - 1] = (_first, _first + _count)
+
+
+def grid_size(count: int) -> int:
+    """Cells per axis for ``count`` polygons (a divisor of 256: four polygons' cells share
+    a row of 256 in the table)."""
+    grid = 64
+    while grid > 8 and count * grid * grid > TABLE_BUDGET:
+        grid //= 2
+    return grid
 
 
 class PolygonChecks:
-    """The polygons of one point: their grids and their padded half-planes."""
+    """The polygons of one point: their grids, their tables and their edges.
+
+    ``edges`` are ``(x, y, a, b, c, owner)``: the positions of the polygon's variables in
+    the sample, an edge ``a*x + b*y <= c``, and the polygon's index in ``polygons``.
+    """
 
     def __init__(
         self,
@@ -47,24 +95,32 @@ class PolygonChecks:
     ) -> None:
         count = len(polygons)
         self.count = count
-        per: List[List[Tuple[float, float, float]]] = [[] for _ in range(count)]
+        per: List[List[Edge]] = [[] for _ in range(count)]
         axes: List[Tuple[int, int]] = [(0, 0)] * count
         for x, y, a, b, c, owner in edges:
             per[owner].append((a, b, c))
             axes[owner] = (x, y)
+        self.xs = [ax[0] for ax in axes]
+        self.ys = [ax[1] for ax in axes]
+        self.x = np.asarray(self.xs, dtype=np.int64)
+        self.y = np.asarray(self.ys, dtype=np.int64)
+        # each polygon's edges twice: a cyclic run is one slice
+        self.edges = [e + e for e in per]
         width = max([len(e) for e in per] + [1])
         table = np.zeros((count, width, 3))
         for owner, rows in enumerate(per):
-            padded = rows + [rows[0]] * (width - len(rows)) if rows else [(0.0, 0.0, 0.0)] * width
-            table[owner] = padded
+            table[owner] = rows + [rows[0]] * (width - len(rows)) if rows else [(0.0,) * 3]
         self.abc = np.ascontiguousarray(np.moveaxis(table, 2, 0))
-        """``(3, polygons, edges)``: each edge's ``a``, ``b`` and ``c``."""
-        self.x = np.asarray([ax[0] for ax in axes], dtype=np.int64)
-        self.y = np.asarray([ax[1] for ax in axes], dtype=np.int64)
-        self.at = np.stack([self.x, self.y], axis=1).ravel()
-        # one grid per variable over the range of the polygons' vertices on it (a hull's
-        # bounding box is its variables' range): a sample is quantised once per variable
-        size = int(max(self.x.max(), self.y.max())) + 1 if count else 0
+        """``(3, polygons, edges)``: each edge's ``a``, ``b`` and ``c``, padded by
+        repeating the first."""
+        self.size = int(max(self.x.max(), self.y.max())) + 1 if count else 0
+        self._ranges(polygons, axes)
+        self.grid = grid_size(count)
+        self._tables(per, axes)
+
+    def _ranges(self, polygons: Sequence[Mapping[str, Any]], axes: List[Tuple[int, int]]) -> None:
+        """Each variable's range over the polygons' vertices, and its quantisation."""
+        size = self.size
         low = np.full(size, np.inf)
         high = np.full(size, -np.inf)
         for owner, polygon in enumerate(polygons):
@@ -73,75 +129,159 @@ class PolygonChecks:
                 for axis, var in enumerate(axes[owner]):
                     low[var] = min(low[var], points[:, axis].min())
                     high[var] = max(high[var], points[:, axis].max())
-        with np.errstate(all="ignore"):
-            cell = (high - low) / GRID
-            usable = np.isfinite(cell) & (cell > 0) & np.isfinite(1.0 / cell)
-            self.scale = np.where(usable, 1.0 / np.where(usable, cell, 1.0), 0.0)
-        # the origin sits one cell below the range: inner cells are 1..GRID, 0 and GRID + 1
-        # the border
-        self.origin = np.where(usable, low - cell, 0.0)
-        self.size = size
-        need = np.ones((count, _SIDE, _SIDE), dtype=bool)
-        for owner, polygon in enumerate(polygons):
-            x, y = axes[owner]
-            if len(polygon["params"]["vertices"]) >= 3 and usable[x] and usable[y]:
-                box = np.array([low[x], low[y]]), np.array([cell[x], cell[y]])
-                reach = np.array([max(abs(low[x]), abs(high[x])), max(abs(low[y]), abs(high[y]))])
-                need[owner] = _grid(per[owner], box[0], box[1], reach)
-        self.need = need.ravel()
-        self.base = np.arange(count, dtype=np.int64) * (_SIDE * _SIDE)
+        used = np.zeros(size, dtype=bool)
+        used[self.x] = True
+        used[self.y] = True
+        # a variable no polygon reads accepts anything but NaN in the range test
+        self.low = np.where(used, low, -np.inf)
+        self.high = np.where(used, high, np.inf)
+        self.used = used.nonzero()[0]
+        self.reach = np.maximum(np.abs(low), np.abs(high))
 
-    def candidates(self, row: Any) -> Any:
-        """The polygons whose grid cell for ``row`` is not certainly inside."""
+    def _tables(self, per: List[List[Edge]], axes: List[Tuple[int, int]]) -> None:
+        grid = self.grid
+        low, high = self.low, self.high
+        with np.errstate(all="ignore"):
+            cell = (high - low) / (grid - 1)
+            scale = 1.0 / cell
+            usable = (
+                np.isfinite(low)
+                & np.isfinite(high)
+                & (high > low)
+                & np.isfinite(scale)
+                & (cell > 2.0**-40 * self.reach)
+            )
+            # the range's low end at the middle of the first cell
+            self.origin = np.where(usable, low - 0.5 * cell, 0.0)
+            self.scale = np.where(usable, scale, 0.0)
+            widen = _WIDEN * cell + 8 * 2.0**-52 * self.reach
+        per_row = 256 // grid
+        blocks = -(-self.count // per_row) if self.count else 0
+        self.table = np.zeros(blocks * 256 * grid, dtype=np.uint8)
+        owners = np.arange(self.count, dtype=np.int64)
+        self.base = (owners // per_row) * (256 * grid) + (owners % per_row) * grid
+        # the gather reads (x cell, y cell) as one uint16: x cell + 256 * y cell
+        self.at = np.stack([self.x, self.y], axis=1).ravel()
+        steps = np.arange(grid, dtype=np.float64)
+        spots = steps[:, None] + 256 * steps[None, :]  # [x cell, y cell] -> offset
+        for owner, rows in enumerate(per):
+            x, y = axes[owner]
+            codes = np.full((grid, grid), _ALL, dtype=np.uint8)
+            if rows and usable[x] and usable[y]:
+                box_x = _cells(self.origin[x], cell[x], widen[x], low[x], high[x], grid)
+                box_y = _cells(self.origin[y], cell[y], widen[y], low[y], high[y], grid)
+                codes = _codes(rows, box_x, box_y)
+            self.table[(self.base[owner] + spots).astype(np.int64).ravel()] = codes.ravel()
+
+    def in_range(self, row: Any) -> bool:
+        """Whether every value the polygons read is finite and inside its grid's range
+        (then :meth:`broken` may take the fast path)."""
+        values = row[: self.size]
+        return bool(((values >= self.low) & (values <= self.high)).all())
+
+    def broken(self, row: Any, in_range: Optional[bool] = None) -> List[int]:
+        """The polygons ``row`` is outside of, ascending. ``in_range``: whether the caller
+        knows every value the polygons read to be finite and inside its range (``None``:
+        find out)."""
+        if not self.count:
+            return []
+        if in_range is None:
+            in_range = self.in_range(row)
+        if not in_range:
+            return self._slow(row)
         g = row[: self.size] - self.origin
         g *= self.scale
-        # NaN and huge values cast to garbage, clipped into the border: an exact check
-        # follows there, which finds no violation for NaN (callers ignore the cast warning)
-        cells = g.astype(np.int64)
-        np.maximum(cells, 0, out=cells)  # (np.clip costs three times as much)
-        np.minimum(cells, GRID + 1, out=cells)
-        flat = (cells * _SIDE).take(self.x)
-        flat += cells.take(self.y)
-        flat += self.base
-        return self.need.take(flat).nonzero()[0]
-
-    def broken(self, row: Any, candidates: Any = None) -> Any:
-        """Which polygons (of ``candidates``, default all) ``row`` is outside of."""
-        if candidates is None:
-            candidates = self.candidates(row)
+        flat = g.astype(np.uint8).take(self.at).view(np.uint16) + self.base
+        codes = self.table.take(flat)
+        candidates = codes.nonzero()[0]
         if not len(candidates):
-            return candidates
+            return []
+        if len(candidates) > _MANY:
+            return self._outside(row, candidates)
+        found = []
+        values = row.tolist()
+        xs, ys, edges = self.xs, self.ys, self.edges
+        for owner, code in zip(candidates.tolist(), codes.take(candidates).tolist()):
+            x = values[xs[owner]]
+            y = values[ys[owner]]
+            run = edges[owner]
+            if code == _ALL:
+                first, stop = 0, len(run) // 2
+            else:
+                first, stop = DECODE[code]
+            for a, b, c in run[first:stop]:
+                if a * x + b * y > c:
+                    found.append(owner)
+                    break
+        return found
+
+    def _slow(self, row: Any) -> List[int]:
+        """A value outside its range or not finite: the polygons reading such a value are
+        all candidates (every edge tested), the others are looked up as usual."""
+        values = row[: self.size]
+        outside = ~((values >= self.low) & (values <= self.high))
+        g = values - self.origin
+        g *= self.scale
+        np.fmax(g, 0.0, out=g)  # NaN -> 0
+        np.fmin(g, self.grid - 0.5, out=g)
+        flat = g.astype(np.uint8).take(self.at).view(np.uint16) + self.base
+        hit = self.table.take(flat) != 0
+        hit |= outside.take(self.x)
+        hit |= outside.take(self.y)
+        return self._outside(row, hit.nonzero()[0])
+
+    def _outside(self, row: Any, candidates: Any) -> List[int]:
+        """Which of ``candidates`` ``row`` is outside of, testing every edge."""
+        if not len(candidates):
+            return []
         px = row.take(self.x.take(candidates))[:, None]
         py = row.take(self.y.take(candidates))[:, None]
         a, b, c = self.abc.take(candidates, axis=1)
         hit = (a * px + b * py > c).any(axis=1)
         if not np.count_nonzero(hit):
-            return candidates[:0]
+            return []
         # inference builds hulls from finite samples only: a NaN or infinite coordinate
         # breaks no polygon (a NaN compares false already; an inf would reach past an edge)
-        finite = np.isfinite(px[:, 0]) & np.isfinite(py[:, 0])
-        return candidates[hit & finite]
+        hit &= np.isfinite(px[:, 0]) & np.isfinite(py[:, 0])
+        return [int(k) for k in candidates[hit]]
 
 
-def _grid(edges: Sequence[Tuple[float, float, float]], low: Any, size: Any, reach: Any) -> Any:
-    """The needs-a-check table of one polygon on the grids of its two variables (cells of
-    ``size`` from ``low``; ``reach`` bounds the magnitude of the coordinates)."""
-    need = np.ones((_SIDE, _SIDE), dtype=bool)
-    if not edges:
-        return need
-    # corners of cell (i, j) of the inner grid, widened; cell k covers [k - 1, k) in units
-    steps = np.arange(GRID + 1, dtype=np.float64)
-    xs_lo = low[0] + (steps[:-1] - _WIDEN) * size[0]
-    xs_hi = low[0] + (steps[1:] + _WIDEN) * size[0]
-    ys_lo = low[1] + (steps[:-1] - _WIDEN) * size[1]
-    ys_hi = low[1] + (steps[1:] + _WIDEN) * size[1]
-    big_x, big_y = reach + 2 * size
-    inside = np.ones((GRID, GRID), dtype=bool)
-    for a, b, c in edges:
-        room = c - _SAFETY * (abs(a) * big_x + abs(b) * big_y + abs(c))
-        # a linear function is largest at a corner: the worst corner per cell
-        x_worst = np.where(a >= 0, xs_hi, xs_lo) * a
-        y_worst = np.where(b >= 0, ys_hi, ys_lo) * b
-        inside &= (x_worst[:, None] + y_worst[None, :]) <= room
-    need[1:-1, 1:-1] = ~inside
-    return need
+def _cells(origin: float, cell: float, widen: float, low: float, high: float, grid: int) -> Any:
+    """``(2, grid)``: the low and high ends of the box each cell's samples lie in."""
+    steps = np.arange(grid + 1, dtype=np.float64)
+    ends = origin + steps * cell
+    return np.stack(
+        [np.maximum(ends[:-1] - widen, low), np.minimum(ends[1:] + widen, high)], axis=0
+    )
+
+
+def _codes(edges: Sequence[Edge], box_x: Any, box_y: Any) -> Any:
+    """``(grid, grid)`` table codes of one polygon: per cell the cyclic run of edges a
+    sample in the cell may break (:data:`DECODE`), 0 for none."""
+    a, b, c = (np.asarray(column, dtype=np.float64) for column in zip(*edges))
+    # the worst corner of each cell per edge: a linear function is largest at a corner,
+    # and so is its float64 evaluation (rounding is monotone)
+    x_worst = np.where(a[:, None] >= 0, box_x[1], box_x[0]) * a[:, None]
+    y_worst = np.where(b[:, None] >= 0, box_y[1], box_y[0]) * b[:, None]
+    may = (x_worst[:, :, None] + y_worst[:, None, :]) > c[:, None, None]  # (edges, gx, gy)
+    m, grid = len(edges), box_x.shape[1]
+    codes = np.zeros((grid, grid), dtype=np.uint8)
+    near = may.any(axis=0)
+    if not near.any():
+        return codes
+    rel = may[:, near]  # (edges, cells near an edge)
+    # the longest cyclic run of edges that cannot be broken: the rest is the run to test
+    run = np.zeros(rel.shape[1], dtype=np.int64)
+    best = np.zeros_like(run)
+    best_end = np.zeros_like(run)
+    for k in range(2 * m):
+        run = np.where(rel[k % m], 0, run + 1)
+        longer = run > best
+        best = np.where(longer, run, best)
+        best_end = np.where(longer, k, best_end)
+    best = np.minimum(best, m)
+    first = np.where(best > 0, (best_end + 1) % m, 0)
+    count = m - best
+    code = np.where((first < _FIRSTS) & (count <= _RUNS), 1 + first * _RUNS + count - 1, _ALL)
+    codes[near] = code.astype(np.uint8)
+    return codes

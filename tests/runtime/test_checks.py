@@ -509,3 +509,36 @@ def test_the_planted_families_are_inferred_and_checked(seed: int) -> None:
     }  # fmt: skip
     checks = Checks(invariants, {n: k for k, n in enumerate(NUMERIC)}, {"mode": 0}, ["avg(a)"])
     assert checks.size == len(invariants)
+
+
+@settings(max_examples=30, deadline=None)
+@given(training(), st.integers(0, 2**32 - 1))
+def test_the_dense_product_and_the_gathered_forms_find_the_same_violations(
+    columns: dict[str, npt.NDArray[Any]], seed: int
+) -> None:
+    """A finite sample takes one matrix-vector product; NaN and inf the gathered terms;
+    a large point always the gathered terms. Both read each invariant the same way."""
+    invariants = infer(columns, 1000)
+    index = {n: k for k, n in enumerate(NUMERIC)}
+    dense = Checks(invariants, index, {"mode": 0}, ["avg(a)"])
+    gathered = Checks(invariants, index, {"mode": 0}, ["avg(a)"])
+    gathered.forms.dense = None
+    assert dense.forms.dense is not None
+    rng = np.random.default_rng(seed)
+    rows = np.stack([columns[name] for name in NUMERIC], axis=1)
+    rows = rows[np.isfinite(rows).all(axis=1)]
+    spread = np.nan_to_num(np.nanstd(rows, axis=0) if len(rows) else np.ones(len(NUMERIC)))
+    if not len(rows):
+        return
+    queries = [
+        *rows,
+        *(rows[rng.integers(0, len(rows), 40)] + rng.normal(0, 1, (40, len(NUMERIC))) * spread),
+        *(rows[rng.integers(0, len(rows), 20)] * (1 + rng.normal(0, 1e-13, (20, len(NUMERIC))))),
+    ]
+    with np.errstate(all="ignore"):
+        for query in queries:
+            got = dense.check(0.0, POINT, query, ["idle"])
+            want = gathered.check(0.0, POINT, query, ["idle"])
+            assert [(v.invariant, v.observed) for v in got] == [
+                (v.invariant, v.observed) for v in want
+            ]

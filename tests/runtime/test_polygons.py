@@ -1,0 +1,200 @@
+"""Polygon checks: whatever path a sample takes (table, the edges of its cell, every edge,
+the slow path), the answer is the polygons with an edge ``a*x + b*y > c``."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from imrosc.infer.polygon.state import half_planes
+from imrosc.runtime import polygons as module
+from imrosc.runtime.polygons import DECODE, PolygonChecks, grid_size
+
+
+def hull(points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Counter-clockwise convex hull (monotone chain), collinear points dropped."""
+    pts = sorted(set(map(tuple, points.tolist())))
+    if len(pts) < 3:
+        return np.asarray(pts, dtype=np.float64)
+
+    def cross(o: Any, a: Any, b: Any) -> float:
+        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+    lower: list[Any] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list[Any] = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.asarray(lower[:-1] + upper[:-1], dtype=np.float64)
+
+
+def polygon(vertices: npt.NDArray[np.float64]) -> dict[str, Any]:
+    normals, offsets, _ = half_planes(vertices)
+    return {"params": {"vertices": vertices.tolist(), "A": normals.tolist(), "b": offsets.tolist()}}
+
+
+def build(
+    clouds: dict[tuple[int, int], npt.NDArray[np.float64]],
+) -> tuple[PolygonChecks, list[tuple[int, int, Any, Any, Any]]]:
+    """Checks over the hulls of ``clouds`` (keyed by the variables' positions), and each
+    polygon's ``(x, y, a, b, c)`` for the plain evaluation."""
+    invariants, edges, plain = [], [], []
+    for owner, ((x, y), cloud) in enumerate(clouds.items()):
+        inv = polygon(hull(cloud))
+        invariants.append(inv)
+        a, b = np.asarray(inv["params"]["A"]).T
+        c = np.asarray(inv["params"]["b"])
+        plain.append((x, y, a, b, c))
+        edges += [
+            (x, y, float(ai), float(bi), float(ci), owner)
+            for ai, bi, ci in zip(a, b, c, strict=True)
+        ]
+    return PolygonChecks(invariants, edges), plain
+
+
+def expected(plain: list[tuple[int, int, Any, Any, Any]], sample: list[float]) -> list[int]:
+    found = []
+    for owner, (x, y, a, b, c) in enumerate(plain):
+        px, py = sample[x], sample[y]
+        if math.isfinite(px) and math.isfinite(py) and bool(np.any(a * px + b * py > c)):
+            found.append(owner)
+    return found
+
+
+def answers(checks: PolygonChecks, sample: list[float]) -> list[int]:
+    row = np.asarray(sample, dtype=np.float64)
+    with np.errstate(all="ignore"):
+        found = checks.broken(row)
+        assert found == checks.broken(row, checks.in_range(row))
+    return found
+
+
+def clouds_over(
+    rng: np.random.Generator, variables: int, n: int, shape: str
+) -> tuple[dict[tuple[int, int], npt.NDArray[np.float64]], npt.NDArray[np.float64]]:
+    """Samples of ``variables`` columns, and the clouds of every pair of them."""
+    if shape == "walk":
+        data = np.cumsum(rng.normal(0, 1, (n, variables)), axis=0)
+    elif shape == "ints":
+        data = rng.integers(0, 5, (n, variables)).astype(np.float64)
+    elif shape == "mixed":
+        data = rng.normal(0, 1, (n, variables))
+        data[:, 0] = np.abs(data[:, 0])
+        data[:, 1] = rng.integers(0, 3, n)
+        data[:, 2] = 2 * data[:, 3] + 1e6  # a line far from the origin
+    else:
+        data = rng.normal(0, 1, (n, variables)) * rng.uniform(1e-3, 1e3, variables)
+    pairs = [(i, j) for i in range(variables) for j in range(i + 1, variables)]
+    return {(i, j): data[:, [i, j]] for i, j in pairs}, data
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.sampled_from(["walk", "ints", "mixed", "scaled"]),
+    st.integers(4, 9),
+)
+def test_every_path_answers_like_the_half_planes(seed: int, shape: str, variables: int) -> None:
+    rng = np.random.default_rng(seed)
+    clouds, data = clouds_over(rng, variables, 200, shape)
+    checks, plain = build(clouds)
+    low, high = data.min(axis=0), data.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    queries = [
+        *data[:60],  # training samples: inside everything
+        *(low + rng.uniform(-0.1, 1.1, (150, variables)) * span),  # in and out of range
+        *(data[rng.integers(0, len(data), 40)] * (1 + rng.normal(0, 1e-12, (40, variables)))),
+        *(data[rng.integers(0, len(data), 40)] + rng.normal(0, 0.05, (40, variables)) * span),
+        high + span,  # far out: every polygon
+    ]
+    for k, query in enumerate(queries):
+        sample = query.tolist()
+        for hole in ([], [0], [1, 2]):  # NaN and inf coordinates break no polygon
+            broken = list(sample)
+            for at in hole:
+                broken[at] = [math.nan, math.inf, -math.inf][k % 3]
+            assert answers(checks, broken) == expected(plain, broken), (k, hole)
+        if k < 60:
+            assert answers(checks, sample) == []
+
+
+def test_a_sample_on_the_range_end_of_an_integer_variable_is_inside_without_edges() -> None:
+    # the hull of (noise, integer) has edges along the integer's range ends: the cells
+    # there are cut to the range, so the samples on them are inside by the table alone
+    rng = np.random.default_rng(3)
+    cloud = np.stack([rng.normal(0, 1, 500), rng.integers(0, 4, 500)], axis=1).astype(float)
+    checks, _ = build({(0, 1): cloud})
+    rows = [np.asarray([x, 0.0]) for x in np.linspace(-0.5, 0.5, 20)]
+    codes = []
+    for row in rows:
+        g = (row - checks.origin) * checks.scale
+        flat = g.astype(np.uint8)[checks.at].view(np.uint16) + checks.base
+        codes.append(int(checks.table[flat][0]))
+    assert codes == [0] * len(rows)
+    assert answers(checks, [0.0, -1e-9]) == [0]
+    assert answers(checks, [0.0, 3.0 + 1e-9]) == [0]
+
+
+def test_polygons_with_many_edges_test_the_edges_past_the_codes() -> None:
+    angle = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+    circle = np.stack([np.cos(angle), np.sin(angle)], axis=1) * 5 + 1
+    checks, plain = build({(0, 1): circle})
+    assert len(plain[0][4]) == 90  # more edges than a table code can start at
+    rng = np.random.default_rng(0)
+    for point in rng.uniform(-5, 7, (3000, 2)):
+        assert answers(checks, point.tolist()) == expected(plain, point.tolist())
+    near = circle * (1 + 1e-13)  # just outside each vertex
+    for point in near:
+        assert answers(checks, point.tolist()) == expected(plain, point.tolist())
+
+
+def test_degenerate_ranges_test_every_edge() -> None:
+    # a constant variable (a vertical segment) and one whose range is below its ulps
+    constant = np.stack([np.full(5, 2.0), np.arange(5.0)], axis=1)
+    tiny = np.stack([1e15 + np.arange(4.0) * 0.125, np.arange(4.0) ** 2], axis=1)
+    checks, plain = build({(0, 1): constant, (2, 3): tiny})
+    for sample in ([2.0, 1.0, 1e15, 0.0], [2.0, 5.0, 1e15 + 0.25, 9.0], [2.5, 1.0, 1e15, 2.0]):
+        assert answers(checks, sample) == expected(plain, sample)
+
+
+def test_many_candidates_take_one_array_operation(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(5)
+    clouds, data = clouds_over(rng, 9, 100, "walk")
+    checks, plain = build(clouds)
+    outside = data.max(axis=0) - 1e-9 * np.abs(data.max(axis=0))  # in range, at the top
+    called = []
+    original = PolygonChecks._outside
+
+    def spy(self: PolygonChecks, row: Any, candidates: Any) -> list[int]:
+        called.append(len(candidates))
+        return original(self, row, candidates)
+
+    monkeypatch.setattr(PolygonChecks, "_outside", spy)
+    monkeypatch.setattr(module, "_MANY", 0)
+    assert answers(checks, outside.tolist()) == expected(plain, outside.tolist())
+    assert called and called[0] > 0
+
+
+def test_table_codes_name_runs_of_edges() -> None:
+    assert DECODE[0] == (0, 0)
+    runs = {DECODE[code] for code in range(1, 255) if DECODE[code] != (0, 0)}
+    assert (0, 1) in runs and (41, 47) in runs
+    assert all(0 < stop - first <= 6 for first, stop in runs)
+
+
+def test_the_grid_shrinks_to_keep_the_tables_in_budget() -> None:
+    assert grid_size(10) == 64
+    assert grid_size(5000) == 32
+    assert grid_size(10**6) == 8
+    assert all(256 % grid_size(n) == 0 for n in (1, 3000, 40000))
