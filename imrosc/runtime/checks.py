@@ -24,6 +24,7 @@ from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Sequence, Set,
 
 import numpy as np
 
+from .fast import count_nonzero
 from .polygons import PolygonChecks
 from .violation import Violation, show
 
@@ -31,8 +32,7 @@ _STAT_SLACK = 1e-12
 """Relative allowance on bounds of array averages and deviations."""
 
 Found = List[Violation]
-_count = np.count_nonzero
-"""Faster than ``ndarray.any`` on small boolean arrays."""
+_count = count_nonzero
 
 
 def _ints(values: Sequence[Any]) -> Any:
@@ -208,7 +208,7 @@ class Checks:
                     if hits[0] < forms.size:
                         z = np.concatenate((row, _TAIL))
                         found += forms.violations(time, point, z, hits[hits < forms.size])
-                    in_range = hits[-1] < forms.size
+                    in_range = not _count(forms.dense_guard.take(hits))
             else:
                 found += forms.gathered(time, point, row)
         elif forms.size:
@@ -293,6 +293,8 @@ class _Forms:
         self.owners: List[Tuple[Mapping[str, Any], str]] = []
         self.dense: Any = None
         self.dense_limit: Any = None
+        self.dense_guard: Any = None
+        """Rows of ``dense`` that fire when a value leaves a polygon grid's range."""
 
     def add(
         self, inv: Mapping[str, Any], terms: List[Tuple[int, float]], limit: float, expected: str
@@ -312,7 +314,24 @@ class _Forms:
         self.at = at
         self.weights = weights
         self.limit = np.asarray([limit for _, limit in self.rows], dtype=np.float64)
-        height = self.size + 2 * len(guards) + 1
+        # a bound that is at least as tight as a guard serves as that guard (firing more
+        # often only sends a violating sample down the exact path)
+        tight: Dict[Tuple[int, float], Tuple[int, float]] = {}
+        for k, (terms, bound) in enumerate(self.rows):
+            if len(terms) == 1 and terms[0][1] in (1.0, -1.0) and terms[0][0] < self.zero:
+                key = (terms[0][0], terms[0][1])
+                if key not in tight or bound < tight[key][1]:
+                    tight[key] = (k, bound)
+        guarding: List[int] = []
+        extra: List[Tuple[int, float, float]] = []
+        for index, low, high in guards:
+            for weight, end in ((1.0, high), (-1.0, -low)):
+                found = tight.get((index, weight))
+                if found is not None and found[1] <= end:
+                    guarding.append(found[0])
+                else:
+                    extra.append((index, weight, end))
+        height = self.size + len(extra) + 1
         if height == 1 or height * self.zero > _DENSE_CELLS:
             return
         dense = np.zeros((height, self.zero))
@@ -325,15 +344,17 @@ class _Forms:
                 elif index != self.zero:
                     dense[k, index] += weight
             limit[k] = bound - constant
-        for k, (index, low, high) in enumerate(guards):
-            dense[self.size + 2 * k, index] = 1.0
-            limit[self.size + 2 * k] = high
-            dense[self.size + 2 * k + 1, index] = -1.0
-            limit[self.size + 2 * k + 1] = -low
+        for k, (index, weight, bound) in enumerate(extra):
+            dense[self.size + k, index] = weight
+            limit[self.size + k] = bound
         dense[-1] = 1.0
         limit[-1] = math.inf
+        guard = np.zeros(height, dtype=bool)
+        guard[guarding] = True
+        guard[self.size : self.size + len(extra)] = True
         self.dense = dense
         self.dense_limit = limit
+        self.dense_guard = guard
 
     def gathered(self, time: float, point: str, row: Any) -> Found:
         """The violations of ``row`` (any values), the terms gathered."""

@@ -40,9 +40,11 @@ polygons with an edge ``a*x + b*y > c``, finite samples only.
 
 from __future__ import annotations
 
-from typing import Any, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
+
+from .fast import count_nonzero
 
 Edge = Tuple[float, float, float]
 
@@ -106,6 +108,8 @@ class PolygonChecks:
         self.y = np.asarray(self.ys, dtype=np.int64)
         # each polygon's edges twice: a cyclic run is one slice
         self.edges = [e + e for e in per]
+        self._runs: Dict[int, Tuple[int, int, Tuple[Edge, ...]]] = {}
+        """The runs of edges met so far, by ``polygon * 256 + table code``."""
         width = max([len(e) for e in per] + [1])
         table = np.zeros((count, width, 3))
         for owner, rows in enumerate(per):
@@ -200,20 +204,25 @@ class PolygonChecks:
             return self._outside(row, candidates)
         found = []
         values = row.tolist()
-        xs, ys, edges = self.xs, self.ys, self.edges
+        runs = self._runs
         for owner, code in zip(candidates.tolist(), codes.take(candidates).tolist()):
-            x = values[xs[owner]]
-            y = values[ys[owner]]
-            run = edges[owner]
-            if code == _ALL:
-                first, stop = 0, len(run) // 2
-            else:
-                first, stop = DECODE[code]
-            for a, b, c in run[first:stop]:
+            key = owner * 256 + code
+            run = runs.get(key)
+            if run is None:
+                run = runs[key] = self._run(owner, code)
+            x = values[run[0]]
+            y = values[run[1]]
+            for a, b, c in run[2]:
                 if a * x + b * y > c:
                     found.append(owner)
                     break
         return found
+
+    def _run(self, owner: int, code: int) -> Tuple[int, int, Tuple[Edge, ...]]:
+        """The variables of polygon ``owner`` and the edges its table ``code`` names."""
+        edges = self.edges[owner]
+        first, stop = (0, len(edges) // 2) if code == _ALL else DECODE[code]
+        return self.xs[owner], self.ys[owner], tuple(edges[first:stop])
 
     def _slow(self, row: Any) -> List[int]:
         """A value outside its range or not finite: the polygons reading such a value are
@@ -238,7 +247,7 @@ class PolygonChecks:
         py = row.take(self.y.take(candidates))[:, None]
         a, b, c = self.abc.take(candidates, axis=1)
         hit = (a * px + b * py > c).any(axis=1)
-        if not np.count_nonzero(hit):
+        if not count_nonzero(hit):
             return []
         # inference builds hulls from finite samples only: a NaN or infinite coordinate
         # breaks no polygon (a NaN compares false already; an inf would reach past an edge)
