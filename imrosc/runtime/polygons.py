@@ -7,8 +7,8 @@ variables, and a sample costs a few array operations over all polygons plus the 
 test of the few edges that pass near it.
 
 The grid. Each variable the polygons use gets ``grid`` cells over the range of the
-polygons' vertices on it (a hull's bounding box is its variables' range): the range's low
-end at the middle of the first cell, its high end at the middle of the last. A sample
+polygons' vertices on it (a hull's bounding box is its variables' range), its ends a thin
+slice into the first and the last cell (samples pile up at a range's ends). A sample
 inside every range (the common case; callers say so, or :meth:`PolygonChecks.in_range`
 finds out) is quantised once per variable. Outside a range, or not finite, the sample
 takes the slow path below.
@@ -58,6 +58,10 @@ widened one."""
 _MANY = 24
 """Beyond this many candidate polygons, one array operation over all their edges is
 cheaper than testing their cells' edges one by one."""
+_END = 0.125
+"""The first and the last cell reach this fraction of a cell into the range: samples pile
+up at a range's ends (zeros, saturations, the extremes of a discrete value) and the hull's
+edges run close to them there; thin end cells keep those samples out of boundary cells."""
 _RUNS = 6
 """Longest run of edges a table code names; a longer run (a cell well outside the
 polygon) reads as every edge."""
@@ -146,7 +150,7 @@ class PolygonChecks:
         grid = self.grid
         low, high = self.low, self.high
         with np.errstate(all="ignore"):
-            cell = (high - low) / (grid - 1)
+            cell = (high - low) / (grid - 2 + 2 * _END)
             scale = 1.0 / cell
             usable = (
                 np.isfinite(low)
@@ -155,8 +159,8 @@ class PolygonChecks:
                 & np.isfinite(scale)
                 & (cell > 2.0**-40 * self.reach)
             )
-            # the range's low end at the middle of the first cell
-            self.origin = np.where(usable, low - 0.5 * cell, 0.0)
+            # the range's ends a thin slice into the first and the last cell
+            self.origin = np.where(usable, low - (1 - _END) * cell, 0.0)
             self.scale = np.where(usable, scale, 0.0)
             widen = _WIDEN * cell + 8 * 2.0**-52 * self.reach
         per_row = 256 // grid
