@@ -380,11 +380,13 @@ class Monitor:
         self.report(found)
 
     def ask_params(self, view: logic.GraphView) -> None:
-        """Ask each node for the parameters the invariants read (answers come back in an
-        executor thread and are fed to the engine at the next poll)."""
+        """Ask each node for the parameters the invariants read, one ``GetParameters`` call
+        per parameter (rclpy answers a call that names one undeclared parameter with no
+        values at all). The answers come back in an executor thread and are fed to the
+        engine at the next poll."""
         requests = logic.parameter_requests(self.spec["params"], view.nodes)
         for owner, asked in requests.items():
-            if owner in self.param_pending or owner in self.own:
+            if owner in self.own:
                 continue
             client = self.param_clients.get(owner)
             if client is None:
@@ -394,27 +396,31 @@ class Monitor:
                 self.param_clients[owner] = client
             if not client.service_is_ready():
                 continue
-            self.param_pending.add(owner)
-            future = client.call_async(GetParameters.Request(names=[p for _, p in asked]))
-            future.add_done_callback(self.on_params_of(owner, asked))
+            for record, name in asked:
+                with self.lock:
+                    if record in self.param_pending:
+                        continue
+                    self.param_pending.add(record)
+                future = client.call_async(GetParameters.Request(names=[name]))
+                future.add_done_callback(self.on_param_of(owner, (record, name)))
 
-    def on_params_of(self, owner: str, asked: List[Tuple[str, str]]) -> Callable[[Any], None]:
-        """What to do with a node's ``GetParameters`` answer."""
+    def on_param_of(self, owner: str, asked: Tuple[str, str]) -> Callable[[Any], None]:
+        """What to do with the ``GetParameters`` answer for one parameter."""
 
-        def on_params(future: Any) -> None:
+        def on_param(future: Any) -> None:
             try:
                 response = future.result()
-                answered, missing = logic.parameter_answers(asked, list(response.values))
+                answered, missing = logic.parameter_answers([asked], list(response.values))
             except Exception as error:
-                self.warn(f"imrosc: parameters of {owner}: {error}")
+                self.warn(f"imrosc: parameter {asked[0]} of {owner}: {error}")
                 answered, missing = {}, []
             with self.lock:
                 self.answers.update(answered)
                 for name in missing:
                     self.answers.pop(name, None)
-                self.param_pending.discard(owner)
+                self.param_pending.discard(asked[0])
 
-        return on_params
+        return on_param
 
     def heartbeat(self) -> None:
         """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""

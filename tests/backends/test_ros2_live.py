@@ -56,6 +56,7 @@ SCOPE = """<publish id="a">/a/cmd</publish>
     <publish id="l">/a/level</publish>
     <call id="c">/a/reset</call>
     <param id="p">/a/ctrl/gain</param>
+    <param id="q">/a/ctrl/unset</param>
     <arch id="d">pub</arch>"""
 MONITOR = """<monitor inv="demo.inv" period="0.2">
     <block>/a/cmd, /a/reset</block>
@@ -112,6 +113,14 @@ def demo_document() -> dict[str, Any]:
                 "derived": None,
                 "trigger": True,
             }
+        ],
+    }
+    # a parameter the node never declares: asked along with the gain, it must not hide it
+    points["q"] = {
+        **points["p"],
+        "trigger": "/a/ctrl/unset",
+        "variables": [
+            {**points["p"]["variables"][0], "name": "/a/ctrl/unset", "topic": "/a/ctrl/unset"}
         ],
     }
     points["d"] = {
