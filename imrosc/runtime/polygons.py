@@ -113,6 +113,8 @@ class PolygonChecks:
         # each polygon's edges twice: a cyclic run is one slice
         self.edges = [e + e for e in per]
         self._runs: Dict[int, Tuple[int, int, Tuple[Edge, ...]]] = {}
+        self._last_cells = b""
+        self._last: Tuple[Any, Optional[List[Tuple[int, int]]]] = (np.empty(0, np.int64), None)
         """The runs of edges met so far, by ``polygon * 256 + table code``."""
         width = max([len(e) for e in per] + [1])
         table = np.zeros((count, width, 3))
@@ -199,17 +201,28 @@ class PolygonChecks:
             return self._slow(row)
         g = row[: self.size] - self.origin
         g *= self.scale
-        flat = g.astype(np.uint8).take(self.at).view(np.uint16) + self.base
-        codes = self.table.take(flat)
-        candidates = codes.nonzero()[0]
+        cells = g.astype(np.uint8)
+        # the candidates depend on the cells alone: a signal that stays in its cells (a
+        # slow one, a discrete one) costs no lookup
+        key_cells = cells.tobytes()
+        if key_cells == self._last_cells:
+            candidates, pairs = self._last
+        else:
+            codes = self.table.take(cells.take(self.at).view(np.uint16) + self.base)
+            candidates = codes.nonzero()[0]
+            pairs = None
+            if 0 < len(candidates) <= _MANY:
+                pairs = list(zip(candidates.tolist(), codes.take(candidates).tolist()))
+            self._last_cells = key_cells
+            self._last = candidates, pairs
         if not len(candidates):
             return []
-        if len(candidates) > _MANY:
+        if pairs is None:
             return self._outside(row, candidates)
         found = []
         values = row.tolist()
         runs = self._runs
-        for owner, code in zip(candidates.tolist(), codes.take(candidates).tolist()):
+        for owner, code in pairs:
             key = owner * 256 + code
             run = runs.get(key)
             if run is None:

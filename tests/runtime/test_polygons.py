@@ -198,3 +198,14 @@ def test_the_grid_shrinks_to_keep_the_tables_in_budget() -> None:
     assert grid_size(5000) == 32
     assert grid_size(10**6) == 8
     assert all(256 % grid_size(n) == 0 for n in (1, 3000, 40000))
+
+
+def test_samples_that_stay_in_their_cells_are_still_tested_exactly() -> None:
+    # the lookup is skipped when no cell changed, the edges of the cell are not
+    triangle = np.asarray([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    checks, plain = build({(0, 1): triangle})
+    samples = [[0.5, 0.5 - 1e-9], [0.5, 0.5 + 1e-9], [0.5, 0.5 - 2e-9], [0.5, 0.5 + 2e-9]]
+    assert [answers(checks, s) for s in samples] == [[], [0], [], [0]]
+    assert [expected(plain, s) for s in samples] == [[], [0], [], [0]]
+    assert answers(checks, [0.1, 0.1]) == []  # another cell, inside
+    assert answers(checks, [0.5, 0.5 + 1e-9]) == [0]
