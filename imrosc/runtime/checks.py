@@ -2,10 +2,11 @@
 
 Every invariant over a point's values (Daikon's families, polygons, and the bounds of the
 time-related families, which are checked on the window values the engine computes) is
-grouped with its kind into arrays: bounds as ``lo``/``hi`` vectors, relations as index
-pairs, linear and ternary relations as coefficient vectors, polygons as stacked
-half-planes ``A x <= b``. Checking a sample costs a handful of numpy operations whatever
-the number of invariants; the violations are built only when one of them fails.
+grouped with its kind into arrays: bounds, orderings, equalities and linear and ternary
+relations as linear forms (one matrix-vector product, :class:`_Forms`), one-of sets,
+polygons as lookup tables and half-planes ``A x <= b`` (:mod:`.polygons`). Checking a
+sample costs a handful of numpy operations whatever the number of invariants; the
+violations are built only when one of them fails.
 
 A missing value (NaN) breaks nothing: inference skipped it too. The checks do not wrap
 themselves in ``np.errstate`` (it costs more than a check): callers run the engine with
@@ -24,7 +25,7 @@ from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Sequence, Set,
 
 import numpy as np
 
-from .fast import count_nonzero
+from .fast import count_nonzero as _count
 from .polygons import PolygonChecks
 from .violation import Violation, show
 
@@ -32,7 +33,6 @@ _STAT_SLACK = 1e-12
 """Relative allowance on bounds of array averages and deviations."""
 
 Found = List[Violation]
-_count = count_nonzero
 
 
 def _ints(values: Sequence[Any]) -> Any:
