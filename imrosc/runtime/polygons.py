@@ -79,8 +79,8 @@ for _first in range(_FIRSTS):
 
 
 def grid_size(count: int) -> int:
-    """Cells per axis for ``count`` polygons (a divisor of 256: four polygons' cells share
-    a row of 256 in the table)."""
+    """Cells per axis for ``count`` polygons (a divisor of 256: ``256 // grid`` polygons'
+    cells share a row of 256 in the table)."""
     grid = 64
     while grid > 8 and count * grid * grid > TABLE_BUDGET:
         grid //= 2
@@ -113,9 +113,10 @@ class PolygonChecks:
         # each polygon's edges twice: a cyclic run is one slice
         self.edges = [e + e for e in per]
         self._runs: Dict[int, Tuple[int, int, Tuple[Edge, ...]]] = {}
+        """The runs of edges met so far, by ``polygon * 256 + table code``."""
         self._last_cells = b""
         self._last: Tuple[Any, Optional[List[Tuple[int, int]]]] = (np.empty(0, np.int64), None)
-        """The runs of edges met so far, by ``polygon * 256 + table code``."""
+        """The last lookup: its cells, candidates and their codes."""
         width = max([len(e) for e in per] + [1])
         table = np.zeros((count, width, 3))
         for owner, rows in enumerate(per):
