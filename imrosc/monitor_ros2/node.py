@@ -56,9 +56,6 @@ try:  # only a ROS 2 system has these; the helpers above are usable without them
     from builtin_interfaces.msg import (  # type: ignore[import-not-found, unused-ignore]
         Time as TimeMsg,
     )
-    from rcl_interfaces.srv import (  # type: ignore[import-not-found, unused-ignore]
-        GetParameters,
-    )
     from rclpy.callback_groups import (  # type: ignore[import-not-found, unused-ignore]
         MutuallyExclusiveCallbackGroup,
         ReentrantCallbackGroup,
@@ -148,9 +145,9 @@ class Monitor:
         self.calls = ReentrantCallbackGroup()
         self.graph: Optional[Dict[str, Any]] = None
         self.params: Optional[Dict[str, Any]] = None
-        self.answers: Dict[str, Any] = {}
-        self.param_clients: Dict[str, Any] = {}
-        self.param_pending: Set[str] = set()
+        self.parameters = plumbing.ParameterAsker(
+            node, self.calls, self.lock, lambda text: self.warn("imrosc: " + text)
+        )
         self.topics = {
             t["name"]: Topic(t["name"], t.get("ros2_type"), self.topic_relays.get(t["name"]))
             for t in spec["topics"]
@@ -363,7 +360,8 @@ class Monitor:
         if view is not None and view.complete:  # else a node is half discovered: wait
             graph = logic.snapshot(view, self.own, self.topic_relays, self.service_relays)
         with self.lock:
-            params = logic.param_values(self.answers, self.spec["params"]) if self.answers else None
+            answers = self.parameters.answers
+            params = logic.param_values(answers, self.spec["params"]) if answers else None
             now = self.now()
             found = self.engine.advance(now)
             if graph is not None and graph != self.graph:
@@ -380,47 +378,12 @@ class Monitor:
         self.report(found)
 
     def ask_params(self, view: logic.GraphView) -> None:
-        """Ask each node for the parameters the invariants read, one ``GetParameters`` call
-        per parameter (rclpy answers a call that names one undeclared parameter with no
-        values at all). The answers come back in an executor thread and are fed to the
-        engine at the next poll."""
+        """Ask each node for the parameters the invariants read (the answers are fed to the
+        engine at the next poll)."""
         requests = logic.parameter_requests(self.spec["params"], view.nodes)
         for owner, asked in requests.items():
-            if owner in self.own:
-                continue
-            client = self.param_clients.get(owner)
-            if client is None:
-                client = self.node.create_client(
-                    GetParameters, owner.rstrip("/") + "/get_parameters", callback_group=self.calls
-                )
-                self.param_clients[owner] = client
-            if not client.service_is_ready():
-                continue
-            for record, name in asked:
-                with self.lock:
-                    if record in self.param_pending:
-                        continue
-                    self.param_pending.add(record)
-                future = client.call_async(GetParameters.Request(names=[name]))
-                future.add_done_callback(self.on_param_of(owner, (record, name)))
-
-    def on_param_of(self, owner: str, asked: Tuple[str, str]) -> Callable[[Any], None]:
-        """What to do with the ``GetParameters`` answer for one parameter."""
-
-        def on_param(future: Any) -> None:
-            try:
-                response = future.result()
-                answered, missing = logic.parameter_answers([asked], list(response.values))
-            except Exception as error:
-                self.warn(f"imrosc: parameter {asked[0]} of {owner}: {error}")
-                answered, missing = {}, []
-            with self.lock:
-                self.answers.update(answered)
-                for name in missing:
-                    self.answers.pop(name, None)
-                self.param_pending.discard(asked[0])
-
-        return on_param
+            if owner not in self.own:
+                self.parameters.ask(owner, asked)
 
     def heartbeat(self) -> None:
         """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""

@@ -2,20 +2,24 @@
 
 Interface classes by name (:func:`message_class`, :func:`service_class`), QoS profiles from
 :class:`logic.Qos` (:func:`profile`), one reading of the graph API (:func:`read_graph`),
-node parameters with defaults that work from Foxy on (:func:`get_param`), a service call
-that waits with a timeout (:func:`call`) and a callback that logs instead of killing the
-executor (:func:`guarded`). Python 3.8 syntax.
+node parameters with defaults that work from Foxy on (:func:`get_param`), other nodes'
+parameters (:class:`ParameterAsker`, also the recorder's), a service call that waits with a
+timeout (:func:`call`) and a callback that logs instead of killing the executor
+(:func:`guarded`). Python 3.8 syntax.
 """
 
 from __future__ import annotations
 
 import importlib
 import threading
-from typing import Any, Callable, Dict, List, Optional, Set, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Set, Tuple
 
 from . import logic
 
 try:  # only a ROS 2 system has these; the functions below need them
+    from rcl_interfaces.srv import (  # type: ignore[import-not-found, unused-ignore]
+        GetParameters,
+    )
     from rclpy.qos import (  # type: ignore[import-not-found, unused-ignore]
         DurabilityPolicy,
         HistoryPolicy,
@@ -162,3 +166,63 @@ def guarded(logger: Any, what: str, callback: Callable[..., Any]) -> Callable[..
             return None
 
     return run
+
+
+class ParameterAsker:
+    """Asks nodes for their parameters with ``GetParameters`` on ``/<node>/get_parameters``,
+    one call per parameter: rclpy answers a call that names one undeclared parameter with no
+    values at all, which would hide the others. Answers arrive in an executor thread;
+    ``answers`` (record name -> value, a parameter not set left out) and ``pending`` are
+    read and written under ``lock``; ``warn`` takes a line without the node's prefix."""
+
+    def __init__(self, node: Any, group: Any, lock: Any, warn: Callable[[str], Any]) -> None:
+        self.node = node
+        self.group = group
+        self.lock = lock
+        self.warn = warn
+        self.clients: Dict[str, Any] = {}
+        self.pending: Set[str] = set()
+        self.answers: Dict[str, Any] = {}
+        self.answered = False
+        """Whether an answer has come back."""
+
+    def ask(self, owner: str, asked: Sequence[Tuple[str, str]]) -> None:
+        """Ask node ``owner`` for its ``(record name, ROS 2 name)`` parameters that are not
+        asked already (nothing while its service is not ready)."""
+        client = self.clients.get(owner)
+        if client is None:
+            name = owner.rstrip("/") + "/get_parameters"
+            client = self.node.create_client(GetParameters, name, callback_group=self.group)
+            self.clients[owner] = client
+        if not client.service_is_ready():
+            return
+        for record, name in asked:
+            with self.lock:
+                if record in self.pending:
+                    continue
+                self.pending.add(record)
+            future = client.call_async(GetParameters.Request(names=[name]))
+            future.add_done_callback(self._on_answer(owner, (record, name)))
+
+    def forget(self, asked: Sequence[Tuple[str, str]]) -> None:
+        """Drop the answers for ``asked`` (their node is gone)."""
+        with self.lock:
+            for record, _ in asked:
+                self.answers.pop(record, None)
+
+    def _on_answer(self, owner: str, asked: Tuple[str, str]) -> Callable[[Any], None]:
+        def on_answer(future: Any) -> None:
+            try:
+                response = future.result()
+                answered, missing = logic.parameter_answers([asked], list(response.values))
+            except Exception as error:
+                self.warn(f"parameter {asked[0]} of {owner}: {error}")
+                answered, missing = {}, []
+            with self.lock:
+                self.answers.update(answered)
+                for name in missing:
+                    self.answers.pop(name, None)
+                self.pending.discard(asked[0])
+                self.answered = True
+
+        return on_answer

@@ -32,9 +32,6 @@ from . import logic
 
 try:  # only a ROS 2 system has these
     import rclpy  # type: ignore[import-not-found, unused-ignore]
-    from rcl_interfaces.srv import (  # type: ignore[import-not-found, unused-ignore]
-        GetParameters,
-    )
     from rclpy.callback_groups import (  # type: ignore[import-not-found, unused-ignore]
         MutuallyExclusiveCallbackGroup,
         ReentrantCallbackGroup,
@@ -81,10 +78,8 @@ class Recorder:
             settle=max(1.0, self.period),
             timeout=float(plumbing.get_param(node, "call_timeout", 10.0)),
         )
-        self.answers: Dict[str, Any] = {}
         self.answered_once = not self.params
-        self.param_clients: Dict[str, Any] = {}
-        self.param_pending: Set[str] = set()
+        """Whether the parameters may be published: none to ask, or nothing pending."""
         self.events: Dict[str, Any] = {}
         self.writers: Dict[str, List[Tuple[bytes, str]]] = {}
         self.event_publishers: Dict[str, List[str]] = {}
@@ -93,6 +88,9 @@ class Recorder:
         self.started = time.monotonic()
         self.polls = MutuallyExclusiveCallbackGroup()
         self.calls = ReentrantCallbackGroup()
+        self.parameters = plumbing.ParameterAsker(
+            node, self.calls, self.lock, lambda text: self.warn("imrosc recorder: " + text)
+        )
         snapshot = plumbing.profile(
             graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL), SNAPSHOT_DEPTH
         )
@@ -127,7 +125,8 @@ class Recorder:
             if self.changes.changed(logic.ARCH_TOPIC, text):
                 self.publish(logic.ARCH_TOPIC, text)
         with self.lock:
-            params = logic.params_of(self.answers, self.params) if self.answered_once else None
+            known = self.answered_once or self.parameters.answered
+            params = logic.params_of(self.parameters.answers, self.params) if known else None
         if params is not None:
             text = logic.params_text(params)
             if self.changes.changed(logic.PARAMS_TOPIC, text):
@@ -142,53 +141,19 @@ class Recorder:
             return self.pairing.due(time.monotonic())
 
     def ask_params(self, view: graph.GraphView) -> None:
-        """Ask each node for the scope's parameters, one ``GetParameters`` call per parameter
-        (rclpy answers a call that names one undeclared parameter with no values at all).
-        The answers arrive in an executor thread and are published at the next poll."""
+        """Ask each node for the scope's parameters (the answers are published at the next
+        poll; with nothing to wait for, what is known is published)."""
         requests = graph.parameter_requests(self.params, view.nodes)
         for owner, asked in requests.items():
             if owner == self.name:
                 continue
             if owner not in view.nodes:  # not running (yet): its parameters are not set
-                with self.lock:
-                    for record, _ in asked:
-                        self.answers.pop(record, None)
-                continue
-            client = self.param_clients.get(owner)
-            if client is None:
-                client = self.node.create_client(
-                    GetParameters, owner.rstrip("/") + "/get_parameters", callback_group=self.calls
-                )
-                self.param_clients[owner] = client
-            if not client.service_is_ready():
-                continue
-            for record, name in asked:
-                with self.lock:
-                    if record in self.param_pending:
-                        continue
-                    self.param_pending.add(record)
-                future = client.call_async(GetParameters.Request(names=[name]))
-                future.add_done_callback(self.on_param_of(owner, (record, name)))
+                self.parameters.forget(asked)
+            else:
+                self.parameters.ask(owner, asked)
         with self.lock:
-            if not self.param_pending:  # nothing to wait for: publish what is known
+            if not self.parameters.pending:
                 self.answered_once = True
-
-    def on_param_of(self, owner: str, asked: Tuple[str, str]) -> Any:
-        def on_param(future: Any) -> None:
-            try:
-                response = future.result()
-                answered, missing = graph.parameter_answers([asked], list(response.values))
-            except Exception as error:
-                self.warn(f"imrosc recorder: parameter {asked[0]} of {owner}: {error}")
-                answered, missing = {}, []
-            with self.lock:
-                self.answers.update(answered)
-                for name in missing:
-                    self.answers.pop(name, None)
-                self.param_pending.discard(asked[0])
-                self.answered_once = True
-
-        return on_param
 
     def connect(self, view: graph.GraphView) -> None:
         """Subscribe to the event topic of each scope service once it has a type; note
