@@ -12,31 +12,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from imrosc.infer.polygon.hull import GroupSet, hulls
 from imrosc.infer.polygon.state import half_planes
 from imrosc.runtime import polygons as module
 from imrosc.runtime.polygons import DECODE, PolygonChecks, grid_size
 
 
 def hull(points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Counter-clockwise convex hull (monotone chain), collinear points dropped."""
-    pts = sorted(set(map(tuple, points.tolist())))
-    if len(pts) < 3:
-        return np.asarray(pts, dtype=np.float64)
-
-    def cross(o: Any, a: Any, b: Any) -> float:
-        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-    lower: list[Any] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[Any] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.asarray(lower[:-1] + upper[:-1], dtype=np.float64)
+    """Counter-clockwise convex hull, collinear points dropped (inference's exact hull)."""
+    n = len(points)
+    cloud = GroupSet(np.zeros(n, np.int64), points[:, 0], points[:, 1], np.arange(n))
+    found = hulls(cloud)
+    return np.stack([found.x, found.y], axis=1)
 
 
 def polygon(vertices: npt.NDArray[np.float64]) -> dict[str, Any]:
