@@ -210,7 +210,9 @@ class PolygonChecks:
             candidates, pairs = self._last
         else:
             codes = self.table.take(cells.take(self.at).view(np.uint16) + self.base)
-            candidates = codes.nonzero()[0]
+            # nonzero over a bool view: numpy's fast path for bool (any nonzero byte is
+            # true) is several times quicker than over uint8
+            candidates = codes.view(np.bool_).nonzero()[0]
             pairs = None
             if 0 < len(candidates) <= _MANY:
                 pairs = list(zip(candidates.tolist(), codes.take(candidates).tolist()))

@@ -91,8 +91,18 @@ def clouds_over(
     st.integers(0, 2**32 - 1),
     st.sampled_from(["walk", "ints", "mixed", "scaled"]),
     st.integers(4, 9),
+    st.sampled_from([0, module._MANY, 10**9]),
 )
-def test_every_path_answers_like_the_half_planes(seed: int, shape: str, variables: int) -> None:
+def test_every_path_answers_like_the_half_planes(
+    seed: int, shape: str, variables: int, many: int
+) -> None:
+    # many: candidates beyond it test every edge at once (0: always, 10**9: never)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(module, "_MANY", many)
+        every_path_answers_like_the_half_planes(seed, shape, variables)
+
+
+def every_path_answers_like_the_half_planes(seed: int, shape: str, variables: int) -> None:
     rng = np.random.default_rng(seed)
     clouds, data = clouds_over(rng, variables, 200, shape)
     checks, plain = build(clouds)
