@@ -15,7 +15,7 @@ import json
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Generic, Literal, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -30,12 +30,18 @@ from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import ARCH_VARIABLE, PointSpec
 from imrosc.translate.rawdecode import RawDecoder
 
+State = TypeVar("State")
+
 CHUNK_MESSAGES = 16384
 ARCH_PERIOD = 1.0
-"""Architecture points are sampled once a second (and at every change), as a recorder polling
-the master every second would see them; a bag without records gives its connections'
-publishers (ROS 1 ``callerid``) for its whole length."""
+"""Architecture and parameter points are sampled once a second (and at every change), as a
+recorder polling the master every second would see them; a bag without records gives its
+connections' publishers (ROS 1 ``callerid``) for its whole length. (A parameter record is
+written only when a value changes: sampled at its changes alone, a parameter that keeps its
+value would give a point one sample, too few to justify any invariant.)"""
 PARAMS = records.PARAMS_TOPIC
+PARAM_TICKS = PARAMS + "#ticks"
+"""The parameters in force at every tick and change: the rows of parameter points."""
 SRVS = records.SRVS_TOPIC
 ARCH = records.ARCH_TOPIC
 
@@ -133,6 +139,9 @@ class BagTranslator:
         with open_bag(bag) as reader:
             self._reader = reader
             self._arch = _ArchClock(reader.start_time / 1e9, reader.end_time / 1e9)
+            self._param_clock: _Clock[dict[str, Any]] = _Clock(
+                reader.start_time / 1e9, reader.end_time / 1e9
+            )
             if not any(c.topic == ARCH for c in reader.connections):
                 self._arch.current = _callerid_snapshot(reader.connections)
             wanted = [c for c in reader.connections if c.topic in self.topics | self.records]
@@ -185,8 +194,11 @@ class BagTranslator:
         decoder = self.decoders[key]
         return None if decoder is None else decoder.decode([entry[2] for entry in entries])
 
-    def _rows(self, buffer: Mapping[str, list[tuple[int, float, Any, str]]]) -> dict[str, Rows]:
+    def _rows(
+        self, buffer: Mapping[str, list[tuple[int, float, Any, str]]], *, final: bool
+    ) -> dict[str, Rows]:
         data: dict[str, Rows] = {}
+        changes: list[tuple[float, int, dict[str, Any]]] = []
         for topic, entries in buffer.items():
             seq = np.fromiter((e[0] for e in entries), dtype=np.int64, count=len(entries))
             time = np.fromiter((e[1] for e in entries), dtype=np.float64, count=len(entries))
@@ -199,14 +211,19 @@ class BagTranslator:
                 continue
             messages, kept = self._deserialized(topic, entries)
             if topic == PARAMS:
-                data[PARAMS] = self._param_rows(
-                    list(zip(seq[kept], time[kept], messages, strict=True))
-                )
+                parsed = self._param_rows(list(zip(seq[kept], time[kept], messages, strict=True)))
+                data[PARAMS] = _json_rows(parsed)
+                changes = [(time, seq, values) for seq, time, values in parsed]
             elif topic in (SRVS, ARCH):
                 data[topic] = Rows(seq[kept], time[kept], {}, [m.data for m in messages])
+        if any(spec.kind == "param" for spec in self.specs):
+            ticks = self._param_clock.ticks(changes, buffer, final=final)
+            data[PARAM_TICKS] = _json_rows([(seq, time, values) for seq, time, values in ticks])
         return data
 
-    def _param_rows(self, entries: list[tuple[int, float, Any]]) -> Rows:
+    def _param_rows(
+        self, entries: list[tuple[int, float, Any]]
+    ) -> list[tuple[int, float, dict[str, Any]]]:
         parsed = []
         for seq, time, message in entries:
             try:
@@ -216,8 +233,8 @@ class BagTranslator:
             values: dict[str, Any] = {}
             for name, value in params.items():
                 values.update(flatten_json(value, name))
-            parsed.append((seq, time, values))
-        return _json_rows(parsed)
+            parsed.append((int(seq), float(time), values))
+        return parsed
 
     def _flush(
         self,
@@ -227,7 +244,7 @@ class BagTranslator:
         *,
         final: bool = False,
     ) -> Iterator[Samples]:
-        data = self._rows(buffer)
+        data = self._rows(buffer, final=final)
         if any(spec.kind == "arch" for spec in self.specs):
             data[ARCH] = self._arch.rows(data.get(ARCH), buffer, final=final)
         calls = self._calls(data.get(SRVS))
@@ -236,7 +253,7 @@ class BagTranslator:
             if samples is not None and len(samples):
                 yield samples
         for name, rows in data.items():
-            if len(rows) and name not in (SRVS, ARCH):
+            if len(rows) and name not in (SRVS, ARCH, PARAM_TICKS):
                 carry[name] = rows.tail()
 
     def _calls(self, rows: Rows | None) -> dict[str, list[tuple[int, float, dict[str, Any]]]]:
@@ -280,7 +297,7 @@ class BagTranslator:
                 trigger.columns = {named.get(k, k): c for k, c in trigger.columns.items()}
             sources = (PARAMS,) if spec.params else ()
         elif spec.kind == "param":
-            rows = data.get(PARAMS)
+            rows = data.get(PARAM_TICKS)
             trigger = rows if rows is not None and spec.trigger in rows.columns else None
             sources = ()
         elif spec.kind == "arch":
@@ -405,16 +422,17 @@ def _callerid_snapshot(connections: Sequence[Any]) -> _Snapshot:
 
 
 @dataclass
-class _ArchClock:
-    """Samples the architecture in force every ``ARCH_PERIOD`` seconds and at each change.
+class _Clock(Generic[State]):
+    """Samples a state in force every ``ARCH_PERIOD`` seconds and at each change.
 
-    Ticks fall at ``start + k * ARCH_PERIOD``; a tick gets the message number just after the
+    Ticks fall at ``start + k * ARCH_PERIOD`` (none before the first state, none at the time
+    of a change: the change is that sample); a tick gets the message number just after the
     last message at or before it, so conditions pair with it as with any sample.
     """
 
     start: float
     end: float
-    current: _Snapshot | None = None
+    current: State | None = None
     tick: int = 0
     last_seq: int = 0
 
@@ -423,6 +441,46 @@ class _ArchClock:
         if before:
             return int(seqs[before - 1]) + 1
         return int(seqs[0]) if len(seqs) else self.last_seq + 1
+
+    def ticks(
+        self,
+        changes: Sequence[tuple[float, int, State]],
+        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
+        *,
+        final: bool,
+    ) -> list[tuple[int, float, State]]:
+        """``(seq, time, state)`` of the chunk: its ``changes`` (time order) and the ticks
+        up to the chunk's last message (the bag's end for the ``final`` chunk)."""
+        entries = sorted((e[1], e[0]) for es in buffer.values() for e in es)
+        times = np.array([t for t, _ in entries], dtype=np.float64)
+        seqs = np.array([s for _, s in entries], dtype=np.int64)
+        horizon = self.end if final else (float(times[-1]) if len(times) else self.start)
+        out: list[tuple[int, float, State]] = []
+        pending = 0
+        while True:
+            at = self.start + self.tick * ARCH_PERIOD
+            change = changes[pending] if pending < len(changes) else None
+            if change is not None and change[0] <= at:
+                self.current = change[2]
+                out.append((change[1], change[0], change[2]))
+                pending += 1
+            elif at <= horizon:
+                if self.current is not None and not (out and out[-1][1] == at):
+                    out.append((self._seq(seqs, times, at), at, self.current))
+                self.tick += 1
+            elif change is not None:
+                self.current = change[2]
+                out.append((change[1], change[0], change[2]))
+                pending += 1
+            else:
+                break
+        if len(seqs):
+            self.last_seq = int(seqs[-1])
+        return out
+
+
+class _ArchClock(_Clock[_Snapshot]):
+    """The architecture in force, from the records' snapshots."""
 
     def rows(
         self,
@@ -439,31 +497,7 @@ class _ArchClock:
                     changes.append((float(time), int(seq), _Snapshot(records.decode_arch(text))))
                 except (records.RecordError, json.JSONDecodeError):
                     continue
-        entries = sorted((e[1], e[0]) for es in buffer.values() for e in es)
-        times = np.array([t for t, _ in entries], dtype=np.float64)
-        seqs = np.array([s for _, s in entries], dtype=np.int64)
-        horizon = self.end if final else (float(times[-1]) if len(times) else self.start)
-        out: list[tuple[int, float, _Snapshot]] = []
-        pending = 0
-        while True:
-            at = self.start + self.tick * ARCH_PERIOD
-            change = changes[pending] if pending < len(changes) else None
-            if change is not None and change[0] <= at:
-                self.current = change[2]
-                out.append((change[1], change[0], change[2]))
-                pending += 1
-            elif at <= horizon:
-                if self.current is not None:
-                    out.append((self._seq(seqs, times, at), at, self.current))
-                self.tick += 1
-            elif change is not None:
-                self.current = change[2]
-                out.append((change[1], change[0], change[2]))
-                pending += 1
-            else:
-                break
-        if len(seqs):
-            self.last_seq = int(seqs[-1])
+        out = self.ticks(changes, buffer, final=final)
         return Rows(
             np.array([r[0] for r in out], dtype=np.int64),
             np.array([r[1] for r in out], dtype=np.float64),

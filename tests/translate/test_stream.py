@@ -124,7 +124,10 @@ def test_records_feed_call_param_arch_points_and_events(bag: Path) -> None:
     assert got["c"]["srv.request.task_id"] == [3.0]
     assert got["c"]["srv.response.ok"] == [1.0]
     assert got["c"]["srv.delay"] == [0.25]
-    assert got["p"]["/gain"] == [2.5]
+    # the record at 0.1 s (the bag's start: no tick of its own), then the value in force
+    # once a second: a parameter that keeps its value still gets samples to justify it
+    assert got["p"]["time"] == pytest.approx([0.1, 1.1, 2.1, 3.1, 4.1, 5.1])
+    assert got["p"]["/gain"] == [2.5] * 6
     # the snapshot at 0.2 s, then one sample a second from the bag start (0.1 s) to its end
     assert got["d"]["time"] == pytest.approx([0.2, 1.1, 2.1, 3.1, 4.1, 5.1])
     assert got["d"]["pubs(/out)"] == [frozenset({"/ctl"})] * 6
@@ -161,3 +164,18 @@ def test_nan_and_inf_pass_through(tmp_path: Path) -> None:
     values = samples.column("out.data")
     assert np.isnan(values[0]) and np.isposinf(values[1])
     assert json.dumps(samples.time.tolist()) == "[1.0, 2.0]"
+
+
+def test_parameter_points_follow_changes_and_ticks_across_chunks(tmp_path: Path) -> None:
+    messages = [msg("/out", 0.0, "std_msgs/msg/Float64", "/ctl", data=0.0)]
+    for k, (time, gain) in enumerate([(0.5, 1.0), (2.25, 3.0), (2.5, 4.0)]):
+        snapshot = records.ParamSnapshot({"/gain": gain, "/other": k})
+        messages.append(record(records.PARAMS_TOPIC, time, snapshot))
+    messages += [msg("/out", t / 4, "std_msgs/msg/Float64", "/ctl", data=t) for t in range(1, 20)]
+    bag = write_bag(tmp_path / "params.bag", sorted(messages, key=lambda m: m.time))
+    config = '<imROS project="t"><scope><param id="p">/gain</param></scope></imROS>'
+    specs, layouts, catalog = specs_for(config, [bag])
+    for chunk in (1, 3, 1000):  # the clock's state carries from chunk to chunk
+        got = collect(BagTranslator(specs, layouts, catalog.callerids, chunk=chunk), bag)
+        assert got["p"]["time"] == pytest.approx([0.5, 1.0, 2.0, 2.25, 2.5, 3.0, 4.0])
+        assert got["p"]["/gain"] == [1.0, 1.0, 1.0, 3.0, 4.0, 4.0, 4.0]
