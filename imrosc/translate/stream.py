@@ -217,8 +217,7 @@ class BagTranslator:
             elif topic in (SRVS, ARCH):
                 data[topic] = Rows(seq[kept], time[kept], {}, [m.data for m in messages])
         if any(spec.kind == "param" for spec in self.specs):
-            ticks = self._param_clock.ticks(changes, buffer, final=final)
-            data[PARAM_TICKS] = _json_rows([(seq, time, values) for seq, time, values in ticks])
+            data[PARAM_TICKS] = _json_rows(self._param_clock.ticks(changes, buffer, final=final))
         return data
 
     def _param_rows(
