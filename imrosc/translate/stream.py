@@ -102,7 +102,7 @@ def _json_rows(entries: list[tuple[int, float, dict[str, Any]]]) -> Rows:
         columns[name] = column
     seq = np.array([s for s, _, _ in entries], dtype=np.int64)
     time = np.array([t for _, t, _ in entries], dtype=np.float64)
-    return Rows(seq, time, columns)
+    return Rows(seq, time, columns, [values for _, _, values in entries])
 
 
 class BagTranslator:
@@ -139,9 +139,7 @@ class BagTranslator:
         with open_bag(bag) as reader:
             self._reader = reader
             self._arch = _ArchClock(reader.start_time / 1e9, reader.end_time / 1e9)
-            self._param_clock: _Clock[dict[str, Any]] = _Clock(
-                reader.start_time / 1e9, reader.end_time / 1e9
-            )
+            self._param_clock = _ParamClock(reader.start_time / 1e9, reader.end_time / 1e9)
             if not any(c.topic == ARCH for c in reader.connections):
                 self._arch.current = _callerid_snapshot(reader.connections)
             wanted = [c for c in reader.connections if c.topic in self.topics | self.records]
@@ -194,11 +192,8 @@ class BagTranslator:
         decoder = self.decoders[key]
         return None if decoder is None else decoder.decode([entry[2] for entry in entries])
 
-    def _rows(
-        self, buffer: Mapping[str, list[tuple[int, float, Any, str]]], *, final: bool
-    ) -> dict[str, Rows]:
+    def _rows(self, buffer: Mapping[str, list[tuple[int, float, Any, str]]]) -> dict[str, Rows]:
         data: dict[str, Rows] = {}
-        changes: list[tuple[float, int, dict[str, Any]]] = []
         for topic, entries in buffer.items():
             seq = np.fromiter((e[0] for e in entries), dtype=np.int64, count=len(entries))
             time = np.fromiter((e[1] for e in entries), dtype=np.float64, count=len(entries))
@@ -211,18 +206,14 @@ class BagTranslator:
                 continue
             messages, kept = self._deserialized(topic, entries)
             if topic == PARAMS:
-                parsed = self._param_rows(list(zip(seq[kept], time[kept], messages, strict=True)))
-                data[PARAMS] = _json_rows(parsed)
-                changes = [(time, seq, values) for seq, time, values in parsed]
+                data[PARAMS] = self._param_rows(
+                    list(zip(seq[kept], time[kept], messages, strict=True))
+                )
             elif topic in (SRVS, ARCH):
                 data[topic] = Rows(seq[kept], time[kept], {}, [m.data for m in messages])
-        if any(spec.kind == "param" for spec in self.specs):
-            data[PARAM_TICKS] = _json_rows(self._param_clock.ticks(changes, buffer, final=final))
         return data
 
-    def _param_rows(
-        self, entries: list[tuple[int, float, Any]]
-    ) -> list[tuple[int, float, dict[str, Any]]]:
+    def _param_rows(self, entries: list[tuple[int, float, Any]]) -> Rows:
         parsed = []
         for seq, time, message in entries:
             try:
@@ -233,7 +224,7 @@ class BagTranslator:
             for name, value in params.items():
                 values.update(flatten_json(value, name))
             parsed.append((int(seq), float(time), values))
-        return parsed
+        return _json_rows(parsed)
 
     def _flush(
         self,
@@ -243,9 +234,11 @@ class BagTranslator:
         *,
         final: bool = False,
     ) -> Iterator[Samples]:
-        data = self._rows(buffer, final=final)
+        data = self._rows(buffer)
         if any(spec.kind == "arch" for spec in self.specs):
             data[ARCH] = self._arch.rows(data.get(ARCH), buffer, final=final)
+        if any(spec.kind == "param" for spec in self.specs):
+            data[PARAM_TICKS] = self._param_clock.rows(data.get(PARAMS), buffer, final=final)
         calls = self._calls(data.get(SRVS))
         for spec in self.specs:
             samples = self._point(spec, data, calls, carry, run)
@@ -503,3 +496,20 @@ class _ArchClock(_Clock[_Snapshot]):
             {},
             [r[2] for r in out],
         )
+
+
+class _ParamClock(_Clock[dict[str, Any]]):
+    """The parameters in force, from the records (their values kept in ``Rows.extra``)."""
+
+    def rows(
+        self,
+        records_rows: Rows | None,
+        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
+        *,
+        final: bool,
+    ) -> Rows:
+        changes: list[tuple[float, int, dict[str, Any]]] = []
+        if records_rows is not None:
+            rows = zip(records_rows.time, records_rows.seq, records_rows.extra, strict=True)
+            changes = [(float(time), int(seq), values) for time, seq, values in rows]
+        return _json_rows(self.ticks(changes, buffer, final=final))
