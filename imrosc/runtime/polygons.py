@@ -13,7 +13,7 @@ inside every range (the common case; callers say so, or :meth:`PolygonChecks.in_
 finds out) is quantised once per variable. Outside a range, or not finite, the sample
 takes the slow path below.
 
-The table. For each polygon and each cell pair, one byte: the cyclic run of edges a sample
+The tables. For each polygon and each cell pair, one byte: the cyclic run of edges a sample
 in the cell may break (0 when none: the cell is inside; see :data:`DECODE`). An edge can
 only be broken in a cell when the float64 value ``a*x + b*y`` at the cell's worst corner
 exceeds ``c``: rounding is monotone, so ``fl(fl(a*x) + fl(b*y))`` is largest at that
@@ -23,11 +23,18 @@ ranges (the fast path only runs inside them, so an edge along a range's end is n
 broken there). Cells whose edges are not one cyclic run get the smallest run holding them
 (checking an edge more is harmless).
 
-A sample: the cells of all polygons at once (quantise, gather, look up), then for the few
-polygons whose cell is not inside, the edges of their cell, in float64 as the invariant
-reads. Many candidates (a sample far off) or the slow path: every edge of the candidate
-polygons as one padded array operation. The answer is the same either way: exactly the
-polygons with an edge ``a*x + b*y > c``, finite samples only.
+The bits. For each polygon, one bit per cell of a grid twice as fine (each cell split in
+four), by the same worst-corner test: whether a sample there may break an edge at all.
+Eight polygons share each byte, so the bits take half the memory of the codes: a lookup
+touches one cache line per polygon and a large point's tables do not fit a core's cache,
+so the smaller table is the quicker read; and a fine cell near an edge sends half as many
+samples to the exact test as a coarse one.
+
+A sample: the fine cells of all polygons at once (quantise, gather, look up the bits), then
+for the few polygons whose fine cell is near an edge, the edges of its coarse cell's code,
+in float64 as the invariant reads. Many candidates (a sample far off) or the slow path:
+every edge of the candidate polygons as one padded array operation. The answer is the same
+either way: exactly the polygons with an edge ``a*x + b*y > c``, finite samples only.
 
 >>> square = {"params": {"A": [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]],
 ...                      "b": [1.0, 1.0, 1.0, 1.0],
@@ -49,8 +56,9 @@ from .fast import count_nonzero
 Edge = Tuple[float, float, float]
 
 TABLE_BUDGET = 8 * 2**20
-"""Bytes the tables of one point may take: the grid is 64 cells per axis while it fits,
-coarser for points with thousands of polygons."""
+"""Bytes the tables of one point may take (codes and bits, 1.5 bytes per polygon and
+cell): the grid is 64 cells per axis while it fits, coarser for points with thousands of
+polygons."""
 _WIDEN = 1e-6
 """Cells are widened by this fraction of their size (and a few ulps of the values'
 magnitude): a sample that float64 rounding puts in the wrong cell is still inside the
@@ -68,6 +76,12 @@ polygon) reads as every edge."""
 _FIRSTS = 42
 """Edges a run may start at (polygons with more edges test all of them in the cells past
 this)."""
+_FEW = 4
+"""Up to this many candidates read their coordinates one by one (``row.item``); more
+convert the whole sample to a list once."""
+_FINE_RUNS = 1 << 16
+"""Fine cells whose run of edges is remembered (a dictionary cleared when full: a miss
+only costs a look at the codes)."""
 _ALL = 255
 """Table code: test every edge of the polygon."""
 DECODE: List[Tuple[int, int]] = [(0, 0)] * 256
@@ -79,10 +93,10 @@ for _first in range(_FIRSTS):
 
 
 def grid_size(count: int) -> int:
-    """Cells per axis for ``count`` polygons (a divisor of 256: ``256 // grid`` polygons'
-    cells share a row of 256 in the table)."""
+    """Cells per axis for ``count`` polygons (a divisor of 128: ``256 // grid`` polygons'
+    cells share a row of 256 in the codes, ``8 * 128 // grid`` in the bits)."""
     grid = 64
-    while grid > 8 and count * grid * grid > TABLE_BUDGET:
+    while grid > 8 and count * grid * grid * 3 // 2 > TABLE_BUDGET:
         grid //= 2
     return grid
 
@@ -114,9 +128,11 @@ class PolygonChecks:
         self.edges = [e + e for e in per]
         self._runs: Dict[int, Tuple[int, int, Tuple[Edge, ...]]] = {}
         """The runs of edges met so far, by ``polygon * 256 + table code``."""
+        self._fine_runs: Dict[int, Tuple[int, int, Tuple[Edge, ...]]] = {}
+        """The runs of the fine cells met lately, by ``bit table offset * 8 + bit``."""
         self._last_cells = b""
         self._last: Tuple[Any, Optional[List[Tuple[int, int]]]] = (np.empty(0, np.int64), None)
-        """The last lookup: its cells, candidates and their codes."""
+        """The last lookup: its fine cells, candidates and their bit table offsets."""
         width = max([len(e) for e in per] + [1])
         table = np.zeros((count, width, 3))
         for owner, rows in enumerate(per):
@@ -151,6 +167,7 @@ class PolygonChecks:
 
     def _tables(self, per: List[List[Edge]], axes: List[Tuple[int, int]]) -> None:
         grid = self.grid
+        fine = 2 * grid
         low, high = self.low, self.high
         with np.errstate(all="ignore"):
             cell = (high - low) / (grid - 2 + 2 * _END)
@@ -166,23 +183,39 @@ class PolygonChecks:
             self.origin = np.where(usable, low - (1 - _END) * cell, 0.0)
             self.scale = np.where(usable, scale, 0.0)
             widen = _WIDEN * cell + 8 * 2.0**-52 * self.reach
+        # twice the scale, exactly: a fine cell is half a coarse one, and the fine cell
+        # of a sample is a child of its coarse cell, however the product rounds
+        self.fine_scale = 2.0 * self.scale
+        owners = np.arange(self.count, dtype=np.int64)
         per_row = 256 // grid
         blocks = -(-self.count // per_row) if self.count else 0
         self.table = np.zeros(blocks * 256 * grid, dtype=np.uint8)
-        owners = np.arange(self.count, dtype=np.int64)
         self.base = (owners // per_row) * (256 * grid) + (owners % per_row) * grid
+        # bits: a plane of 256 x fine bytes holds 8 polygons in each of its column groups
+        groups = 256 // fine
+        planes = -(-self.count // (8 * groups)) if self.count else 0
+        self.bits = np.zeros(planes * 256 * fine, dtype=np.uint8)
+        self.fine_base = (owners // (8 * groups)) * (256 * fine) + (owners // 8 % groups) * fine
+        self.bit = (1 << (owners % 8)).astype(np.uint8)
         # the gather reads (x cell, y cell) as one uint16: x cell + 256 * y cell
         self.at = np.stack([self.x, self.y], axis=1).ravel()
-        steps = np.arange(grid, dtype=np.float64)
+        steps = np.arange(grid, dtype=np.int64)
         spots = steps[:, None] + 256 * steps[None, :]  # [x cell, y cell] -> offset
+        fine_steps = np.arange(fine, dtype=np.int64)
+        fine_spots = fine_steps[:, None] + 256 * fine_steps[None, :]
         for owner, rows in enumerate(per):
             x, y = axes[owner]
             codes = np.full((grid, grid), _ALL, dtype=np.uint8)
+            near = np.ones((fine, fine), dtype=bool)
             if rows and usable[x] and usable[y]:
                 box_x = _cells(self.origin[x], cell[x], widen[x], low[x], high[x], grid)
                 box_y = _cells(self.origin[y], cell[y], widen[y], low[y], high[y], grid)
                 codes = _codes(rows, box_x, box_y)
-            self.table[(self.base[owner] + spots).astype(np.int64).ravel()] = codes.ravel()
+                half_x = _cells(self.origin[x], cell[x] / 2, widen[x], low[x], high[x], fine)
+                half_y = _cells(self.origin[y], cell[y] / 2, widen[y], low[y], high[y], fine)
+                near = _near(rows, half_x, half_y, codes != 0)
+            self.table[self.base[owner] + spots.ravel()] = codes.ravel()
+            self.bits[self.fine_base[owner] + fine_spots[near]] |= self.bit[owner]
 
     def in_range(self, row: Any) -> bool:
         """Whether every value the polygons read is finite and inside its grid's range
@@ -201,7 +234,7 @@ class PolygonChecks:
         if not in_range:
             return self._slow(row)
         g = row[: self.size] - self.origin
-        g *= self.scale
+        g *= self.fine_scale
         cells = g.astype(np.uint8)
         # the candidates depend on the cells alone: a signal that stays in its cells (a
         # slow one, a discrete one) costs no lookup
@@ -209,13 +242,15 @@ class PolygonChecks:
         if key_cells == self._last_cells:
             candidates, pairs = self._last
         else:
-            codes = self.table.take(cells.take(self.at).view(np.uint16) + self.base)
+            offsets = cells.take(self.at).view(np.uint16) + self.fine_base
+            hit = self.bits.take(offsets)
+            hit &= self.bit
             # nonzero over a bool view: numpy's fast path for bool (any nonzero byte is
             # true) is several times quicker than over uint8
-            candidates = codes.view(np.bool_).nonzero()[0]
+            candidates = hit.view(np.bool_).nonzero()[0]
             pairs = None
             if 0 < len(candidates) <= _MANY:
-                pairs = list(zip(candidates.tolist(), codes.take(candidates).tolist()))
+                pairs = list(zip(candidates.tolist(), offsets.take(candidates).tolist()))
             self._last_cells = key_cells
             self._last = candidates, pairs
         if not len(candidates):
@@ -223,20 +258,36 @@ class PolygonChecks:
         if pairs is None:
             return self._outside(row, candidates)
         found = []
-        values = row.tolist()
-        runs = self._runs
-        for owner, code in pairs:
-            key = owner * 256 + code
+        value = row.item if len(pairs) <= _FEW else row.tolist().__getitem__
+        runs = self._fine_runs
+        for owner, offset in pairs:
+            key = offset * 8 + (owner & 7)
             run = runs.get(key)
             if run is None:
-                run = runs[key] = self._run(owner, code)
-            x = values[run[0]]
-            y = values[run[1]]
+                run = self._fine_run(owner, offset, key)
+            x = value(run[0])
+            y = value(run[1])
             for a, b, c in run[2]:
                 if a * x + b * y > c:
                     found.append(owner)
                     break
         return found
+
+    def _fine_run(self, owner: int, offset: int, key: int) -> Tuple[int, int, Tuple[Edge, ...]]:
+        """The run of edges of the coarse cell holding polygon ``owner``'s fine cell at
+        ``offset`` in the bits, remembered under ``key``."""
+        mask = 2 * self.grid - 1
+        x_cell = (offset & mask) >> 1
+        y_cell = ((offset >> 8) & mask) >> 1
+        code = self.table.item(int(self.base[owner]) + x_cell + 256 * y_cell)
+        coarse = owner * 256 + code
+        run = self._runs.get(coarse)
+        if run is None:
+            run = self._runs[coarse] = self._run(owner, code)
+        if len(self._fine_runs) >= _FINE_RUNS:
+            self._fine_runs.clear()
+        self._fine_runs[key] = run
+        return run
 
     def _run(self, owner: int, code: int) -> Tuple[int, int, Tuple[Edge, ...]]:
         """The variables of polygon ``owner`` and the edges its table ``code`` names."""
@@ -314,3 +365,20 @@ def _codes(edges: Sequence[Edge], box_x: Any, box_y: Any) -> Any:
     code = np.where((first < _FIRSTS) & (count <= _RUNS), 1 + first * _RUNS + count - 1, _ALL)
     codes[near] = code.astype(np.uint8)
     return codes
+
+
+def _near(edges: Sequence[Edge], box_x: Any, box_y: Any, coarse: Any) -> Any:
+    """``(fine, fine)``: the fine cells (``box_x``, ``box_y``) where a sample may break an
+    edge. Only the children of ``coarse`` cells (``(fine / 2, fine / 2)``, near an edge) are
+    looked at: a fine cell lies inside its coarse one, and a linear function's worst corner
+    over a box within another is no larger."""
+    a, b, c = (np.asarray(column, dtype=np.float64) for column in zip(*edges))
+    fine = box_x.shape[1]
+    near = np.zeros((fine, fine), dtype=bool)
+    xs, ys = np.repeat(np.repeat(coarse, 2, axis=0), 2, axis=1).nonzero()
+    if not len(xs):
+        return near
+    x_worst = np.where(a[:, None] >= 0, box_x[1][xs], box_x[0][xs]) * a[:, None]
+    y_worst = np.where(b[:, None] >= 0, box_y[1][ys], box_y[0][ys]) * b[:, None]
+    near[xs, ys] = ((x_worst + y_worst) > c[:, None]).any(axis=0)
+    return near

@@ -92,13 +92,19 @@ def clouds_over(
     st.sampled_from(["walk", "ints", "mixed", "scaled"]),
     st.integers(4, 9),
     st.sampled_from([0, module._MANY, 10**9]),
+    st.sampled_from([0, module._FEW, 10**9]),
+    st.sampled_from([1, module._FINE_RUNS]),
 )
 def test_every_path_answers_like_the_half_planes(
-    seed: int, shape: str, variables: int, many: int
+    seed: int, shape: str, variables: int, many: int, few: int, remembered: int
 ) -> None:
-    # many: candidates beyond it test every edge at once (0: always, 10**9: never)
+    # many: candidates beyond it test every edge at once (0: always, 10**9: never); few:
+    # candidates up to it read coordinates one by one; remembered: the fine cells' runs
+    # kept (1: the memory is cleared at every new cell)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(module, "_MANY", many)
+        patch.setattr(module, "_FEW", few)
+        patch.setattr(module, "_FINE_RUNS", remembered)
         every_path_answers_like_the_half_planes(seed, shape, variables)
 
 
@@ -206,3 +212,31 @@ def test_samples_that_stay_in_their_cells_are_still_tested_exactly() -> None:
     assert [expected(plain, s) for s in samples] == [[], [0], [], [0]]
     assert answers(checks, [0.1, 0.1]) == []  # another cell, inside
     assert answers(checks, [0.5, 0.5 + 1e-9]) == [0]
+
+
+def test_fine_bits_split_the_cells_near_an_edge() -> None:
+    # a fine cell near an edge lies in a coarse cell near one (its code is not 0), and
+    # splitting leaves fewer samples for the exact test
+    rng = np.random.default_rng(11)
+    clouds, data = clouds_over(rng, 5, 2000, "walk")
+    checks, _ = build(clouds)
+    grid, fine = checks.grid, 2 * checks.grid
+    steps, fine_steps = np.arange(grid), np.arange(fine)
+    for owner in range(checks.count):
+        codes = checks.table[checks.base[owner] + steps[:, None] + 256 * steps[None, :]]
+        spots = checks.fine_base[owner] + fine_steps[:, None] + 256 * fine_steps[None, :]
+        bits = (checks.bits[spots] & checks.bit[owner]) != 0
+        assert not (bits & (np.repeat(np.repeat(codes, 2, 0), 2, 1) == 0)).any()
+        assert 0 < bits.sum() < 4 * (codes != 0).sum()
+    coarse = fine_near = 0
+    for row in data:
+        g = (row - checks.origin) * checks.scale
+        coarse += int(
+            np.count_nonzero(
+                checks.table[g.astype(np.uint8)[checks.at].view(np.uint16) + checks.base]
+            )
+        )
+        f = ((row - checks.origin) * checks.fine_scale).astype(np.uint8)
+        hit = checks.bits[f[checks.at].view(np.uint16) + checks.fine_base] & checks.bit
+        fine_near += int(np.count_nonzero(hit))
+    assert fine_near < 0.75 * coarse
