@@ -199,7 +199,7 @@ class Checks:
             # one product gives every form, the polygons' range guards and the sum of the
             # sample: finite exactly when every value is (NaN and inf need the exact path)
             out = dense.dot(row)
-            total = out[-1]
+            total = out.item(-1)
             if total - total == 0:
                 bad = out > forms.dense_limit
                 in_range = True
@@ -232,9 +232,9 @@ class Checks:
                 )
         if self.one_of_few is not None:
             for at, held, k in self.one_of_few:
-                number = row[at]
+                number = row.item(at)
                 if number not in held and not math.isnan(number):  # NaN breaks nothing
-                    found.append(self._not_one_of(time, point, k, float(number)))
+                    found.append(self._not_one_of(time, point, k, number))
         elif len(self.one_of_at):
             x = row.take(self.one_of_at)
             held = (x[:, None] == self.one_of_values).any(axis=1)

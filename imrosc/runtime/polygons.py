@@ -76,6 +76,8 @@ polygon) reads as every edge."""
 _FIRSTS = 42
 """Edges a run may start at (polygons with more edges test all of them in the cells past
 this)."""
+_SPLIT = 1
+"""The bits' cells split each coarse cell in ``2**_SPLIT`` along each axis."""
 _FEW = 4
 """Up to this many candidates read their coordinates one by one (``row.item``); more
 convert the whole sample to a list once."""
@@ -131,8 +133,8 @@ class PolygonChecks:
         self._fine_runs: Dict[int, Tuple[int, int, Tuple[Edge, ...]]] = {}
         """The runs of the fine cells met lately, by ``bit table offset * 8 + bit``."""
         self._last_cells = b""
-        self._last: Tuple[Any, Optional[List[Tuple[int, int]]]] = (np.empty(0, np.int64), None)
-        """The last lookup: its fine cells, candidates and their bit table offsets."""
+        self._last: Tuple[Any, Any] = (np.empty(0, np.int64), None)
+        """The last lookup: its candidates and every polygon's offset in the bits."""
         width = max([len(e) for e in per] + [1])
         table = np.zeros((count, width, 3))
         for owner, rows in enumerate(per):
@@ -167,7 +169,7 @@ class PolygonChecks:
 
     def _tables(self, per: List[List[Edge]], axes: List[Tuple[int, int]]) -> None:
         grid = self.grid
-        fine = 2 * grid
+        fine = grid << _SPLIT
         low, high = self.low, self.high
         with np.errstate(all="ignore"):
             cell = (high - low) / (grid - 2 + 2 * _END)
@@ -185,20 +187,34 @@ class PolygonChecks:
             widen = _WIDEN * cell + 8 * 2.0**-52 * self.reach
         # twice the scale, exactly: a fine cell is half a coarse one, and the fine cell
         # of a sample is a child of its coarse cell, however the product rounds
-        self.fine_scale = 2.0 * self.scale
+        self.fine_scale = float(1 << _SPLIT) * self.scale
+        fine_cell = cell / (1 << _SPLIT)
+        self._fine_boxes = [
+            (float(o), float(f), float(w), float(lo), float(hi)) if ok else None
+            for o, f, w, lo, hi, ok in zip(self.origin, fine_cell, widen, low, high, usable)
+        ]
+        """Per variable, what its fine cells' boxes are made of (:func:`_cells`); ``None``
+        where the variable has no grid."""
         owners = np.arange(self.count, dtype=np.int64)
         per_row = 256 // grid
         blocks = -(-self.count // per_row) if self.count else 0
         self.table = np.zeros(blocks * 256 * grid, dtype=np.uint8)
         self.base = (owners // per_row) * (256 * grid) + (owners % per_row) * grid
-        # bits: a plane of 256 x fine bytes holds 8 polygons in each of its column groups
-        groups = 256 // fine
-        planes = -(-self.count // (8 * groups)) if self.count else 0
+        # bits: a plane of 256 x fine bytes, 256 // fine slots of fine columns, each slot's
+        # bytes shared by up to 8 polygons reading the same row variable
+        self.flipped, slot_of, bit_of = _byte_groups(self.xs, self.ys)
+        slots = 256 // fine
+        planes = -(-(max(slot_of) + 1) // slots) if self.count else 0
         self.bits = np.zeros(planes * 256 * fine, dtype=np.uint8)
-        self.fine_base = (owners // (8 * groups)) * (256 * fine) + (owners // 8 % groups) * fine
-        self.bit = (1 << (owners % 8)).astype(np.uint8)
-        # the gather reads (x cell, y cell) as one uint16: x cell + 256 * y cell
+        slot = np.asarray(slot_of, dtype=np.int64)
+        self.fine_base = (slot // slots) * (256 * fine) + (slot % slots) * fine
+        self.bit = np.asarray([1 << b for b in bit_of], dtype=np.uint8)
+        self.plane = 256 * fine
+        # the gathers read (column cell, row cell) as one uint16: column + 256 * row; the
+        # codes' columns are x, the bits' the variable that is not the row's
         self.at = np.stack([self.x, self.y], axis=1).ravel()
+        pairs = [(y, x) if flip else (x, y) for x, y, flip in zip(self.xs, self.ys, self.flipped)]
+        self.fine_at = np.asarray(pairs, dtype=np.int64).reshape(-1)
         steps = np.arange(grid, dtype=np.int64)
         spots = steps[:, None] + 256 * steps[None, :]  # [x cell, y cell] -> offset
         fine_steps = np.arange(fine, dtype=np.int64)
@@ -211,11 +227,12 @@ class PolygonChecks:
                 box_x = _cells(self.origin[x], cell[x], widen[x], low[x], high[x], grid)
                 box_y = _cells(self.origin[y], cell[y], widen[y], low[y], high[y], grid)
                 codes = _codes(rows, box_x, box_y)
-                half_x = _cells(self.origin[x], cell[x] / 2, widen[x], low[x], high[x], fine)
-                half_y = _cells(self.origin[y], cell[y] / 2, widen[y], low[y], high[y], fine)
+                half_x = _cells(self.origin[x], fine_cell[x], widen[x], low[x], high[x], fine)
+                half_y = _cells(self.origin[y], fine_cell[y], widen[y], low[y], high[y], fine)
                 near = _near(rows, half_x, half_y, codes != 0)
             self.table[self.base[owner] + spots.ravel()] = codes.ravel()
-            self.bits[self.fine_base[owner] + fine_spots[near]] |= self.bit[owner]
+            at = fine_spots.T if self.flipped[owner] else fine_spots
+            self.bits[self.fine_base[owner] + at[near]] |= self.bit[owner]
 
     def in_range(self, row: Any) -> bool:
         """Whether every value the polygons read is finite and inside its grid's range
@@ -240,28 +257,29 @@ class PolygonChecks:
         # slow one, a discrete one) costs no lookup
         key_cells = cells.tobytes()
         if key_cells == self._last_cells:
-            candidates, pairs = self._last
+            candidates, offsets = self._last
         else:
-            offsets = cells.take(self.at).view(np.uint16) + self.fine_base
+            offsets = cells.take(self.fine_at).view(np.uint16) + self.fine_base
             hit = self.bits.take(offsets)
             hit &= self.bit
             # nonzero over a bool view: numpy's fast path for bool (any nonzero byte is
             # true) is several times quicker than over uint8
             candidates = hit.view(np.bool_).nonzero()[0]
-            pairs = None
-            if 0 < len(candidates) <= _MANY:
-                pairs = list(zip(candidates.tolist(), offsets.take(candidates).tolist()))
             self._last_cells = key_cells
-            self._last = candidates, pairs
+            self._last = candidates, offsets
         if not len(candidates):
             return []
-        if pairs is None:
+        if len(candidates) > _MANY:
             return self._outside(row, candidates)
         found = []
-        value = row.item if len(pairs) <= _FEW else row.tolist().__getitem__
+        value = row.item if len(candidates) <= _FEW else row.tolist().__getitem__
+        offset_of = offsets.item
         runs = self._fine_runs
-        for owner, offset in pairs:
-            key = offset * 8 + (owner & 7)
+        plane = self.plane
+        within = plane - 1
+        for owner in candidates.tolist():
+            offset = offset_of(owner)
+            key = owner * plane + (offset & within)
             run = runs.get(key)
             if run is None:
                 run = self._fine_run(owner, offset, key)
@@ -274,16 +292,31 @@ class PolygonChecks:
         return found
 
     def _fine_run(self, owner: int, offset: int, key: int) -> Tuple[int, int, Tuple[Edge, ...]]:
-        """The run of edges of the coarse cell holding polygon ``owner``'s fine cell at
-        ``offset`` in the bits, remembered under ``key``."""
-        mask = 2 * self.grid - 1
-        x_cell = (offset & mask) >> 1
-        y_cell = ((offset >> 8) & mask) >> 1
-        code = self.table.item(int(self.base[owner]) + x_cell + 256 * y_cell)
+        """The edges polygon ``owner`` may break in its fine cell at ``offset`` in the bits
+        (its coarse cell's run, less the edges the fine cell keeps clear of), remembered
+        under ``key``."""
+        mask = (self.grid << _SPLIT) - 1
+        column, row = offset & mask, (offset >> 8) & mask
+        x_cell, y_cell = (row, column) if self.flipped[owner] else (column, row)
+        code = self.table.item(
+            int(self.base[owner]) + (x_cell >> _SPLIT) + 256 * (y_cell >> _SPLIT)
+        )
         coarse = owner * 256 + code
         run = self._runs.get(coarse)
         if run is None:
             run = self._runs[coarse] = self._run(owner, code)
+        x, y, edges = run
+        box_x, box_y = self._fine_boxes[x], self._fine_boxes[y]
+        if box_x is not None and box_y is not None:
+            x_low, x_high = _box(box_x, x_cell)
+            y_low, y_high = _box(box_y, y_cell)
+            # the worst corner as the bits were made (:func:`_near`)
+            edges = tuple(
+                (a, b, c)
+                for a, b, c in edges
+                if (x_high if a >= 0 else x_low) * a + (y_high if b >= 0 else y_low) * b > c
+            )
+            run = (x, y, edges)
         if len(self._fine_runs) >= _FINE_RUNS:
             self._fine_runs.clear()
         self._fine_runs[key] = run
@@ -324,6 +357,42 @@ class PolygonChecks:
         # breaks no polygon (a NaN compares false already; an inf would reach past an edge)
         hit &= np.isfinite(px[:, 0]) & np.isfinite(py[:, 0])
         return [int(k) for k in candidates[hit]]
+
+
+def _byte_groups(xs: Sequence[int], ys: Sequence[int]) -> Tuple[List[bool], List[int], List[int]]:
+    """Polygons sharing bytes in the bits: each polygon's row variable (``flipped``: x,
+    else y), slot and bit. The polygons of a slot read the same row variable, so a sample
+    reads one row of the slot for all of them (a cache line or two, not eight): each
+    variable, most polygons first, takes its polygons by the eight, then the rest by
+    variable."""
+    count = len(xs)
+    incident: Dict[int, List[int]] = {}
+    for owner in range(count):
+        incident.setdefault(xs[owner], []).append(owner)
+        incident.setdefault(ys[owner], []).append(owner)
+    order = sorted(incident, key=lambda v: (-len(incident[v]), v))
+    row_of = [-1] * count
+    groups: List[List[int]] = []
+    for whole in (True, False):
+        for var in order:
+            left = [owner for owner in incident[var] if row_of[owner] < 0]
+            take = len(left) - len(left) % 8 if whole else len(left)
+            for owner in left[:take]:
+                row_of[owner] = var
+            groups += [left[k : k + 8] for k in range(0, take, 8)]
+    flipped = [row_of[owner] == xs[owner] != ys[owner] for owner in range(count)]
+    slot_of, bit_of = [0] * count, [0] * count
+    for slot, members in enumerate(groups):
+        for bit, owner in enumerate(members):
+            slot_of[owner], bit_of[owner] = slot, bit
+    return flipped, slot_of, bit_of
+
+
+def _box(box: Tuple[float, float, float, float, float], k: int) -> Tuple[float, float]:
+    """The low and high ends of fine cell ``k`` of a variable whose fine cells are ``box``
+    (origin, cell, widening, range): :func:`_cells` in float64 scalars, the same roundings."""
+    origin, cell, widen, low, high = box
+    return max(origin + k * cell - widen, low), min(origin + (k + 1) * cell + widen, high)
 
 
 def _cells(origin: float, cell: float, widen: float, low: float, high: float, grid: int) -> Any:
@@ -375,7 +444,7 @@ def _near(edges: Sequence[Edge], box_x: Any, box_y: Any, coarse: Any) -> Any:
     a, b, c = (np.asarray(column, dtype=np.float64) for column in zip(*edges))
     fine = box_x.shape[1]
     near = np.zeros((fine, fine), dtype=bool)
-    xs, ys = np.repeat(np.repeat(coarse, 2, axis=0), 2, axis=1).nonzero()
+    xs, ys = np.repeat(np.repeat(coarse, 1 << _SPLIT, axis=0), 1 << _SPLIT, axis=1).nonzero()
     if not len(xs):
         return near
     x_worst = np.where(a[:, None] >= 0, box_x[1][xs], box_x[0][xs]) * a[:, None]

@@ -225,7 +225,7 @@ def test_fine_bits_split_the_cells_near_an_edge() -> None:
     for owner in range(checks.count):
         codes = checks.table[checks.base[owner] + steps[:, None] + 256 * steps[None, :]]
         spots = checks.fine_base[owner] + fine_steps[:, None] + 256 * fine_steps[None, :]
-        bits = (checks.bits[spots] & checks.bit[owner]) != 0
+        bits = (checks.bits[spots.T if checks.flipped[owner] else spots] & checks.bit[owner]) != 0
         assert not (bits & (np.repeat(np.repeat(codes, 2, 0), 2, 1) == 0)).any()
         assert 0 < bits.sum() < 4 * (codes != 0).sum()
     coarse = fine_near = 0
@@ -237,6 +237,25 @@ def test_fine_bits_split_the_cells_near_an_edge() -> None:
             )
         )
         f = ((row - checks.origin) * checks.fine_scale).astype(np.uint8)
-        hit = checks.bits[f[checks.at].view(np.uint16) + checks.fine_base] & checks.bit
+        hit = checks.bits[f[checks.fine_at].view(np.uint16) + checks.fine_base] & checks.bit
         fine_near += int(np.count_nonzero(hit))
     assert fine_near < 0.75 * coarse
+
+
+def test_polygons_sharing_bytes_read_the_same_row_variable() -> None:
+    # a slot's polygons read one row of it per sample: one row variable, one bit each
+    rng = np.random.default_rng(2)
+    data = rng.normal(0, 1, (300, 17))
+    pairs = [(0, j) for j in range(1, 17)] + [(1, 2), (3, 4), (5, 6)]
+    checks, _ = build({pair: data[:, list(pair)] for pair in pairs})
+    slots: dict[int, list[tuple[int, int]]] = {}
+    for owner in range(checks.count):
+        row = checks.xs[owner] if checks.flipped[owner] else checks.ys[owner]
+        slots.setdefault(int(checks.fine_base[owner]), []).append((row, int(checks.bit[owner])))
+    for members in slots.values():
+        assert len({row for row, _ in members}) == 1
+        assert len({bit for _, bit in members}) == len(members) <= 8
+    # the sixteen polygons over variable 0 fill two slots (x is their row variable)
+    full = [members for members in slots.values() if len(members) == 8]
+    assert len(full) == 2 and all(row == 0 for members in full for row, _ in members)
+    assert len(slots) == 5
