@@ -217,6 +217,12 @@ class PolygonChecks:
         self.at = np.stack([self.x, self.y], axis=1).ravel()
         pairs = [(y, x) if flip else (x, y) for x, y, flip in zip(self.xs, self.ys, self.flipped)]
         self.fine_at = np.asarray(pairs, dtype=np.int64).reshape(-1)
+        self._pairs = np.zeros(2 * self.count, dtype=np.uint8)
+        self._pairs16 = self._pairs.view(np.uint16)
+        """The gathered (column cell, row cell) of every polygon, and as uint16."""
+        self._hit = np.zeros(self.count, dtype=np.uint8)
+        self._near = self._hit.view(np.bool_)
+        """Every polygon's byte of the bits, masked to its bit, and as bool."""
         steps = np.arange(grid, dtype=np.int64)
         spots = steps[:, None] + 256 * steps[None, :]  # [x cell, y cell] -> offset
         fine_steps = np.arange(fine, dtype=np.int64)
@@ -261,13 +267,17 @@ class PolygonChecks:
         if key_cells == self._last_cells:
             candidates, offsets = self._last
         else:
-            offsets = cells.take(self.fine_at).view(np.uint16) + self.fine_base
-            hit = self.bits.take(offsets)
+            # gathers into buffers made once, in "clip" mode (the indices are in range by
+            # construction): numpy buffers ``out`` in "raise" mode, and a new array and its
+            # views cost a call each; together a tenth of the point's time
+            cells.take(self.fine_at, out=self._pairs, mode="clip")
+            offsets = self._pairs16 + self.fine_base
+            hit = self.bits.take(offsets, out=self._hit, mode="clip")
             hit &= self.bit
             # most samples have no candidate: counting is quicker than finding; then
             # nonzero over a bool view (numpy's fast path for bool: any nonzero byte is
             # true) is several times quicker than over uint8
-            near = hit.view(np.bool_)
+            near = self._near
             candidates = near.nonzero()[0] if count_nonzero(near) else _NONE
             self._last_cells = key_cells
             self._last = candidates, offsets
