@@ -376,24 +376,29 @@ class PolygonChecks:
 def _byte_groups(xs: Sequence[int], ys: Sequence[int]) -> Tuple[List[bool], List[int], List[int]]:
     """Polygons sharing bytes in the bits: each polygon's row variable (``flipped``: x,
     else y), slot and bit. The polygons of a slot read the same row variable, so a sample
-    reads one row of the slot for all of them (a cache line or two, not eight): each
-    variable, most polygons first, takes its polygons by the eight, then the rest by
-    variable."""
+    reads one row of the slot for all of them (a cache line or two, not eight). Greedy: the
+    variable with the most polygons left takes them by the eight while one has eight left,
+    then the variable with the most left takes all of its."""
     count = len(xs)
     incident: Dict[int, List[int]] = {}
     for owner in range(count):
         incident.setdefault(xs[owner], []).append(owner)
         incident.setdefault(ys[owner], []).append(owner)
-    order = sorted(incident, key=lambda v: (-len(incident[v]), v))
+    left = {var: len(owners) for var, owners in incident.items()}
     row_of = [-1] * count
     groups: List[List[int]] = []
     for whole in (True, False):
-        for var in order:
-            left = [owner for owner in incident[var] if row_of[owner] < 0]
-            take = len(left) - len(left) % 8 if whole else len(left)
-            for owner in left[:take]:
+        while left:
+            var = max(left, key=lambda v: (left[v], -v))
+            if left[var] < (8 if whole else 1):
+                break
+            free = [owner for owner in incident[var] if row_of[owner] < 0]
+            take = len(free) - len(free) % 8 if whole else len(free)
+            for owner in free[:take]:
                 row_of[owner] = var
-            groups += [left[k : k + 8] for k in range(0, take, 8)]
+                left[xs[owner]] -= 1
+                left[ys[owner]] -= 1
+            groups += [free[k : k + 8] for k in range(0, take, 8)]
     flipped = [row_of[owner] == xs[owner] != ys[owner] for owner in range(count)]
     slot_of, bit_of = [0] * count, [0] * count
     for slot, members in enumerate(groups):
