@@ -77,7 +77,8 @@ _FIRSTS = 42
 """Edges a run may start at (polygons with more edges test all of them in the cells past
 this)."""
 _SPLIT = 1
-"""The bits' cells split each coarse cell in ``2**_SPLIT`` along each axis."""
+"""The bits' cells split each coarse cell in ``2**_SPLIT`` along each axis (2 was measured:
+half the candidates again, but four times the bits, and slower)."""
 _FEW = 4
 """Up to this many candidates read their coordinates one by one (``row.item``); more
 convert the whole sample to a list once."""
@@ -457,7 +458,7 @@ def _codes(edges: Sequence[Edge], box_x: Any, box_y: Any) -> Any:
 
 def _near(edges: Sequence[Edge], box_x: Any, box_y: Any, coarse: Any) -> Any:
     """``(fine, fine)``: the fine cells (``box_x``, ``box_y``) where a sample may break an
-    edge. Only the children of ``coarse`` cells (``(fine / 2, fine / 2)``, near an edge) are
+    edge. Only the children of ``coarse`` cells (the coarse grid, near an edge) are
     looked at: a fine cell lies inside its coarse one, and a linear function's worst corner
     over a box within another is no larger."""
     a, b, c = (np.asarray(column, dtype=np.float64) for column in zip(*edges))
