@@ -12,6 +12,7 @@ been seen yet is not produced (it is counted as unpaired).
 from __future__ import annotations
 
 import json
+from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -414,7 +415,7 @@ def _callerid_snapshot(connections: Sequence[Any]) -> _Snapshot:
 
 
 @dataclass
-class _Clock(Generic[State]):
+class _Clock(ABC, Generic[State]):
     """Samples a state in force every ``ARCH_PERIOD`` seconds and at each change.
 
     Ticks fall at ``start + k * ARCH_PERIOD`` (none before the first state, none at the time
@@ -433,6 +434,25 @@ class _Clock(Generic[State]):
         if before:
             return int(seqs[before - 1]) + 1
         return int(seqs[0]) if len(seqs) else self.last_seq + 1
+
+    def rows(
+        self,
+        records_rows: Rows | None,
+        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
+        *,
+        final: bool,
+    ) -> Rows:
+        """The chunk's samples of the state, from its records (``None``: none this chunk)."""
+        changes = self.changes(records_rows) if records_rows is not None else []
+        return self.frame(self.ticks(changes, buffer, final=final))
+
+    @abstractmethod
+    def changes(self, records_rows: Rows) -> list[tuple[float, int, State]]:
+        """``(time, seq, state)`` of each change the records carry, in time order."""
+
+    @abstractmethod
+    def frame(self, out: list[tuple[int, float, State]]) -> Rows:
+        """The samples as the rows a point reads."""
 
     def ticks(
         self,
@@ -474,22 +494,17 @@ class _Clock(Generic[State]):
 class _ArchClock(_Clock[_Snapshot]):
     """The architecture in force, from the records' snapshots."""
 
-    def rows(
-        self,
-        records_rows: Rows | None,
-        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
-        *,
-        final: bool,
-    ) -> Rows:
-        changes: list[tuple[float, int, _Snapshot]] = []
-        if records_rows is not None:
-            rows = zip(records_rows.seq, records_rows.time, records_rows.extra, strict=True)
-            for seq, time, text in rows:
-                try:
-                    changes.append((float(time), int(seq), _Snapshot(records.decode_arch(text))))
-                except (records.RecordError, json.JSONDecodeError):
-                    continue
-        out = self.ticks(changes, buffer, final=final)
+    def changes(self, records_rows: Rows) -> list[tuple[float, int, _Snapshot]]:
+        found: list[tuple[float, int, _Snapshot]] = []
+        rows = zip(records_rows.seq, records_rows.time, records_rows.extra, strict=True)
+        for seq, time, text in rows:
+            try:
+                found.append((float(time), int(seq), _Snapshot(records.decode_arch(text))))
+            except (records.RecordError, json.JSONDecodeError):
+                continue
+        return found
+
+    def frame(self, out: list[tuple[int, float, _Snapshot]]) -> Rows:
         return Rows(
             np.array([r[0] for r in out], dtype=np.int64),
             np.array([r[1] for r in out], dtype=np.float64),
@@ -501,15 +516,9 @@ class _ArchClock(_Clock[_Snapshot]):
 class _ParamClock(_Clock[dict[str, Any]]):
     """The parameters in force, from the records (their values kept in ``Rows.extra``)."""
 
-    def rows(
-        self,
-        records_rows: Rows | None,
-        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
-        *,
-        final: bool,
-    ) -> Rows:
-        changes: list[tuple[float, int, dict[str, Any]]] = []
-        if records_rows is not None:
-            rows = zip(records_rows.time, records_rows.seq, records_rows.extra, strict=True)
-            changes = [(float(time), int(seq), values) for time, seq, values in rows]
-        return _json_rows(self.ticks(changes, buffer, final=final))
+    def changes(self, records_rows: Rows) -> list[tuple[float, int, dict[str, Any]]]:
+        rows = zip(records_rows.time, records_rows.seq, records_rows.extra, strict=True)
+        return [(float(time), int(seq), values) for time, seq, values in rows]
+
+    def frame(self, out: list[tuple[int, float, dict[str, Any]]]) -> Rows:
+        return _json_rows(out)
