@@ -6,14 +6,20 @@ Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free po
 127.0.0.1 (the live tests' harness, ``tests/live/harness.py``), rospy nodes under
 ``/usr/bin/python3``. A source node publishes a message of 56 float64 fields and a header
 (``imrosc_bench/Wide``, generated with genpy into a temporary folder) at each rate, its
-``header.stamp`` set right before publishing; a sink takes receipt time minus stamp. Three
+``header.stamp`` set right before publishing; a sink takes receipt time minus stamp. Four
 paths, measured one after the other in the same run, at each rate:
 
 * ``direct``: source -> sink;
-* ``plain relay``: source -> a rospy node that decodes and republishes -> sink;
+* ``plain relay``: source -> a rospy node that decodes and republishes -> sink (the target's
+  baseline);
+* ``raw relay``: source -> a rospy node that republishes the bytes it receives
+  (``rospy.AnyMsg``) -> sink;
 * ``monitor``: source -> the monitor that ``imrosc build --backend ros1`` generates, blocking
-  the topic (it decodes, flattens, checks the invariants with ``imrosc.runtime``, and
-  republishes on ``/m/bench/wide``) -> sink.
+  the topic (it reads the values from the bytes, checks the invariants with
+  ``imrosc.runtime``, and republishes the bytes on ``/m/bench/wide``) -> sink.
+
+The monitor relays a blocked topic as bytes (``imrosc/monitor_ros1/wire.py``), so it is also
+compared with the raw relay, which does the same less the checks.
 
 The monitor's invariants are those ``bench/check.py`` uses: inferred by imrosc from 20,000
 rows of a thesis-scale point (Daikon's families and polygons), the first ``--invariants`` of
@@ -139,8 +145,9 @@ def measure(
     typed = ("--type", MSGTYPE)
     sink_topic = TOPIC
     try:
-        if path == "plain relay":
-            relay = ros.node("bench_relay.py", *typed, "--input", TOPIC, "--output", RELAYED)
+        if path in ("plain relay", "raw relay"):
+            raw = ("--raw",) if path == "raw relay" else ()
+            relay = ros.node("bench_relay.py", *typed, "--input", TOPIC, "--output", RELAYED, *raw)
             started.append(relay)
             ros.wait_subscriber(TOPIC, "/bench_relay", 30, started)
             ros.wait_publisher(RELAYED, "/bench_relay", 30, started)
@@ -197,7 +204,7 @@ def main() -> None:
     if missing:
         sys.exit(f"no ROS 1 here: {missing}")
     rates = [float(r) for r in args.rates.split(",")]
-    paths = ("direct", "plain relay", "monitor")
+    paths = ("direct", "plain relay", "raw relay", "monitor")
     results = {
         (rate, path): {"received": 0, "sent": 0, "latencies": []}
         for rate in rates
@@ -250,12 +257,12 @@ def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
         received = f"{total['received']}/{total['sent']}"
         print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}")
         if path == "monitor":
-            plain_median, plain_p99 = figures[(rate, "plain relay")]
-            print(
-                f"{'':>8}  monitor / plain relay: median {median / plain_median:.2f}x "
-                f"(+{median - plain_median:.3f} ms), p99 {p99 / plain_p99:.2f}x  "
-                "(target: within 1.2x)"
-            )
+            for baseline, note in (("plain relay", "  (target: within 1.2x)"), ("raw relay", "")):
+                base_median, base_p99 = figures[(rate, baseline)]
+                print(
+                    f"{'':>8}  monitor / {baseline}: median {median / base_median:.2f}x "
+                    f"(+{median - base_median:.3f} ms), p99 {p99 / base_p99:.2f}x{note}"
+                )
 
 
 if __name__ == "__main__":

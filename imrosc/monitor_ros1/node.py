@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import os
 import queue
+import struct
 import sys
 import threading
 import time
@@ -42,7 +43,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from . import logic
+from . import logic, wire
 
 try:  # only a ROS 1 robot has these; the helpers above are usable without them
     import rosgraph  # type: ignore[import-not-found, unused-ignore]
@@ -124,6 +125,11 @@ class Monitor:
         self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
         self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
         self.flatteners = flatteners
+        self.layouts: Mapping[str, Sequence[Mapping[str, Any]]] = {
+            name: info.get("variables", []) for name, info in document.get("topics", {}).items()
+        }
+        self.readers: Dict[str, Tuple[wire.Reader, Any]] = {}
+        """Blocked topics relayed as bytes: their reader and their decoded class."""
         self.lock = threading.Lock()
         self.engine = engine_class(document)
         self.precheck = (
@@ -186,10 +192,19 @@ class Monitor:
             if found is None:
                 continue
             relay = self.topic_relays.get(name)
+            subscribed = found
             if relay is not None:
                 self.relays[name] = rospy.Publisher(relay, found, queue_size=QUEUE)
+                read = (
+                    wire.reader(found, self.layouts.get(name, ()), roslib.message.get_message_class)
+                    if name in self.flatteners
+                    else None
+                )
+                if read is not None:  # relayed as the bytes it came in (wire.py)
+                    self.readers[name] = (read, found)
+                    subscribed = wire.raw_class(found)
             self.subscribers[name] = rospy.Subscriber(
-                name, found, self.on_message, callback_args=name, queue_size=QUEUE
+                name, subscribed, self.on_message, callback_args=name, queue_size=QUEUE
             )
             del self.pending_topics[name]
         for name in sorted(self.pending_services):
@@ -227,8 +242,14 @@ class Monitor:
 
     def on_message(self, message: Any, topic: str) -> None:
         """A message on a watched or blocked topic: check it, relay it if blocked and clean."""
-        flatten = self.flatteners.get(topic)
-        values = flatten(message) if flatten is not None else None
+        raw = self.readers.get(topic)
+        if raw is not None:
+            values = self.read(message, topic, raw)
+            if values is None:
+                return
+        else:
+            flatten = self.flatteners.get(topic)
+            values = flatten(message) if flatten is not None else None
         with self.lock:
             now = rospy.get_time()
             found = self.engine.advance(now)
@@ -240,6 +261,21 @@ class Monitor:
         if relay is not None and not caused:
             relay.publish(message)
         self.report(found + caused)
+
+    def read(self, message: Any, topic: str, raw: Tuple[wire.Reader, Any]) -> Optional[List[Any]]:
+        """The values of a message relayed as bytes; bytes the plan cannot read are decoded
+        as rospy would (``None``, and the message is not relayed, when they do not decode)."""
+        read, decoded_class = raw
+        try:
+            return read(message._buff)
+        except (struct.error, IndexError, ValueError, TypeError):
+            pass
+        try:
+            decoded = decoded_class().deserialize(message._buff)
+        except Exception as error:  # genpy raises several kinds on bad bytes
+            rospy.logerr_throttle(60.0, f"imrosc: a message on {topic} does not decode: {error}")
+            return None
+        return self.flatteners[topic](decoded)
 
     def handler(self, service: str, service_class: Any) -> Callable[[Any], Any]:
         """The handler of ``/m/<service>``: check, forward, check, answer."""

@@ -1,10 +1,12 @@
 #!/usr/bin/python3
 """A plain rospy relay, the baseline of ``bench/monitor_latency.py``.
 
-    bench_relay.py --type PKG/Msg --input T --output T2
+    bench_relay.py --type PKG/Msg --input T --output T2 [--raw]
 
-It subscribes with the message class (messages are decoded, as the monitor decodes them)
-and republishes each one as it comes; queues of 100, as the monitor's.
+It subscribes with the message class (messages are decoded) and republishes each one as it
+comes; queues of 100, as the monitor's. ``--raw``: it subscribes with ``rospy.AnyMsg`` and
+republishes the bytes as they came (no decoding, no encoding; what the monitor does on a
+blocked topic, less the checks).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ def main() -> None:
     parser.add_argument("--type", required=True)
     parser.add_argument("--input", required=True)
     parser.add_argument("--output", required=True)
+    parser.add_argument("--raw", action="store_true")
     args = parser.parse_args(rospy.myargv()[1:])
     rospy.init_node("bench_relay")
     cls = get_message_class(args.type)
@@ -29,7 +32,7 @@ def main() -> None:
     def relay(message: Any) -> None:
         publisher.publish(message)
 
-    rospy.Subscriber(args.input, cls, relay, queue_size=100)
+    rospy.Subscriber(args.input, rospy.AnyMsg if args.raw else cls, relay, queue_size=100)
     rospy.spin()
 
 
