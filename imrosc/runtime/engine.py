@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import operator
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -25,6 +25,7 @@ from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
 from .windows import Windows
 
+_FLOAT64 = np.dtype(np.float64)
 ARCH_PERIOD = 1.0
 """Seconds between two checks of the architecture in force (inference samples it so)."""
 PARAMS = "@params"
@@ -364,19 +365,23 @@ class Engine:
             point.arch.items = [item for item in point.arch.items if item[4]["id"] != invariant]
         return True
 
-    def message(self, topic: str, time: float, values: Sequence[Any]) -> Found:
+    def message(self, topic: str, time: float, values: Union[Sequence[Any], np.ndarray]) -> Found:
         """A message on ``topic`` flattened in the order of its layout (the file's
-        ``topics[topic].variables``)."""
+        ``topics[topic].variables``): a sequence of values, or a float64 array of them (kept
+        as the latest values, not copied; it must not change afterwards)."""
         found = self.advance(time) if self._timed else []
         split = self._split.get(topic)
         if split is not None:
             numeric_of, strings_of = split
             numeric = values if numeric_of is None else numeric_of(values)
-            try:
-                # fromiter with a count: a third quicker than np.array over a list
-                array = np.fromiter(numeric, np.float64, len(numeric))
-            except (TypeError, ValueError):
-                array = np.array([_number(v) for v in numeric], dtype=np.float64)
+            if type(numeric) is np.ndarray and numeric.dtype == _FLOAT64:
+                array = numeric  # a monitor's reader gave the values as they lie in the bytes
+            else:
+                try:
+                    # fromiter with a count: a third quicker than np.array over a list
+                    array = np.fromiter(numeric, np.float64, len(numeric))
+                except (TypeError, ValueError):
+                    array = np.array([_number(v) for v in numeric], dtype=np.float64)
             self.latest_numeric[topic] = array
             if strings_of is not None:
                 self.latest_strings[topic] = [str(v) for v in strings_of(values)]

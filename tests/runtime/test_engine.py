@@ -196,6 +196,25 @@ def test_samples_wait_for_every_input_topic_and_the_parameters() -> None:
     assert pose(e, 0.0, 50.0) == []
 
 
+def test_a_float64_array_is_taken_as_it_is() -> None:
+    """A monitor's reader may give a read-only float64 array over the message's bytes: the
+    engine checks it as the list of the same values, and keeps it without a copy."""
+    by_list, by_array = engine(), engine()
+    for e in (by_list, by_array):
+        ready(e)
+    values = np.frombuffer(np.array([0.5]).tobytes(), np.float64)
+    assert not values.flags.writeable
+    assert by_array.message("/a/cmd", 0.7, values) == by_list.message("/a/cmd", 0.7, [0.5])
+    assert by_array.latest_numeric["/a/cmd"] is values
+    assert pose(by_array, 0.9, 1.0) == pose(by_list, 0.9, 1.0) == [(0.9, "x_lt_v", (1.0, 0.5))]
+    # any other array is read value by value, as a list is
+    ints = np.array([0], dtype=np.int64)
+    assert seen(by_array.message("/a/state", 1.0, ints)) == seen(
+        by_list.message("/a/state", 1.0, [0])
+    )
+    assert by_array.latest_numeric["/a/state"] is not ints
+
+
 def test_a_value_no_source_has_is_missing() -> None:
     document = copy.deepcopy(DOCUMENT)
     point = document["points"]["pose"]
