@@ -256,6 +256,12 @@ class Checks:
             found = [v for v in found if v.invariant not in self.cleared]
         return found
 
+    def rehearse(self, row: Any) -> None:
+        """Check ``row`` again, keeping nothing, the polygons' lookup included (it would
+        otherwise answer from its memory of the last sample's cells)."""
+        self.polygon_checks.forget()
+        self.check(0.0, "", row)
+
     def _not_one_of(self, time: float, point: str, k: int, observed: float) -> Violation:
         inv = self.one_of_inv[k]
         expected = "one of " + show(set(inv["params"]["values"]))

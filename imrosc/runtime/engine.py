@@ -351,6 +351,19 @@ class Engine:
                 found += machine.unfinished()
         return found
 
+    def rehearse(self, topics: Sequence[str]) -> None:
+        """Check the latest message of each topic again and keep nothing: no state changes,
+        no violations returned. A monitor calls it between sparse messages so that the next
+        one meets the checks' code and tables in the caches (points whose sample is the
+        message alone; the others keep state, and are left out)."""
+        for topic in topics:
+            row = self.latest_numeric.get(topic)
+            if row is None:
+                continue
+            for point in self._publish.get(topic, ()):
+                if point.plain:
+                    point.checks.rehearse(row)
+
     def clear(self, invariant: str) -> bool:
         """Stop checking one invariant (``/m/clear_inv``); whether it was known."""
         found = self.by_id.get(invariant)

@@ -243,6 +243,10 @@ class PolygonChecks:
             at = fine_spots.T if self.flipped[owner] else fine_spots
             self.bits[self.fine_base[owner] + at[near]] |= self.bit[owner]
 
+    def forget(self) -> None:
+        """Forget the last lookup: the next sample is looked up even in the same cells."""
+        self._last_cells = b""
+
     def in_range(self, row: Any) -> bool:
         """Whether every value the polygons read is finite and inside its grid's range
         (then :meth:`broken` may take the fast path)."""

@@ -392,3 +392,56 @@ def test_trace_sees_every_checked_sample() -> None:
         ("pose?mode", 0.5, [1.0, 1.0], None),
     ]
     assert not any(math.isnan(v) for _, _, row, _ in traced for v in row)
+
+
+def test_rehearsing_keeps_nothing() -> None:
+    """``rehearse`` (the monitor's warm-keeping between sparse messages) changes no state and
+    no answer: the same stream with a rehearsal before every message breaks the same
+    invariants at the same times, polygons included (their lookup memory is refreshed by
+    the rehearsal, never left stale)."""
+    rng = np.random.default_rng(8)
+    cloud = rng.normal(0.0, 1.0, (300, 2))
+    vertices = cloud[[0, 1, 2]]  # a triangle of the cloud's first points
+    normals = np.stack(
+        [vertices[[1, 2, 0], 1] - vertices[:, 1], vertices[:, 0] - vertices[[1, 2, 0], 0]], axis=1
+    )
+    (ux, uy), (vx, vy) = vertices[1] - vertices[0], vertices[2] - vertices[0]
+    if ux * vy - uy * vx < 0:  # clockwise: the normals point in
+        normals = -normals
+    offsets = (normals * vertices).sum(axis=1)
+    document: dict[str, Any] = {
+        "format": "imrosc-invariants",
+        "version": 1,
+        "topics": {"/t": {"type": "T", "variables": [var("t.x", "x"), var("t.y", "y")]}},
+        "points": {
+            "a": {
+                "kind": "publish",
+                "trigger": "/t",
+                "variables": [var("t.x", "x"), var("t.y", "y")],
+            }
+        },
+        "invariants": [
+            inv("x_max", "a", "bounds", "upper", ["t.x"], max=1.0),
+            inv(
+                "triangle",
+                "a",
+                "polygon",
+                "hull",
+                ["t.x", "t.y"],
+                vertices=vertices.tolist(),
+                A=normals.tolist(),
+                b=offsets.tolist(),
+            ),
+        ],
+    }
+    plain, rehearsed = Engine(copy.deepcopy(document)), Engine(copy.deepcopy(document))
+    stream = [(0.01 * k, [float(x), float(y)]) for k, (x, y) in enumerate(cloud)]
+    stream += [(9.0 + 0.01 * k, values) for k, (_, values) in enumerate(stream[::-1])]
+    found, again = [], []
+    for time, values in stream:
+        found += seen(plain.message("/t", time, values))
+        rehearsed.rehearse(["/t", "/unknown"])
+        again += seen(rehearsed.message("/t", time, values))
+        rehearsed.rehearse(["/t"])
+    assert {f[1] for f in found} == {"x_max", "triangle"}
+    assert again == found
