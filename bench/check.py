@@ -46,7 +46,7 @@ from imrosc.translate.points import PointSpec  # noqa: E402
 
 ROWS, COLUMNS = 20_000, 56
 MESSAGES = 10_000
-PASSES = 7
+PASSES = 15
 STRETCH = 500
 
 
