@@ -330,31 +330,34 @@ def _skip(size: int) -> Step:
     return skip
 
 
+def _length(data: bytes, offset: int, count: Optional[int]) -> Tuple[int, int]:
+    """An array's length and where its elements start: ``count`` for a fixed array, else the
+    uint32 before the elements."""
+    if count is not None:
+        return count, offset
+    size: int = _U32.unpack_from(data, offset)[0]
+    return size, offset + 4
+
+
 def _dynamic(leaf: Leaf, keep: bool) -> Step:
     """A leaf whose size is read from the data (or a fixed array kept whole)."""
     _, kind, code, count = leaf
-    length = _U32.unpack_from
     if kind == "string":
         errors = _errors()
 
         def string(data: bytes, offset: int, got: List[Any]) -> int:
-            size: int = length(data, offset)[0]
-            end = offset + 4 + size
+            size, offset = _length(data, offset, None)
             if keep:
-                got.append(data[offset + 4 : end].decode("utf-8", errors))
-            return end
+                got.append(data[offset : offset + size].decode("utf-8", errors))
+            return offset + size
 
         return string
     if kind == "bytes":
 
         def raw(data: bytes, offset: int, got: List[Any]) -> int:
-            if count is None:
-                size: int = length(data, offset)[0]
-                offset += 4
-            else:
-                size = count
+            size, offset = _length(data, offset, count)
             if keep:
-                got.append(bytes(data[offset : offset + size]))
+                got.append(data[offset : offset + size])
             return offset + size
 
         return raw
@@ -362,11 +365,7 @@ def _dynamic(leaf: Leaf, keep: bool) -> Step:
         width = struct.calcsize("<" + code)
 
         def array(data: bytes, offset: int, got: List[Any]) -> int:
-            if count is None:
-                size: int = length(data, offset)[0]
-                offset += 4
-            else:
-                size = count
+            size, offset = _length(data, offset, count)
             if keep:
                 got.append(struct.unpack_from(f"<{size}{code}", data, offset))
             return offset + size * width
@@ -375,13 +374,9 @@ def _dynamic(leaf: Leaf, keep: bool) -> Step:
     if kind == "strings":
 
         def strings(data: bytes, offset: int, got: List[Any]) -> int:
-            if count is None:
-                size: int = length(data, offset)[0]
-                offset += 4
-            else:
-                size = count
+            size, offset = _length(data, offset, count)
             for _ in range(size):
-                offset += 4 + length(data, offset)[0]
+                offset += 4 + _length(data, offset, None)[0]
             return offset
 
         return strings
@@ -389,8 +384,8 @@ def _dynamic(leaf: Leaf, keep: bool) -> Step:
         width = int(code)
 
         def messages(data: bytes, offset: int, got: List[Any]) -> int:
-            size: int = length(data, offset)[0]
-            return offset + 4 + size * width
+            size, offset = _length(data, offset, None)
+            return offset + size * width
 
         return messages
     raise UnsupportedError(f"{kind} {leaf[0]!r} before a value the invariants read")

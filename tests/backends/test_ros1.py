@@ -535,10 +535,11 @@ for topic, info in document["topics"].items():
         out = io.BytesIO()
         relayed.serialize(out)
         assert out.getvalue() == data
-        try:
-            read(data[: len(data) // 2])
+        try:  # bytes the plan cannot read raise: the node then decodes them as rospy would
+            read(data[:0])
         except (struct.error, IndexError, ValueError):
-            pass  # the node decodes then, and drops what does not decode
+            continue
+        raise AssertionError(f"{topic}: empty bytes read without an error")
 twist = roslib.message.get_message_class("geometry_msgs/Twist")
 names = [f"{part}.{axis}" for part in ("linear", "angular") for axis in "xyz"]
 layouts = {
