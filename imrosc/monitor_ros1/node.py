@@ -116,11 +116,11 @@ class Monitor:
         self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
         self.period = float(rospy.get_param("~period", spec["period"]))
         self.wall_clock = not rospy.get_param("/use_sim_time", False)
+        """rospy's clock is the wall clock (read directly on the relay's path: warm, 0.06 us
+        against 1.6 us for ``rospy.get_time``, which builds a ``Time`` each call)."""
         self.warm = max(0.0, float(rospy.get_param("~warm", WARM)))
         self.last_relayed = 0.0
         """Wall time of the last message on a blocked topic (``keep_warm``)."""
-        """rospy's clock is the wall clock (read directly on the relay's path: warm, 0.06 us
-        against 1.6 us for ``rospy.get_time``, which builds a ``Time`` each call)."""
         self.unregister = bool(rospy.get_param("~unregister", True))
         self.name: str = rospy.get_name()
         watchdog = str(rospy.get_param("~watchdog", spec["watchdog"]))
