@@ -122,29 +122,30 @@ primitive; ``count`` ``None`` when variable), ``bytes`` (``uint8``/``char`` arra
 or empty when its size varies)."""
 
 
+def _kind(base: str, array: bool) -> Optional[Tuple[str, str]]:
+    """A field's leaf kind and struct code (``None``: a message)."""
+    if array and base in _BYTES:
+        return "bytes", ""
+    if base in _PRIMITIVES:
+        return ("array" if array else "scalar"), _PRIMITIVES[base]
+    if base in _TIMES:
+        return ("array" if array else "time"), _TIMES[base]
+    if base == "string":
+        return ("strings" if array else "string"), ""
+    return None
+
+
 def _leaves(message_class: Any, lookup: Lookup, prefix: str, out: List[Leaf]) -> None:
     for name, kind in zip(message_class.__slots__, message_class._slot_types):
         path = prefix + name
         array = _ARRAY.match(kind)
         base = array.group("base") if array else kind
-        count = (int(array.group("count")) if array.group("count") else None) if array else None
-        if array is None:
-            if base in _PRIMITIVES:
-                out.append((path, "scalar", _PRIMITIVES[base], None))
-            elif base in _TIMES:
-                out.append((path, "time", _TIMES[base], None))
-            elif base == "string":
-                out.append((path, "string", "", None))
-            else:
-                _leaves(_message(lookup, base, kind), lookup, path + ".", out)
-        elif base in _BYTES:
-            out.append((path, "bytes", "", count))
-        elif base in _PRIMITIVES:
-            out.append((path, "array", _PRIMITIVES[base], count))
-        elif base in _TIMES:
-            out.append((path, "array", _TIMES[base], count))
-        elif base == "string":
-            out.append((path, "strings", "", count))
+        count = int(array.group("count")) if array and array.group("count") else None
+        leaf = _kind(base, array is not None)
+        if leaf is not None:
+            out.append((path, leaf[0], leaf[1], count))
+        elif array is None:
+            _leaves(_message(lookup, base, kind), lookup, path + ".", out)
         else:
             size = _static_size(_message(lookup, base, kind), lookup)
             out.append((path, "messages", "" if size is None else str(size), count))

@@ -418,15 +418,7 @@ def test_replaying_with_generated_flatteners_finds_the_same_violations(
     assert [v.as_json() for v in mine.violations] == [v.as_json() for v in reference.violations]
 
 
-_ROSPY_CHECK = r"""
-import json, math, random, sys
-sys.path.insert(0, sys.argv[1])
-import roslib.message
-from imrosc_monitor import flatteners
-from imrosc_runtime.flatten import make_flattener
-
-random.seed(5)
-
+_FILL = r"""
 def fill(message):
     for name, kind in zip(message.__slots__, message._slot_types):
         current = getattr(message, name)
@@ -447,7 +439,22 @@ def fill(message):
         elif "int" in kind and "[" not in kind:
             setattr(message, name, random.randrange(100))
     return message
+"""
+"""Fills a rospy message with random values (both rospy checks use it)."""
 
+_ROSPY_CHECK = (
+    r"""
+import json, math, random, sys
+sys.path.insert(0, sys.argv[1])
+import roslib.message
+from imrosc_monitor import flatteners
+from imrosc_runtime.flatten import make_flattener
+
+random.seed(5)
+
+"""
+    + _FILL
+    + r"""
 document = json.load(open(sys.argv[2]))
 for topic, info in document["topics"].items():
     kind = info["type"].replace("/msg/", "/")
@@ -463,6 +470,25 @@ for topic, info in document["topics"].items():
         assert same and len(got) == len(expected), (topic, got, expected)
 print("ok")
 """
+)
+
+
+def _run_ros_python(script: str, package: Path) -> subprocess.CompletedProcess[str]:
+    """``script`` under Debian's python, given the package's scripts folder and its
+    invariants file."""
+    return subprocess.run(
+        [
+            str(ROS_PYTHON),
+            "-c",
+            script,
+            str(package / "scripts"),
+            str(package / "config" / "invariants.json"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
 
 
 def _has_rospy() -> bool:
@@ -481,28 +507,19 @@ def test_generated_flatteners_equal_make_flattener_on_rospy_messages(
     flat_package: tuple[Path, dict[str, Any]],
 ) -> None:
     package, _ = flat_package
-    done = subprocess.run(
-        [
-            str(ROS_PYTHON),
-            "-c",
-            _ROSPY_CHECK,
-            str(package / "scripts"),
-            str(package / "config" / "invariants.json"),
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    done = _run_ros_python(_ROSPY_CHECK, package)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stdout + done.stderr
 
 
-_WIRE_CHECK = r"""
+_WIRE_CHECK = (
+    r"""
 import io, json, math, random, struct, sys
 sys.path.insert(0, sys.argv[1])
 import roslib.message
 from imrosc_monitor import flatteners, wire
-exec(sys.argv[3])  # fill(), as in the flattener check
+"""
+    + _FILL
+    + r"""
 
 def same(got, expected):
     return len(got) == len(expected) and all(
@@ -565,6 +582,7 @@ assert wire.reader(twist, [{"path": "linear.w", "type": "float", "derived": None
                    roslib.message.get_message_class) is None
 print("ok", readers)
 """
+)
 
 
 @pytest.mark.skipif(not _has_rospy(), reason="needs Debian's python3 with rospy and numpy")
@@ -575,21 +593,7 @@ def test_blocked_topics_read_from_the_bytes_give_the_flatteners_values(
     on the decoded message, for every layout of the flattener test (headers, strings,
     fixed and variable arrays, elements, statistics); the relay writes the bytes back."""
     package, _ = flat_package
-    fill = _ROSPY_CHECK.split("def fill(message):", 1)[1].split("\ndocument =", 1)[0]
-    done = subprocess.run(
-        [
-            str(ROS_PYTHON),
-            "-c",
-            _WIRE_CHECK,
-            str(package / "scripts"),
-            str(package / "config" / "invariants.json"),
-            "def fill(message):" + fill,
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    done = _run_ros_python(_WIRE_CHECK, package)
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.strip().splitlines()[-1] == f"ok {len(FLAT_TYPES)}", done.stdout
 
