@@ -27,7 +27,10 @@ them kept, all on the relayed topic; the source publishes rows of the training d
 message breaks one and every message is relayed (a run where one is dropped says so).
 Printed: messages received, median and 99th percentile latency, and the ratio of monitor to
 plain relay (target: within 1.2x). The first 0.5 s of each run is warm-up and not counted.
-Every node uses rospy's defaults (no TCP_NODELAY) and queues of 100, as the monitor does.
+The relays subscribe with TCP_NODELAY, as the monitor does on the topics it relays (without
+it a burst from the source waits for Linux's delayed acknowledgement: 40 ms stalls in the
+monitor's 99th percentile); the sink uses rospy's default (Nagle on). Queues of 100 everywhere,
+as the monitor's.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import math
 import os
 import subprocess
 import sys
@@ -206,7 +210,7 @@ def main() -> None:
     rates = [float(r) for r in args.rates.split(",")]
     paths = ("direct", "plain relay", "raw relay", "monitor")
     results = {
-        (rate, path): {"received": 0, "sent": 0, "latencies": []}
+        (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": []}
         for rate in rates
         for path in paths
     }
@@ -223,14 +227,18 @@ def main() -> None:
         launch = build / MONITOR / "launch" / f"{MONITOR}.launch"
         try:
             ros.start()
-            for _ in range(args.rounds):
+            for round_ in range(args.rounds):
                 for rate in rates:
-                    for path in paths:
+                    # every other round in the reverse order: no path always runs last
+                    for path in paths if round_ % 2 == 0 else paths[::-1]:
                         run = measure(ros, path, rate, args.seconds, folder / "rows.npy", launch)
                         total = results[(rate, path)]
                         total["received"] += run["received"]
                         total["sent"] += run["sent"]
                         total["latencies"] += run["latencies"]
+                        total["rounds"].append(
+                            float(np.median(run["latencies"])) if run["latencies"] else math.nan
+                        )
         finally:
             ros.shutdown()
     print(
@@ -263,6 +271,19 @@ def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
                     f"{'':>8}  monitor / {baseline}: median {median / base_median:.2f}x "
                     f"(+{median - base_median:.3f} ms), p99 {p99 / base_p99:.2f}x{note}"
                 )
+                paired = paired_ratios(total["rounds"], results[(rate, baseline)]["rounds"])
+                if len(paired) > 1:
+                    shown = ", ".join(f"{r:.2f}" for r in paired)
+                    print(
+                        f"{'':>8}    per round (medians of the same round): {shown}; "
+                        f"their median {float(np.median(paired)):.2f}x"
+                    )
+
+
+def paired_ratios(monitor: list[float], baseline: list[float]) -> list[float]:
+    """Round by round, the monitor's median over the baseline's: the two paths ran minutes
+    apart at most, so a neighbour loading the shared machine for a while moves both."""
+    return [m / b for m, b in zip(monitor, baseline, strict=True) if b > 0 and not math.isnan(m)]
 
 
 if __name__ == "__main__":

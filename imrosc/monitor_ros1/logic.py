@@ -37,6 +37,10 @@ from typing import (
     Tuple,
 )
 
+WARM = 0.002
+"""Default ``~warm`` (the launch file's ``warm``): seconds between rehearsals of the latest
+blocked messages while the relay is idle (0: never)."""
+
 Snapshot = Dict[str, Dict[str, FrozenSet[str]]]
 SystemState = Sequence[Sequence[Sequence[Any]]]
 """The master's ``getSystemState``: ``[publishers, subscribers, services]``, each a list of

@@ -113,9 +113,13 @@ def wait_recording(ros: Ros, folder: Path, process: subprocess.Popen[str], line:
 
 
 @pytest.fixture(scope="module")
-def system(ros: Ros) -> Iterator[dict[str, Proc]]:
-    lib = generate_service_type(ros.home / "srv")
-    ros.env["PYTHONPATH"] = str(lib)
+def service_type(ros: Ros) -> None:
+    """``imrosc_rec_test/Scale`` generated once and on every node's PYTHONPATH."""
+    ros.env["PYTHONPATH"] = str(generate_service_type(ros.home / "srv"))
+
+
+@pytest.fixture(scope="module")
+def system(ros: Ros, service_type: None) -> Iterator[dict[str, Proc]]:
     ros.set_param("/sys/limit", 5.0)
     ros.set_param("/sys/mode", "auto")
     procs = {
@@ -312,7 +316,9 @@ def test_architecture_sets_match_the_system(inferred: dict[str, Any]) -> None:
     assert "/rec/" not in text
 
 
-def test_duration_and_a_launch_file_with_the_server_remapped(ros: Ros, tmp_path: Path) -> None:
+def test_duration_and_a_launch_file_with_the_server_remapped(
+    ros: Ros, service_type: None, tmp_path: Path
+) -> None:
     package = tmp_path / "packages" / "imrosc_rec_sys"
     package.mkdir(parents=True)
     (package / "package.xml").write_text(

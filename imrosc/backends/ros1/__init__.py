@@ -43,6 +43,7 @@ from imrosc.backends import launch
 from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
 from imrosc.backends.registry import BuildInputs, Executable, register
 from imrosc.diagnostics import make
+from imrosc.monitor_ros1.logic import WARM
 
 BACKEND = "ros1"
 SYSTEM_LAUNCH = "launch/system_monitored.launch"
@@ -148,7 +149,7 @@ def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
         ),
         f"{ADAPTER_DIR}/spec.json": dumps(spec.runtime_document(banner)),
         spec.invariants_path: invariants_copy(spec, banner),
-        f"launch/{spec.package}.launch": render("monitor.launch.j2"),
+        f"launch/{spec.package}.launch": render("monitor.launch.j2", warm=WARM),
     }
     files.update(_copies("imrosc.monitor_ros1", ADAPTER_DIR, banner))
     files.update(_copies("imrosc.runtime", RUNTIME_DIR, banner))

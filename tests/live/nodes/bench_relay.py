@@ -4,9 +4,9 @@
     bench_relay.py --type PKG/Msg --input T --output T2 [--raw]
 
 It subscribes with the message class (messages are decoded) and republishes each one as it
-comes; queues of 100, as the monitor's. ``--raw``: it subscribes with ``rospy.AnyMsg`` and
-republishes the bytes as they came (no decoding, no encoding; what the monitor does on a
-blocked topic, less the checks).
+comes; queues of 100 and TCP_NODELAY on its subscription, as the monitor's relays.
+``--raw``: it subscribes with ``rospy.AnyMsg`` and republishes the bytes as they came (no
+decoding, no encoding; what the monitor does on a blocked topic, less the checks).
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ def main() -> None:
     def relay(message: Any) -> None:
         publisher.publish(message)
 
-    rospy.Subscriber(args.input, rospy.AnyMsg if args.raw else cls, relay, queue_size=100)
+    subscribed = rospy.AnyMsg if args.raw else cls
+    rospy.Subscriber(args.input, subscribed, relay, queue_size=100, tcp_nodelay=True)
     rospy.spin()
 
 

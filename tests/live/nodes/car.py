@@ -18,9 +18,9 @@ import rospy  # type: ignore[import-not-found]
 from geometry_msgs.msg import PoseStamped  # type: ignore[import-not-found]
 
 if TYPE_CHECKING:  # mypy sees this folder as a namespace package
-    from tests.live.nodes.livenode import Faults, parse
+    from tests.live.nodes.livenode import Connections, Faults, parse
 else:  # run as a script, the folder is on sys.path
-    from livenode import Faults, parse
+    from livenode import Connections, Faults, parse
 
 XS = (1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5)
 YS = (2.0, 1.75, 1.5)
@@ -37,7 +37,9 @@ def main() -> None:
     args = parse(__doc__ or "", options)
     rospy.init_node("car")
     faults = Faults(args)
-    publisher = rospy.Publisher(args.topic, PoseStamped, queue_size=10)
+    publisher = rospy.Publisher(
+        args.topic, PoseStamped, subscriber_listener=Connections(), queue_size=10
+    )
     rate = rospy.Rate(args.rate)
     k = 0
     while not rospy.is_shutdown():

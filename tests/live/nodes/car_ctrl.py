@@ -17,9 +17,9 @@ import rospy  # type: ignore[import-not-found]
 from geometry_msgs.msg import PoseStamped  # type: ignore[import-not-found]
 
 if TYPE_CHECKING:  # mypy sees this folder as a namespace package
-    from tests.live.nodes.livenode import Faults, parse
+    from tests.live.nodes.livenode import Connections, Faults, parse
 else:  # run as a script, the folder is on sys.path
-    from livenode import Faults, parse
+    from livenode import Connections, Faults, parse
 from std_msgs.msg import UInt8  # type: ignore[import-not-found]
 
 TASK = 3
@@ -44,7 +44,9 @@ def main() -> None:
 
     rospy.Subscriber("/a/car_pose", PoseStamped, on_pose, queue_size=10)
     faults = Faults(args)
-    publisher = rospy.Publisher("/a/cmd_subject_ctrl_state", UInt8, queue_size=10)
+    publisher = rospy.Publisher(
+        "/a/cmd_subject_ctrl_state", UInt8, subscriber_listener=Connections(), queue_size=10
+    )
     rate = rospy.Rate(args.rate)
     while not rospy.is_shutdown():
         state = faults.next()

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import socket
+import threading
 import time
 from collections.abc import Sequence
 from typing import IO, Any
@@ -98,3 +100,22 @@ def open_log(path: str) -> IO[str]:
 def write_line(log: IO[str], record: dict[str, Any]) -> None:
     """One JSON line."""
     log.write(json.dumps(record, allow_nan=False, default=str) + "\n")
+
+
+class Connections(rospy.SubscribeListener):  # type: ignore[misc]
+    """Keeps the node's ``~connections`` up to date: for each subscriber connected to its
+    publishers, ``"<topic> <subscriber> <0|1>"``, 1 when the connection has TCP_NODELAY (which
+    the subscriber asks for in its connection header)."""
+
+    def __init__(self) -> None:
+        self.found: set[str] = set()
+        self.lock = threading.Lock()
+
+    def peer_subscribe(self, topic_name: str, topic_publish: Any, peer_publish: Any) -> None:
+        del topic_publish, peer_publish
+        publisher = rospy.topics.get_topic_manager().get_publisher_impl(topic_name)
+        with self.lock:
+            for connection in publisher.connections if publisher is not None else ():
+                flag = connection.socket.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+                self.found.add(f"{topic_name} {connection.endpoint_id} {int(bool(flag))}")
+            rospy.set_param("~connections", sorted(self.found))
