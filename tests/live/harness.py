@@ -47,6 +47,8 @@ ROSBAG = Path("/usr/bin/rosbag")
 ROS_PYTHON = Path("/usr/bin/python3")
 PACKAGE = "imrosc_live"
 TOKEN_VARIABLE = "IMROSC_LIVE_TOKEN"
+CONNECTIONS_VARIABLE = "IMROSC_LIVE_CONNECTIONS"
+"""The folder the test system's publishers write their subscribers' connections to."""
 CALLER_ID = "/imrosc_live_test"
 ROS_MODULES = (
     "rospy",
@@ -315,6 +317,9 @@ class Ros:
         self.uri = f"http://127.0.0.1:{self.port}"
         self.token = uuid.uuid4().hex
         self.package = build_package(home / "packages")
+        self.connections_dir = home / "connections"
+        """Where the test system's publishers note their subscribers (``nodes/livenode.py``)."""
+        self.connections_dir.mkdir(exist_ok=True)
         self.env = _clean_environment()
         self.env.update(
             {
@@ -325,6 +330,7 @@ class Ros:
                 "ROS_PACKAGE_PATH": str(self.package.parent),
                 "ROSCONSOLE_STDOUT_LINE_BUFFERED": "1",
                 TOKEN_VARIABLE: self.token,
+                CONNECTIONS_VARIABLE: str(self.connections_dir),
             }
         )
         self.processes: list[Proc] = []
@@ -546,6 +552,12 @@ class Ros:
     @staticmethod
     def _having(nodes: set[str], node: str | None) -> set[str]:
         return nodes if (node in nodes if node else nodes) else set()
+
+    def connections(self, node: str) -> list[str]:
+        """What ``node`` (of the test system) notes of its subscribers: ``"<topic>
+        <subscriber> <0|1>"``, 1 for a connection with TCP_NODELAY (``nodes/livenode.py``)."""
+        path = self.connections_dir / (node.strip("/").replace("/", "-") + ".txt")
+        return path.read_text(encoding="utf-8").splitlines() if path.exists() else []
 
     def get_param(self, name: str) -> Any:
         return self.call("getParam", name)

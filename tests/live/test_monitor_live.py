@@ -133,7 +133,7 @@ def test_the_monitor_asks_for_tcp_nodelay_on_the_topics_it_relays(monitored: Mon
     """A relay must not add Nagle's delay: the monitor's connection to the publisher of the
     blocked topic has TCP_NODELAY; a topic it only watches keeps rospy's default."""
     ros = monitored.ros
-    connections = {node: ros.get_param(f"{node}/connections") for node in ("/a/car_ctrl", "/a/car")}
+    connections = {node: ros.connections(node) for node in ("/a/car_ctrl", "/a/car")}
     assert f"{COMMAND} {monitored.monitor} 1" in connections["/a/car_ctrl"], connections
     assert f"{POSE} {monitored.monitor} 0" in connections["/a/car"], connections
 

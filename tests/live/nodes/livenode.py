@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import socket
 import threading
 import time
@@ -103,9 +104,10 @@ def write_line(log: IO[str], record: dict[str, Any]) -> None:
 
 
 class Connections(rospy.SubscribeListener):  # type: ignore[misc]
-    """Keeps the node's ``~connections`` up to date: for each subscriber connected to its
-    publishers, ``"<topic> <subscriber> <0|1>"``, 1 when the connection has TCP_NODELAY (which
-    the subscriber asks for in its connection header)."""
+    """Notes each subscriber connected to the node's publishers in
+    ``$IMROSC_LIVE_CONNECTIONS/<node>.txt`` (the harness's folder; nothing without it), a line
+    ``"<topic> <subscriber> <0|1>"`` each, 1 when the connection has TCP_NODELAY (which the
+    subscriber asks for in its connection header)."""
 
     def __init__(self) -> None:
         self.found: set[str] = set()
@@ -118,4 +120,10 @@ class Connections(rospy.SubscribeListener):  # type: ignore[misc]
             for connection in publisher.connections if publisher is not None else ():
                 flag = connection.socket.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
                 self.found.add(f"{topic_name} {connection.endpoint_id} {int(bool(flag))}")
-            rospy.set_param("~connections", sorted(self.found))
+            folder = os.environ.get("IMROSC_LIVE_CONNECTIONS")
+            if folder:
+                name = rospy.get_name().strip("/").replace("/", "-")
+                path = os.path.join(folder, name + ".txt")
+                with open(path + ".new", "w", encoding="utf-8") as out:
+                    out.write("".join(line + "\n" for line in sorted(self.found)))
+                os.replace(path + ".new", path)
