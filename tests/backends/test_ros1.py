@@ -147,7 +147,7 @@ def test_the_monitor_launch_file_starts_the_node_with_its_parameters(
     args = {a.get("name"): a.get("default") for a in root.iter("arg")}
     assert args["invariants"] == f"$(find {PACKAGE})/config/invariants.json"
     assert args["period"] == "0.5" and args["fail_open"] == "false"
-    assert params["warm"] == "$(arg warm)" and float(args["warm"]) == logic.WARM
+    assert params["warm"] == "$(arg warm)" and args["warm"] == repr(logic.WARM)
     assert watchdog.get("if") == "$(arg fail_open)"
 
 
