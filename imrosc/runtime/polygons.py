@@ -36,6 +36,10 @@ in float64 as the invariant reads. Many candidates (a sample far off) or the slo
 every edge of the candidate polygons as one padded array operation. The answer is the same
 either way: exactly the polygons with an edge ``a*x + b*y > c``, finite samples only.
 
+Where numba is importable the fine cells, offsets and bits of the first step are one compiled
+loop (:mod:`.compiled`: the same arithmetic, the same candidates); numpy's operations
+otherwise.
+
 >>> square = {"params": {"A": [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]],
 ...                      "b": [1.0, 1.0, 1.0, 1.0],
 ...                      "vertices": [[-1, -1], [1, -1], [1, 1], [-1, 1]]}}
@@ -51,6 +55,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .compiled import candidate_lookup
 from .fast import count_nonzero
 
 Edge = Tuple[float, float, float]
@@ -149,6 +154,23 @@ class PolygonChecks:
         self._ranges(polygons, axes)
         self.grid = grid_size(count)
         self._tables(per, axes)
+        self._lookup = (
+            candidate_lookup(
+                self.size,
+                self.origin,
+                self.fine_scale,
+                self.fine_at,
+                self.fine_base,
+                self.bits,
+                self.bit,
+            )
+            if count
+            else None
+        )
+        """The lookup compiled by numba (:mod:`.compiled`), or ``None``: numpy's."""
+        self._offsets = np.zeros(count, dtype=np.int64)
+        self._found = np.zeros(count, dtype=np.int64)
+        """The compiled lookup's answers: every polygon's offset in the bits, the candidates."""
 
     def _ranges(self, polygons: Sequence[Mapping[str, Any]], axes: List[Tuple[int, int]]) -> None:
         """Each variable's range over the polygons' vertices, and its quantisation."""
@@ -263,6 +285,10 @@ class PolygonChecks:
             in_range = self.in_range(row)
         if not in_range:
             return self._slow(row)
+        if self._lookup is not None:
+            offsets = self._offsets
+            candidates = self._found[: self._lookup(row, offsets, self._found)]
+            return self._edges_near(row, candidates, offsets) if len(candidates) else []
         g = row[: self.size] - self.origin
         g *= self.fine_scale
         cells = g.astype(np.uint8)
@@ -288,6 +314,11 @@ class PolygonChecks:
             self._last = candidates, offsets
         if not len(candidates):
             return []
+        return self._edges_near(row, candidates, offsets)
+
+    def _edges_near(self, row: Any, candidates: Any, offsets: Any) -> List[int]:
+        """Which of ``candidates`` ``row`` is outside of: each one's edges near its fine cell
+        (``offsets``: every polygon's offset in the bits), or all of them when many."""
         if len(candidates) > _MANY:
             return self._outside(row, candidates)
         found = []
