@@ -16,7 +16,7 @@ compilation (a quarter of a second for 1,000 polygons), done before the first sa
 from __future__ import annotations
 
 import os
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
@@ -42,7 +42,7 @@ def candidate_lookup(
     """The compiled lookup of the polygons whose tables are given (``PolygonChecks``:
     ``size`` variables quantised by ``origin`` and ``scale``; ``at``, two variables per
     polygon, column first; ``base``, each polygon's start in ``bits``; ``bit``, its bit),
-    compiled for the samples a check gets (float64, writable or not); ``None`` without numba.
+    compiled for every kind of sample a check gets (:func:`_samples`); ``None`` without numba.
     Samples must be inside the polygons' ranges (the fast path)."""
     numba = numba_module()
     if numba is None:
@@ -69,13 +69,22 @@ def candidate_lookup(
         return n
 
     try:
-        compiled = numba.njit(nogil=True)(lookup)
+        # the GIL is kept: released, a relay's thread would queue for it behind the others
+        compiled = numba.njit(lookup)
         offsets = np.zeros(count, dtype=np.int64)
         found = np.zeros(count, dtype=np.int64)
-        sample = origin.copy()  # every variable in its first cell
-        compiled(sample, offsets, found)
-        sample.setflags(write=False)  # a monitor's values: a read-only view of the bytes
-        compiled(sample, offsets, found)
+        for sample in _samples(origin):
+            compiled(sample, offsets, found)
     except Exception:  # a numba that cannot compile this: numpy does the lookup
         return None
     return compiled  # type: ignore[no-any-return]
+
+
+def _samples(values: Any) -> Iterator[Any]:
+    """``values`` as each kind of array a check gets, for numba to compile them all before
+    the first sample: writable (a list read into an array), and read-only views of bytes
+    (a monitor's values), aligned or not (after a string of odd length)."""
+    data = values.tobytes()
+    yield values.copy()
+    yield np.frombuffer(data, dtype=np.float64)
+    yield np.frombuffer(b"\0" + data, dtype=np.float64, offset=1)
