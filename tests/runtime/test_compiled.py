@@ -20,7 +20,7 @@ import pytest
 import imrosc.runtime
 from imrosc.runtime.compiled import candidate_lookup
 from tests.live.harness import ROS_PYTHON, _clean_environment
-from tests.runtime.test_polygons import clouds_over, expected, hull, polygon
+from tests.runtime.test_polygons import clouds_over, expected, hull_polygons
 
 RUNTIME = Path(imrosc.runtime.__file__).parent
 
@@ -80,16 +80,7 @@ def case(seed: int, shape: str, variables: int) -> tuple[dict[str, Any], list[li
     every edge evaluated plainly."""
     rng = np.random.default_rng(seed)
     clouds, data = clouds_over(rng, variables, 200, shape)
-    polygons, edges, plain = [], [], []
-    for owner, ((x, y), cloud) in enumerate(clouds.items()):
-        inv = polygon(hull(cloud))
-        polygons.append(inv)
-        a, b = np.asarray(inv["params"]["A"]).T
-        c = np.asarray(inv["params"]["b"])
-        plain.append((x, y, a, b, c))
-        edges += [
-            (x, y, float(e), float(f), float(g), owner) for e, f, g in zip(a, b, c, strict=True)
-        ]
+    polygons, edges, plain = hull_polygons(clouds)
     low, high = data.min(axis=0), data.max(axis=0)
     span = np.where(high > low, high - low, 1.0)
     picked = data[rng.integers(0, len(data), 60)]

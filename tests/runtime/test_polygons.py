@@ -31,12 +31,19 @@ def polygon(vertices: npt.NDArray[np.float64]) -> dict[str, Any]:
     return {"params": {"vertices": vertices.tolist(), "A": normals.tolist(), "b": offsets.tolist()}}
 
 
-def build(
+Plain = list[tuple[int, int, Any, Any, Any]]
+Edges = list[tuple[int, int, float, float, float, int]]
+
+
+def hull_polygons(
     clouds: dict[tuple[int, int], npt.NDArray[np.float64]],
-) -> tuple[PolygonChecks, list[tuple[int, int, Any, Any, Any]]]:
-    """Checks over the hulls of ``clouds`` (keyed by the variables' positions), and each
-    polygon's ``(x, y, a, b, c)`` for the plain evaluation."""
-    invariants, edges, plain = [], [], []
+) -> tuple[list[dict[str, Any]], Edges, Plain]:
+    """The polygon invariants of the hulls of ``clouds`` (keyed by the variables'
+    positions), their edges as ``PolygonChecks`` takes them, and each polygon's ``(x, y, a,
+    b, c)`` for the plain evaluation."""
+    invariants: list[dict[str, Any]] = []
+    edges: Edges = []
+    plain: Plain = []
     for owner, ((x, y), cloud) in enumerate(clouds.items()):
         inv = polygon(hull(cloud))
         invariants.append(inv)
@@ -47,10 +54,16 @@ def build(
             (x, y, float(ai), float(bi), float(ci), owner)
             for ai, bi, ci in zip(a, b, c, strict=True)
         ]
+    return invariants, edges, plain
+
+
+def build(clouds: dict[tuple[int, int], npt.NDArray[np.float64]]) -> tuple[PolygonChecks, Plain]:
+    """Checks over the hulls of ``clouds``, and each polygon's plain ``(x, y, a, b, c)``."""
+    invariants, edges, plain = hull_polygons(clouds)
     return PolygonChecks(invariants, edges), plain
 
 
-def expected(plain: list[tuple[int, int, Any, Any, Any]], sample: list[float]) -> list[int]:
+def expected(plain: Plain, sample: list[float]) -> list[int]:
     found = []
     for owner, (x, y, a, b, c) in enumerate(plain):
         px, py = sample[x], sample[y]
