@@ -3,7 +3,7 @@ PYTHON ?= python3
 
 # Debian's ROS 1, for the live tests (tests/live): a real roscore, rospy nodes under
 # /usr/bin/python3, roslaunch and rosbag record.
-# python3-numba: the monitor's optional compiled polygon lookup (imrosc/runtime/compiled.py).
+# python3-numba: the monitor's optional compiled checks (imrosc/runtime/compiled.py).
 ROS1_DEBS := ros-core python3-rospy python3-std-msgs python3-geometry-msgs python3-sensor-msgs \
 	python3-std-srvs python3-rosbag python3-numpy python3-yaml python3-numba
 ROS1_IMPORTS := rospy, rosbag, roslaunch, numpy, yaml, numba, std_msgs.msg, geometry_msgs.msg, \

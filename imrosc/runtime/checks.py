@@ -21,10 +21,11 @@ monitor's summation order may differ from the translator's).
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Sequence, Set, Tuple
+from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
+from .compiled import Kernel, Tables, compile_checks, numba_module, pack
 from .fast import count_nonzero as _count
 from .polygons import PolygonChecks
 from .violation import Violation, show
@@ -176,6 +177,30 @@ class Checks:
             {id(inv) for inv, _ in self.forms.owners} - {id(b) for b in self.bounds_inv}
         )
         self.linear_inv = [item[3] for item in linear]
+        self._clears: Optional[Kernel] = None
+        """The checks compiled by numba (:mod:`.compiled`): whether a sample breaks
+        nothing; ``None`` without numba."""
+        self._tables = Tables(None, None, None)
+        if numba_module() is not None:
+            self._tables = self.tables()
+            self._clears = compile_checks(self._tables, len(self.index))
+
+    def tables(self) -> Tables:
+        """These checks as the compiled kernel reads them (:func:`.compiled.pack`)."""
+        grids, shapes, shift = self.polygon_checks.compiled()
+        sets = [
+            (at, [_number(v) for v in inv["params"]["values"]])
+            for at, inv in zip(self.one_of_at.tolist(), self.one_of_inv)
+        ]
+        return pack(
+            self.forms.moved(),
+            grids,
+            shapes,
+            self.polygon_checks.bits,
+            shift,
+            sets,
+            self.nonzero_at.tolist(),
+        )
 
     @property
     def size(self) -> int:
@@ -191,6 +216,22 @@ class Checks:
 
     def check(self, time: float, point: str, row: Any, strings: Sequence[Any] = ()) -> Found:
         """The violations of one sample (``row``: float64 values in ``index`` order)."""
+        clears = self._clears
+        if clears is not None and clears(row, *self._tables):
+            found: Found = []  # the common case, answered by one compiled call
+        else:
+            found = self._numeric(time, point, row)
+        for at, values, inv in self.string_sets:
+            value = strings[at]
+            if value not in values:
+                expected = "one of " + ", ".join(sorted(f'"{v}"' for v in values))
+                found.append(_violation(time, point, inv, value, expected))
+        if found and self.cleared:
+            found = [v for v in found if v.invariant not in self.cleared]
+        return found
+
+    def _numeric(self, time: float, point: str, row: Any) -> Found:
+        """The violations of ``row`` found by numpy."""
         found: Found = []
         forms = self.forms
         in_range = None
@@ -247,13 +288,6 @@ class Checks:
             if _count(bad):
                 for k in bad.nonzero()[0].tolist():
                     found.append(_violation(time, point, self.nonzero_inv[k], 0.0, "!= 0"))
-        for at, values, inv in self.string_sets:
-            value = strings[at]
-            if value not in values:
-                expected = "one of " + ", ".join(sorted(f'"{v}"' for v in values))
-                found.append(_violation(time, point, inv, value, expected))
-        if found and self.cleared:
-            found = [v for v in found if v.invariant not in self.cleared]
         return found
 
     def rehearse(self, row: Any) -> None:
@@ -362,6 +396,16 @@ class _Forms:
         self.dense = dense
         self.dense_limit = limit
         self.dense_guard = guard
+
+    def moved(self) -> List[Tuple[List[Tuple[int, float]], float]]:
+        """The forms over the sample alone, as the dense product reads them: each form's
+        terms on the sample's values and its limit less its constant."""
+        moved = []
+        for terms, bound in self.rows:
+            constant = sum(weight for index, weight in terms if index == self.one)
+            kept = [(index, weight) for index, weight in terms if index < self.zero]
+            moved.append((kept, bound - constant))
+        return moved
 
     def gathered(self, time: float, point: str, row: Any) -> Found:
         """The violations of ``row`` (any values), the terms gathered."""

@@ -36,9 +36,9 @@ in float64 as the invariant reads. Many candidates (a sample far off) or the slo
 every edge of the candidate polygons as one padded array operation. The answer is the same
 either way: exactly the polygons with an edge ``a*x + b*y > c``, finite samples only.
 
-Where numba is importable the fine cells, offsets and bits of the first step are one compiled
-loop (:mod:`.compiled`: the same arithmetic, the same candidates); numpy's operations
-otherwise.
+Where numba is importable, a sample is first asked whether it breaks nothing by one compiled
+loop over every check of its point (:mod:`.compiled`, from :meth:`PolygonChecks.compiled`:
+the same cells, bits and edges); the steps above find the violations of the others.
 
 >>> square = {"params": {"A": [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]],
 ...                      "b": [1.0, 1.0, 1.0, 1.0],
@@ -55,7 +55,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .compiled import candidate_lookup
+from .compiled import COARSE, Guard, Polygon
 from .fast import count_nonzero
 
 Edge = Tuple[float, float, float]
@@ -154,23 +154,6 @@ class PolygonChecks:
         self._ranges(polygons, axes)
         self.grid = grid_size(count)
         self._tables(per, axes)
-        self._lookup = (
-            candidate_lookup(
-                self.size,
-                self.origin,
-                self.fine_scale,
-                self.fine_at,
-                self.fine_base,
-                self.bits,
-                self.bit,
-            )
-            if count
-            else None
-        )
-        """The lookup compiled by numba (:mod:`.compiled`), or ``None``: numpy's."""
-        self._offsets = np.zeros(count, dtype=np.int64)
-        self._found = np.zeros(count, dtype=np.int64)
-        """The compiled lookup's answers: every polygon's offset in the bits, the candidates."""
 
     def _ranges(self, polygons: Sequence[Mapping[str, Any]], axes: List[Tuple[int, int]]) -> None:
         """Each variable's range over the polygons' vertices, and its quantisation."""
@@ -265,6 +248,45 @@ class PolygonChecks:
             at = fine_spots.T if self.flipped[owner] else fine_spots
             self.bits[self.fine_base[owner] + at[near]] |= self.bit[owner]
 
+    def compiled(self) -> Tuple[List[Guard], List[Polygon], int]:
+        """The grids' variables, the polygons and the shift from a fine cell to its coarse
+        one, as :func:`.compiled.pack` takes them (the bits' quantisation, offsets and bits,
+        each polygon's coarse bits and its edges once)."""
+        guards: List[Guard] = [
+            (
+                int(v),
+                float(self.low[v]),
+                float(self.high[v]),
+                float(self.origin[v]),
+                float(self.fine_scale[v]),
+            )
+            for v in self.used
+        ]
+        fine = self.grid << _SPLIT
+        shift = (fine // COARSE).bit_length() - 1
+        steps = np.arange(fine, dtype=np.int64)
+        spots = steps[:, None] + 256 * steps[None, :]  # [column cell, row cell] -> offset
+        weights = np.left_shift(np.ones(32, dtype=np.uint64), np.arange(32, dtype=np.uint64))
+        polygons: List[Polygon] = []
+        for j in range(self.count):
+            near = (self.bits[self.fine_base[j] + spots] & self.bit[j]) != 0
+            cells = near.reshape(COARSE, fine // COARSE, COARSE, fine // COARSE).any(axis=(1, 3))
+            flat = cells.T.reshape(-1)  # bit column + COARSE * row
+            words = (flat.reshape(-1, 32) * weights).sum(axis=1).astype(np.uint32)
+            polygons.append(
+                Polygon(
+                    int(self.fine_at[2 * j]),
+                    int(self.fine_at[2 * j + 1]),
+                    int(self.fine_base[j]),
+                    int(self.bit[j]),
+                    words.view(np.int32).tolist(),
+                    self.xs[j],
+                    self.ys[j],
+                    self.edges[j][: len(self.edges[j]) // 2],
+                )
+            )
+        return guards, polygons, shift
+
     def forget(self) -> None:
         """Forget the last lookup: the next sample is looked up even in the same cells."""
         self._last_cells = b""
@@ -285,10 +307,6 @@ class PolygonChecks:
             in_range = self.in_range(row)
         if not in_range:
             return self._slow(row)
-        if self._lookup is not None:
-            offsets = self._offsets
-            candidates = self._found[: self._lookup(row, offsets, self._found)]
-            return self._edges_near(row, candidates, offsets) if len(candidates) else []
         g = row[: self.size] - self.origin
         g *= self.fine_scale
         cells = g.astype(np.uint8)

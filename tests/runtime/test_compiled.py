@@ -1,61 +1,210 @@
-"""The polygons' lookup compiled by numba finds numpy's candidates and the half-planes' answers.
+"""The compiled kernel clears exactly the samples in which numpy's checks find nothing.
 
-numba lives where the monitor runs: Debian's ``python3-numba`` beside rospy (``make test``
-installs it with ROS 1). The cases are made here (hulls over random clouds, as in
-``test_polygons``); the checks are built under Debian's python twice, compiled and with
-``IMROSC_NUMBA=0``, and asked every sample: the compiled lookup's candidates must be numpy's,
-and its answers every edge's plain evaluation.
+The kernel (:func:`imrosc.runtime.compiled.clears`) is plain Python that numba compiles, so
+it is tested twice: uncompiled here, against :meth:`Checks._numeric` on points of every
+family (inferred from planted data, as in ``test_checks``) and on points of many polygons
+(the hulls of ``test_polygons``, with each size of grid); and compiled, under Debian's
+python where ``make test`` installs ``python3-numba``, against its uncompiled answers and
+the checks' violations with numba turned off (``IMROSC_NUMBA=0``).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 
 import imrosc.runtime
-from imrosc.runtime.compiled import candidate_lookup
+from imrosc.runtime import polygons as polygon_module
+from imrosc.runtime.checks import Checks
+from imrosc.runtime.compiled import clears as python_clears
+from imrosc.runtime.compiled import compile_checks, numba_module
 from tests.live.harness import ROS_PYTHON, _clean_environment
-from tests.runtime.test_polygons import clouds_over, expected, hull_polygons
+from tests.runtime.test_checks import NUMERIC, infer, on_the_tolerance
+from tests.runtime.test_polygons import clouds_over, hull_polygons
 
 RUNTIME = Path(imrosc.runtime.__file__).parent
+
+Case = dict[str, Any]
+"""``invariants``, ``index`` (numeric names to positions) and ``queries`` (samples)."""
+
+
+def planted(seed: int) -> Case:
+    """Every family, inferred from planted columns; queries on and off the data, some
+    values missing or infinite."""
+    rng = np.random.default_rng(seed)
+    n = 120
+    x = rng.uniform(-5, 5, n) * [1.0, 1e-6, 1e6][seed % 3]
+    m = rng.uniform(0, 1, n)
+    columns: dict[str, npt.NDArray[Any]] = {
+        "x": x,
+        "y": 2.5 * x + 3,
+        "z": x - 2 * m + 1,
+        "m": m,
+        "k": rng.choice([1.0, 2.0, 3.0], n),
+        "nz": rng.choice([-3.0, -1.0, 2.0, 5.0], n),
+        "flag": rng.choice([0.0, 1.0], n),
+        "u": x + rng.uniform(0, 1, n),
+        "v": rng.uniform(0, 1, n) * (x - x.min() + 1),
+        "avg(a)": rng.uniform(1, 2, n),
+        "mode": rng.choice(np.array(["idle", "run"], dtype=object), n),
+    }
+    invariants = infer(columns, 1000)
+    data = np.stack([columns[name] for name in NUMERIC], axis=1)
+    return {
+        "invariants": invariants,
+        "index": {name: k for k, name in enumerate(NUMERIC)},
+        "queries": queries(rng, data, holes=True),
+    }
+
+
+def hulls(seed: int, shape: str, variables: int) -> Case:
+    """The hulls of every pair of ``variables`` random columns."""
+    rng = np.random.default_rng(seed)
+    clouds, data = clouds_over(rng, variables, 200, shape)
+    shapes, _, _ = hull_polygons(clouds)
+    invariants = []
+    for k, ((x, y), made) in enumerate(zip(clouds, shapes, strict=True)):
+        names = [f"v{x}", f"v{y}"]
+        invariants.append(
+            {
+                "id": f"p{k}",
+                "family": "polygon",
+                "kind": "hull",
+                "point": "p",
+                "variables": names,
+                "params": made["params"],
+                "text": f"({names[0]}, {names[1]}) inside",
+            }
+        )
+    index = {f"v{k}": k for k in range(variables)}
+    return {"invariants": invariants, "index": index, "queries": queries(rng, data, holes=False)}
+
+
+def queries(rng: np.random.Generator, data: npt.NDArray[Any], holes: bool) -> list[list[float]]:
+    """The training samples, samples near them (one value or all; one value zero), on
+    their edges and far off, and (``holes``) some with a value missing or infinite."""
+    finite = data[np.isfinite(data).all(axis=1)]
+    low, high = finite.min(axis=0), finite.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    picked = finite[rng.integers(0, len(finite), 80)]
+    nudged = finite[rng.integers(0, len(finite), 80)]  # one value a little off: a relation
+    column = rng.integers(0, data.shape[1], 80)
+    nudged[np.arange(80), column] += rng.choice([-1e-6, 1e-6], 80) * span[column]
+    zeroed = finite[rng.integers(0, len(finite), 40)]  # one value zero: non-zero
+    zeroed[np.arange(40), rng.integers(0, data.shape[1], 40)] = 0.0
+    made = [
+        *data[:60],
+        *nudged,
+        *zeroed,
+        *(picked * (1 + rng.normal(0, 1e-12, picked.shape))),
+        *(picked + rng.normal(0, 0.03, picked.shape) * span),
+        *(low + rng.uniform(-0.1, 1.1, (80, data.shape[1])) * span),
+    ]
+    if holes:
+        for k in range(0, len(made), 7):
+            made[k] = made[k].copy()
+            made[k][rng.integers(0, data.shape[1])] = rng.choice([math.nan, math.inf, -math.inf])
+    return [list(map(float, q)) for q in made]
+
+
+def cases() -> list[Case]:
+    return [
+        *(planted(seed) for seed in range(3)),
+        hulls(1, "walk", 6),
+        hulls(2, "ints", 5),
+        hulls(3, "mixed", 7),
+        hulls(4, "", 8),
+    ]
+
+
+def build(case: Case) -> Checks:
+    return Checks(case["invariants"], case["index"], {"mode": 0}, ["avg(a)"])
+
+
+@pytest.mark.parametrize("budget", [polygon_module.TABLE_BUDGET, 200_000, 40_000])
+def test_the_kernel_clears_the_samples_that_break_nothing(
+    budget: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Uncompiled, on every case; ``budget`` makes the polygons' grids 64, 32 and 8 cells a
+    side (the coarse bits' shift 3, 2, 0)."""
+    monkeypatch.setattr(polygon_module, "TABLE_BUDGET", budget)
+    counts = {"cleared": 0, "broken": 0}
+    for case in cases():
+        checks = build(case)
+        tables = checks.tables()
+        polygons = checks.polygon_checks
+        for sample in case["queries"]:
+            row = np.asarray(sample)
+            with np.errstate(all="ignore"):
+                cleared = bool(python_clears(row, *tables))
+                found = [v.invariant for v in checks._numeric(0.0, "p", row)]
+            counts["cleared" if cleared else "broken"] += 1
+            if cleared:
+                assert not found, (sample, found)  # never clears a violation
+                continue
+            if found:
+                continue
+            # not cleared, nothing found: only where numpy's exact paths decide
+            outside = polygons.count and not polygons.in_range(row)
+            edge = any(on_the_tolerance(i, row) for i in case["invariants"])
+            assert outside or edge, sample
+    assert counts["cleared"] > 300 and counts["broken"] > 300, counts
+
+
+def test_the_coarse_bits_cover_the_fine_ones(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A sample whose coarse cell is clear is in no fine cell near an edge."""
+    for budget in (polygon_module.TABLE_BUDGET, 200_000, 40_000):
+        monkeypatch.setattr(polygon_module, "TABLE_BUDGET", budget)
+        checks = build(hulls(5, "walk", 7)).polygon_checks
+        _, shapes, shift = checks.compiled()
+        fine = checks.grid << polygon_module._SPLIT
+        assert fine >> shift == 16
+        for j, shape in enumerate(shapes):
+            words = np.asarray(shape.coarse, dtype=np.int32).view(np.uint32)
+            coarse = np.unpackbits(words.view(np.uint8), bitorder="little").reshape(16, 16)
+            steps = np.arange(fine)
+            near = checks.bits[checks.fine_base[j] + steps[:, None] + 256 * steps[None, :]]
+            near = (near & checks.bit[j]) != 0  # [column cell, row cell]
+            cells = near.reshape(16, fine >> 4, 16, fine >> 4).any(axis=(1, 3))
+            assert (coarse == cells.T).all()  # [row, column], bit column + 16 * row
+            assert near.any() and not near.all()
+
 
 SCRIPT = r"""
 import json, os, sys
 import numpy as np
 sys.path.insert(0, sys.argv[1])
-from runtime.polygons import PolygonChecks
+from runtime.checks import Checks
+from runtime.compiled import clears
 np.seterr(all="ignore")
-answers = []
+out = []
 for case in json.load(open(sys.argv[2])):
-    edges = [tuple(e) for e in case["edges"]]
-    compiled = PolygonChecks(case["polygons"], edges)
-    assert compiled._lookup is not None, "numba did not compile the lookup"
+    build = lambda: Checks(case["invariants"], case["index"], {"mode": 0}, ["avg(a)"])
+    compiled = build()
+    assert compiled._clears is not None, "numba did not compile the checks"
     os.environ["IMROSC_NUMBA"] = "0"
-    plain = PolygonChecks(case["polygons"], edges)
+    plain = build()
     del os.environ["IMROSC_NUMBA"]
-    assert plain._lookup is None
-    found = []
-    for sample in case["samples"]:
+    assert plain._clears is None
+    answers = []
+    for sample in case["queries"]:
         row = np.asarray(sample, dtype=np.float64)
-        readonly = row.copy()
-        readonly.setflags(write=False)  # a monitor's values: a view of the bytes
-        first = compiled.broken(row)
-        assert first == compiled.broken(readonly, compiled.in_range(row)), sample
-        assert first == plain.broken(row), sample
-        if compiled.in_range(row):
-            n = compiled._lookup(row, compiled._offsets, compiled._found)
-            plain.forget()
-            plain.broken(row, True)
-            assert compiled._found[:n].tolist() == plain._last[0].tolist(), sample
-            assert compiled._offsets.tolist() == plain._last[1].tolist(), sample
-        found.append(first)
-    answers.append(found)
-print(json.dumps(answers))
+        data = row.tobytes()
+        kinds = [row, np.frombuffer(data), np.frombuffer(b"\0" + data, offset=1)]
+        got = {bool(compiled._clears(r, *compiled._tables)) for r in kinds}
+        assert got == {bool(clears(row, *compiled._tables))}, sample
+        with_numba = [v.invariant for v in compiled.check(0.0, "p", kinds[2], ["idle"])]
+        without = [v.invariant for v in plain.check(0.0, "p", row, ["idle"])]
+        answers.append([got.pop(), with_numba, without])
+    out.append(answers)
+print(json.dumps(out))
 """
 
 
@@ -75,37 +224,15 @@ def debian_numba() -> None:
         pytest.skip("Debian's python has no numba (apt-get install python3-numba)")
 
 
-def case(seed: int, shape: str, variables: int) -> tuple[dict[str, Any], list[list[int]]]:
-    """Polygons over random clouds and samples in, near and out of them; the answers of
-    every edge evaluated plainly."""
-    rng = np.random.default_rng(seed)
-    clouds, data = clouds_over(rng, variables, 200, shape)
-    polygons, edges, plain = hull_polygons(clouds)
-    low, high = data.min(axis=0), data.max(axis=0)
-    span = np.where(high > low, high - low, 1.0)
-    picked = data[rng.integers(0, len(data), 60)]
-    queries = [
-        *data[:40],  # training samples: inside everything
-        *(low + rng.uniform(-0.1, 1.1, (200, variables)) * span),  # in and out of range
-        *(picked * (1 + rng.normal(0, 1e-12, (60, variables)))),  # on the hulls' edges
-        *(picked + rng.normal(0, 0.05, (60, variables)) * span),  # near them
-    ]
-    samples = [q.tolist() for q in queries]
-    made = {"polygons": polygons, "edges": edges, "samples": samples}
-    return made, [expected(plain, s) for s in samples]
-
-
-def test_the_compiled_lookup_answers_as_numpy_and_the_half_planes(tmp_path: Path) -> None:
+def test_compiled_the_kernel_answers_as_uncompiled_and_the_violations_are_numpys(
+    tmp_path: Path,
+) -> None:
     debian_numba()
     package = tmp_path / "runtime"
     package.mkdir()
     for module in RUNTIME.glob("*.py"):
         (package / module.name).write_bytes(module.read_bytes())
-    made, truth = [], []
-    for seed, shape, variables in ((1, "walk", 6), (2, "ints", 5), (3, "mixed", 7), (4, "", 8)):
-        one, answers = case(seed, shape, variables)
-        made.append(one)
-        truth.append(answers)
+    made = cases()
     (tmp_path / "cases.json").write_text(json.dumps(made), encoding="utf-8")
     done = subprocess.run(
         [str(ROS_PYTHON), "-c", SCRIPT, str(tmp_path), str(tmp_path / "cases.json")],
@@ -116,11 +243,20 @@ def test_the_compiled_lookup_answers_as_numpy_and_the_half_planes(tmp_path: Path
         env=_clean_environment(),
     )
     assert done.returncode == 0, done.stdout + done.stderr
-    assert json.loads(done.stdout) == truth
-    assert sum(1 for answers in truth for found in answers if found) > 50  # many break some
+    cleared = 0
+    for case, answers in zip(made, json.loads(done.stdout), strict=True):
+        by_id = {i["id"]: i for i in case["invariants"]}
+        for sample, (clear, with_numba, without) in zip(case["queries"], answers, strict=True):
+            cleared += clear
+            if with_numba != without:  # a relation on its tolerance: summation orders
+                differ = set(with_numba) ^ set(without)
+                assert all(on_the_tolerance(by_id[i], np.asarray(sample)) for i in differ)
+    assert cleared > 300
 
 
-def test_turned_off_the_lookup_is_numpys(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_turned_off_nothing_is_compiled(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("IMROSC_NUMBA", "0")
-    table = np.zeros(8, dtype=np.uint8)
-    assert candidate_lookup(1, table[:1], table[:1], table[:2], table[:1], table, table) is None
+    assert numba_module() is None
+    checks = build(planted(0))
+    assert checks._clears is None
+    assert compile_checks(checks.tables(), len(checks.index)) is None
