@@ -30,7 +30,9 @@ plain relay (target: within 1.2x). The first 0.5 s of each run is warm-up and no
 The relays subscribe with TCP_NODELAY, as the monitor does on the topics it relays (without
 it a burst from the source waits for Linux's delayed acknowledgement: 40 ms stalls in the
 monitor's 99th percentile); the sink uses rospy's default (Nagle on). Queues of 100 everywhere,
-as the monitor's.
+as the monitor's. The monitor's checks are compiled by numba where Debian's python imports
+it (``python3-numba``, which ``make test`` installs; the header line says which);
+``IMROSC_NUMBA=0`` in the environment measures numpy alone.
 """
 
 from __future__ import annotations
@@ -57,7 +59,14 @@ sys.path.insert(0, str(ROOT))
 
 from imrosc.invariants import dumps  # noqa: E402
 from imrosc.runtime import Engine  # noqa: E402
-from tests.live.harness import ROS_PYTHON, Proc, Ros, ros_missing, wait_until  # noqa: E402
+from tests.live.harness import (  # noqa: E402
+    ROS_PYTHON,
+    Proc,
+    Ros,
+    _clean_environment,
+    ros_missing,
+    wait_until,
+)
 
 TOPIC = "/bench/wide"
 RELAYED = "/bench/relayed"
@@ -245,9 +254,28 @@ def main() -> None:
         f"live ROS 1 (rospy, 127.0.0.1), {MSGTYPE}: a header and {COLUMNS} float64; "
         f"{len(document['invariants'])} invariants on the relayed topic; {args.rounds} x "
         f"{args.seconds:g} s per path and rate after {WARMUP:g} s of warm-up; latency = "
-        f"receipt - header.stamp; load average {load:.1f} before, {os.getloadavg()[0]:.1f} after"
+        f"receipt - header.stamp; load average {load:.1f} before, {os.getloadavg()[0]:.1f} after; "
+        f"the monitor's checks {checks_compiled()}"
     )
     report(results)
+
+
+def checks_compiled() -> str:
+    """Whether the monitor's checks are compiled by numba (``imrosc/runtime/compiled.py``):
+    numba importable by Debian's python, and not turned off by ``IMROSC_NUMBA=0``."""
+    if os.environ.get("IMROSC_NUMBA", "1") == "0":
+        return "not compiled (IMROSC_NUMBA=0: numpy alone)"
+    probe = subprocess.run(
+        [str(ROS_PYTHON), "-c", "import numba; print(numba.__version__)"],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+        env=_clean_environment(),
+    )
+    if probe.returncode != 0:
+        return "not compiled (no numba for Debian's python: numpy alone)"
+    return f"compiled by numba {probe.stdout.strip()}"
 
 
 def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
