@@ -63,8 +63,8 @@ from tests.live.harness import (  # noqa: E402
     ROS_PYTHON,
     Proc,
     Ros,
-    _clean_environment,
     ros_missing,
+    ros_python_version_of,
     wait_until,
 )
 
@@ -265,17 +265,10 @@ def checks_compiled() -> str:
     numba importable by Debian's python, and not turned off by ``IMROSC_NUMBA=0``."""
     if os.environ.get("IMROSC_NUMBA", "1") == "0":
         return "not compiled (IMROSC_NUMBA=0: numpy alone)"
-    probe = subprocess.run(
-        [str(ROS_PYTHON), "-c", "import numba; print(numba.__version__)"],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-        env=_clean_environment(),
-    )
-    if probe.returncode != 0:
+    version = ros_python_version_of("numba")
+    if version is None:
         return "not compiled (no numba for Debian's python: numpy alone)"
-    return f"compiled by numba {probe.stdout.strip()}"
+    return f"compiled by numba {version}"
 
 
 def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:

@@ -6,7 +6,9 @@ grouped with its kind into arrays: bounds, orderings, equalities and linear and 
 relations as linear forms (one matrix-vector product, :class:`_Forms`), one-of sets,
 polygons as lookup tables and half-planes ``A x <= b`` (:mod:`.polygons`). Checking a
 sample costs a handful of numpy operations whatever the number of invariants; the
-violations are built only when one of them fails.
+violations are built only when one of them fails. Where numba is importable, one compiled
+call over the same tables first clears the samples that break nothing (:mod:`.compiled`);
+numpy's operations then run only for the others.
 
 A missing value (NaN) breaks nothing: inference skipped it too. The checks do not wrap
 themselves in ``np.errstate`` (it costs more than a check): callers run the engine with

@@ -94,6 +94,26 @@ def ros_missing() -> str | None:
     return None
 
 
+@functools.cache
+def ros_python_version_of(module: str) -> str | None:
+    """The version of ``module`` as Debian's python imports it (``None``: it cannot; the
+    monitor's optional numba, for one)."""
+    if not ROS_PYTHON.exists():
+        return None
+    try:
+        done = subprocess.run(
+            [str(ROS_PYTHON), "-c", f"import {module}; print({module}.__version__)"],
+            env=_clean_environment(),
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return done.stdout.strip() if done.returncode == 0 else None
+
+
 def _clean_environment() -> dict[str, str]:
     """This process's environment without what would mislead Debian's Python or ROS."""
     dropped = ("ROS_", "PYTHON", "VIRTUAL_ENV", "PYENV", "CONDA", TOKEN_VARIABLE)

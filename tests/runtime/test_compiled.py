@@ -25,8 +25,8 @@ from imrosc.runtime import polygons as polygon_module
 from imrosc.runtime.checks import Checks
 from imrosc.runtime.compiled import clears as python_clears
 from imrosc.runtime.compiled import compile_checks, numba_module
-from tests.live.harness import ROS_PYTHON, _clean_environment
-from tests.runtime.test_checks import NUMERIC, infer, on_the_tolerance
+from tests.live.harness import ROS_PYTHON, _clean_environment, ros_python_version_of
+from tests.runtime.test_checks import NUMERIC, infer, on_the_tolerance, planted
 from tests.runtime.test_polygons import clouds_over, hull_polygons
 
 RUNTIME = Path(imrosc.runtime.__file__).parent
@@ -35,26 +35,11 @@ Case = dict[str, Any]
 """``invariants``, ``index`` (numeric names to positions) and ``queries`` (samples)."""
 
 
-def planted(seed: int) -> Case:
+def every_family(seed: int) -> Case:
     """Every family, inferred from planted columns; queries on and off the data, some
     values missing or infinite."""
     rng = np.random.default_rng(seed)
-    n = 120
-    x = rng.uniform(-5, 5, n) * [1.0, 1e-6, 1e6][seed % 3]
-    m = rng.uniform(0, 1, n)
-    columns: dict[str, npt.NDArray[Any]] = {
-        "x": x,
-        "y": 2.5 * x + 3,
-        "z": x - 2 * m + 1,
-        "m": m,
-        "k": rng.choice([1.0, 2.0, 3.0], n),
-        "nz": rng.choice([-3.0, -1.0, 2.0, 5.0], n),
-        "flag": rng.choice([0.0, 1.0], n),
-        "u": x + rng.uniform(0, 1, n),
-        "v": rng.uniform(0, 1, n) * (x - x.min() + 1),
-        "avg(a)": rng.uniform(1, 2, n),
-        "mode": rng.choice(np.array(["idle", "run"], dtype=object), n),
-    }
+    columns = planted(rng, 120, [1.0, 1e-6, 1e6][seed % 3])
     invariants = infer(columns, 1000)
     data = np.stack([columns[name] for name in NUMERIC], axis=1)
     return {
@@ -116,7 +101,7 @@ def queries(rng: np.random.Generator, data: npt.NDArray[Any], holes: bool) -> li
 
 def cases() -> list[Case]:
     return [
-        *(planted(seed) for seed in range(3)),
+        *(every_family(seed) for seed in range(3)),
         hulls(1, "walk", 6),
         hulls(2, "ints", 5),
         hulls(3, "mixed", 7),
@@ -210,18 +195,8 @@ print(json.dumps(out))
 
 def debian_numba() -> None:
     """Skip unless Debian's python imports numba (``make test`` installs python3-numba)."""
-    if not ROS_PYTHON.exists():
-        pytest.skip(f"{ROS_PYTHON} is missing")
-    probe = subprocess.run(
-        [str(ROS_PYTHON), "-c", "import numba"],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-        env=_clean_environment(),
-    )
-    if probe.returncode != 0:
-        pytest.skip("Debian's python has no numba (apt-get install python3-numba)")
+    if ros_python_version_of("numba") is None:
+        pytest.skip(f"{ROS_PYTHON} cannot import numba (apt-get install python3-numba)")
 
 
 def test_compiled_the_kernel_answers_as_uncompiled_and_the_violations_are_numpys(
@@ -257,6 +232,6 @@ def test_compiled_the_kernel_answers_as_uncompiled_and_the_violations_are_numpys
 def test_turned_off_nothing_is_compiled(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("IMROSC_NUMBA", "0")
     assert numba_module() is None
-    checks = build(planted(0))
+    checks = build(every_family(0))
     assert checks._clears is None
     assert compile_checks(checks.tables(), len(checks.index)) is None
