@@ -127,6 +127,7 @@ def test_package_xml_is_format_2_with_its_dependencies(landing_package: dict[str
     assert root.findtext("name") == PACKAGE
     depends = {e.text for e in root.iter("exec_depend")}
     assert {"rospy", "std_msgs", "geometry_msgs", "sensor_msgs", "python3-numpy"} <= depends
+    assert "python3-numba" in depends  # the compiled checks, where rosdep installs them
     assert root.findtext("buildtool_depend") == "catkin"
     cmake = landing_package[f"{PACKAGE}/CMakeLists.txt"].decode()
     assert f"project({PACKAGE})" in cmake

@@ -49,7 +49,18 @@ BACKEND = "ros1"
 SYSTEM_LAUNCH = "launch/system_monitored.launch"
 ADAPTER_DIR = "scripts/imrosc_monitor"
 RUNTIME_DIR = "scripts/imrosc_runtime"
-EXEC_DEPENDS = ("python3-numpy", "rosgraph", "roslib", "rospy", "rosservice", "std_msgs")
+EXEC_DEPENDS = (
+    "python3-numba",
+    "python3-numpy",
+    "rosgraph",
+    "roslib",
+    "rospy",
+    "rosservice",
+    "std_msgs",
+)
+"""The node's run-time dependencies (rosdep keys). ``python3-numba`` compiles the checks
+(``imrosc/runtime/compiled.py``; the node runs without it, slower): its rosdep key resolves on
+Debian and on Noetic's Ubuntu (focal)."""
 _CMAKE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+")
 
