@@ -379,14 +379,10 @@ class _Forms:
             return
         dense = np.zeros((height, self.zero))
         limit = np.empty(height)
-        for k, (terms, bound) in enumerate(self.rows):
-            constant = 0.0
+        for k, (terms, moved) in enumerate(self.moved()):
             for index, weight in terms:
-                if index == self.one:
-                    constant += weight
-                elif index != self.zero:
-                    dense[k, index] += weight
-            limit[k] = bound - constant
+                dense[k, index] += weight
+            limit[k] = moved
         for k, (index, weight, bound) in enumerate(extra):
             dense[self.size + k, index] = weight
             limit[self.size + k] = bound
@@ -404,7 +400,7 @@ class _Forms:
         terms on the sample's values and its limit less its constant."""
         moved = []
         for terms, bound in self.rows:
-            constant = sum(weight for index, weight in terms if index == self.one)
+            constant = sum([weight for index, weight in terms if index == self.one], 0.0)
             kept = [(index, weight) for index, weight in terms if index < self.zero]
             moved.append((kept, bound - constant))
         return moved
