@@ -29,6 +29,7 @@ checks every sample.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from typing import Any, Callable, Iterator, List, NamedTuple, Optional, Sequence, Tuple
@@ -95,6 +96,12 @@ def numba_module() -> Any:
     """numba, or ``None`` (not installed, not importable, or ``IMROSC_NUMBA=0``)."""
     if os.environ.get("IMROSC_NUMBA", "1") == "0":
         return None
+    return _imported_numba()
+
+
+@functools.lru_cache(maxsize=None)
+def _imported_numba() -> Any:
+    """numba, imported once (a failed import is not retried for every point)."""
     try:
         import numba  # type: ignore[import-not-found, unused-ignore]
     except Exception:  # ImportError, or a numba built for another numpy
@@ -149,8 +156,9 @@ def pack(
     for polygon in polygons:
         first = len(abc) // 3
         abc += [v for edge in polygon.edges for v in edge]
-        records += [polygon.column, polygon.row, polygon.base, polygon.bit, polygon.x]
-        records += [polygon.y, first, len(abc) // 3, *polygon.coarse]
+        stop = len(abc) // 3
+        records += [polygon.column, polygon.row, polygon.base, polygon.bit, polygon.x, polygon.y]
+        records += [first, stop, *polygon.coarse]
     put_ints(_POLYGON, records)
     put_floats(_ABC, abc)
     header[_ONE_OF] = len(one_of)

@@ -266,20 +266,19 @@ class PolygonChecks:
         shift = (fine // COARSE).bit_length() - 1
         steps = np.arange(fine, dtype=np.int64)
         spots = steps[:, None] + 256 * steps[None, :]  # [column cell, row cell] -> offset
-        weights = np.left_shift(np.ones(32, dtype=np.uint64), np.arange(32, dtype=np.uint64))
         polygons: List[Polygon] = []
         for j in range(self.count):
             near = (self.bits[self.fine_base[j] + spots] & self.bit[j]) != 0
             cells = near.reshape(COARSE, fine // COARSE, COARSE, fine // COARSE).any(axis=(1, 3))
-            flat = cells.T.reshape(-1)  # bit column + COARSE * row
-            words = (flat.reshape(-1, 32) * weights).sum(axis=1).astype(np.uint32)
+            # bit column + COARSE * row, little-endian: bit b of word b >> 5 is bit b & 31
+            words = np.packbits(cells.T.reshape(-1), bitorder="little").view("<i4")
             polygons.append(
                 Polygon(
                     int(self.fine_at[2 * j]),
                     int(self.fine_at[2 * j + 1]),
                     int(self.fine_base[j]),
                     int(self.bit[j]),
-                    words.view(np.int32).tolist(),
+                    words.tolist(),
                     self.xs[j],
                     self.ys[j],
                     self.edges[j][: len(self.edges[j]) // 2],

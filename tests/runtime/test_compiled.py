@@ -26,7 +26,7 @@ from imrosc.runtime.checks import Checks
 from imrosc.runtime.compiled import clears as python_clears
 from imrosc.runtime.compiled import compile_checks, numba_module
 from tests.live.harness import ROS_PYTHON, _clean_environment, ros_python_version_of
-from tests.runtime.test_checks import NUMERIC, infer, on_the_tolerance, planted
+from tests.runtime.test_checks import NUMERIC, infer, inv, on_the_tolerance, planted
 from tests.runtime.test_polygons import clouds_over, hull_polygons
 
 RUNTIME = Path(imrosc.runtime.__file__).parent
@@ -54,20 +54,10 @@ def hulls(seed: int, shape: str, variables: int) -> Case:
     rng = np.random.default_rng(seed)
     clouds, data = clouds_over(rng, variables, 200, shape)
     shapes, _, _ = hull_polygons(clouds)
-    invariants = []
-    for k, ((x, y), made) in enumerate(zip(clouds, shapes, strict=True)):
-        names = [f"v{x}", f"v{y}"]
-        invariants.append(
-            {
-                "id": f"p{k}",
-                "family": "polygon",
-                "kind": "hull",
-                "point": "p",
-                "variables": names,
-                "params": made["params"],
-                "text": f"({names[0]}, {names[1]}) inside",
-            }
-        )
+    invariants = [
+        inv(f"p{k}", "polygon", "hull", [f"v{x}", f"v{y}"], **made["params"])
+        for k, ((x, y), made) in enumerate(zip(clouds, shapes, strict=True))
+    ]
     index = {f"v{k}": k for k in range(variables)}
     return {"invariants": invariants, "index": index, "queries": queries(rng, data, holes=False)}
 
