@@ -136,7 +136,17 @@ def test_a_second_publisher(ros: Ros, listener: Listener) -> None:
         )
     finally:
         ros.stop(intruder)
-    wait_until(lambda: ros.publishers(POSE) == {"/a/car"}, "the intruder to unregister")
+    seen: list[set[str]] = []
+
+    def only_the_car() -> bool:
+        seen[:] = [ros.publishers(POSE)]
+        return seen[0] == {"/a/car"}
+
+    try:
+        wait_until(only_the_car, "the intruder to unregister")
+    except AssertionError as error:  # say what the master still had, and how it ended
+        code = intruder.popen.returncode
+        raise AssertionError(f"{error}: publishers {seen}, the intruder's exit {code}") from None
 
 
 def test_faults_from_the_command_line(ros: Ros) -> None:
