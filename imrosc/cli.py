@@ -18,6 +18,8 @@ from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
+EXIT_VIOLATIONS = 3
+"""``imrosc replay``: violations that raised no alarm."""
 
 graph_option = click.option(
     "--graph",
@@ -359,7 +361,8 @@ def replay(
 ) -> None:
     """Run the monitor's engine over BAGS as if live and print the violation timeline.
 
-    Exit status: 0 no violation, 1 violations (or a bag that could not be read).
+    Exit status: 0 no violation, 1 an alarm (or a bag that could not be read), 3
+    violations that raised no alarm.
     """
     from imrosc.bags import discover_bags
     from imrosc.invariants import InvariantsFileError, load
@@ -379,8 +382,9 @@ def replay(
     _report(problems, "text")
     report, results = replay_document(inv, document, found, plots=not no_plots)
     _emit(report, "json" if as_json else output_format, report_path, force)
-    broken = any(r.violations or r.error for r in results) or has_errors(problems)
-    sys.exit(EXIT_ERRORS if broken else EXIT_CLEAN)
+    broken = any(r.alarms or r.error for r in results) or has_errors(problems)
+    violated = any(r.violations for r in results)
+    sys.exit(EXIT_ERRORS if broken else EXIT_VIOLATIONS if violated else EXIT_CLEAN)
 
 
 @main.command()

@@ -21,6 +21,7 @@ from imrosc import __version__, records
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, open_bag
 from imrosc.runtime import Engine, Violation
+from imrosc.runtime.alarms import Alarm, AlarmRule, alarms_json
 from imrosc.runtime.flatten import make_flattener
 from imrosc.runtime.violation import json_safe
 from imrosc.translate.catalog import flatten_json
@@ -34,6 +35,7 @@ class RunResult:
 
     bag: Path
     violations: list[Violation] = field(default_factory=list)
+    alarms: list[Alarm] = field(default_factory=list)
     messages: int = 0
     start: float = 0.0
     end: float = 0.0
@@ -66,9 +68,14 @@ def _callerids(connections: Iterable[Any]) -> dict[str, dict[str, frozenset[str]
 class Replayer:
     """Feeds bags to one engine built from an invariants document."""
 
-    def __init__(self, document: Mapping[str, Any], engine: Engine | None = None) -> None:
+    def __init__(
+        self,
+        document: Mapping[str, Any],
+        engine: Engine | None = None,
+        rule: AlarmRule | None = None,
+    ) -> None:
         self.document = document
-        self.engine = engine if engine is not None else Engine(document)
+        self.engine = engine if engine is not None else Engine(document, rule=rule)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
@@ -106,6 +113,9 @@ class Replayer:
                 withdrawn = {id(v) for v in engine.end_run()}
                 if withdrawn:
                     found[:] = [v for v in found if id(v) not in withdrawn]
+                result.alarms = [
+                    a for a in engine.take_alarms() if id(a.violation) not in withdrawn
+                ]
         except BagError as error:
             result.error = str(error)
         return result
@@ -129,9 +139,11 @@ class Replayer:
             return []
 
 
-def replay(document: Mapping[str, Any], bags: Iterable[Path]) -> list[RunResult]:
-    """Replay each bag as one run."""
-    replayer = Replayer(document)
+def replay(
+    document: Mapping[str, Any], bags: Iterable[Path], rule: AlarmRule | None = None
+) -> list[RunResult]:
+    """Replay each bag as one run (alarms under ``rule``, else the file's rule)."""
+    replayer = Replayer(document, rule=rule)
     return [replayer.run(bag) for bag in bags]
 
 
@@ -271,6 +283,7 @@ def replay_document(
                 "skipped": result.skipped,
                 "error": result.error,
                 "violations": len(result.violations),
+                "alarms": alarms_json(result.alarms),
                 "episodes": episodes(result.violations),
                 "plots": trace.plots(document, result.violations)
                 if trace is not None

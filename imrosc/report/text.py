@@ -28,6 +28,10 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[str]], align: str = "l
     return lines
 
 
+ALARMS_SHOWN = 20
+"""Alarms listed per run in a text report (all are in the JSON report)."""
+
+
 def replay(view: Replay) -> str:
     """A replay report: per run a header line and the timeline of its episodes."""
     title = f"imrosc replay of {view.invariants}"
@@ -38,6 +42,13 @@ def replay(view: Replay) -> str:
         lines += ["", f"{run.bag}: {run.summary}"]
         if run.error is not None:
             continue
+        for alarm in run.alarms[:ALARMS_SHOWN]:
+            why = f"{alarm.invariants} invariants together" if alarm.rule == "agree" else alarm.rule
+            lines.append(
+                f"  ALARM {alarm.time}  {alarm.point}  ({why})  {alarm.invariant}  {alarm.text}"
+            )
+        if len(run.alarms) > ALARMS_SHOWN:
+            lines.append(f"  ... {len(run.alarms) - ALARMS_SHOWN} more alarms")
         if not run.episodes:
             if run.violated:  # violations counted without episodes: say so, list nothing
                 lines.append("  no episodes recorded")

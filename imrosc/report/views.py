@@ -65,6 +65,35 @@ class Episode:
 
 
 @dataclass(frozen=True)
+class RaisedAlarm:
+    """An alarm of a run: when (from the run's start), where, by which rule, and the
+    violation that raised it."""
+
+    time: str
+    offset: float
+    point: str
+    rule: str
+    invariants: int
+    invariant: str
+    text: str
+
+
+def raised_alarm(data: Mapping[str, Any], start: float) -> RaisedAlarm:
+    """An alarm of a replay document's run."""
+    at = _float(data.get("time"), start)
+    violation = data.get("violation") or {}
+    return RaisedAlarm(
+        time=seconds(at - start),
+        offset=at - start,
+        point=_text(data.get("point")),
+        rule=_text(data.get("rule")),
+        invariants=len(data.get("invariants") or ()),
+        invariant=_text(violation.get("invariant")),
+        text=_text(violation.get("text")),
+    )
+
+
+@dataclass(frozen=True)
 class Run:
     """One replayed bag."""
 
@@ -76,6 +105,7 @@ class Run:
     error: str | None
     violations: int
     episodes: list[Episode]
+    alarms: list[RaisedAlarm] = field(default_factory=list)
     polygons: list[Mapping[str, Any]] = field(default_factory=list)
     frequencies: list[Mapping[str, Any]] = field(default_factory=list)
 
@@ -104,6 +134,10 @@ class Run:
             )
         else:
             parts.append("no violations")
+        if self.alarms:
+            parts.append(f"{plural(len(self.alarms), 'alarm')}, the first at {self.alarms[0].time}")
+        else:
+            parts.append("no alarm")
         return ", ".join(parts)
 
 
@@ -119,7 +153,12 @@ class Replay:
     def summary(self) -> str:
         """``3 runs, 1 with violations, 1 unreadable``."""
         violated = sum(1 for r in self.runs if r.violated)
-        parts = [plural(len(self.runs), "run"), f"{violated} with violations"]
+        alarmed = sum(1 for r in self.runs if r.alarms)
+        parts = [
+            plural(len(self.runs), "run"),
+            f"{violated} with violations",
+            f"{alarmed} with alarms",
+        ]
         unreadable = sum(1 for r in self.runs if r.error is not None)
         if unreadable:
             parts.append(f"{unreadable} unreadable")
@@ -172,6 +211,7 @@ def run(data: Mapping[str, Any]) -> Run:
         error=None if error is None else str(error),
         violations=int(data.get("violations") or 0),
         episodes=episodes,
+        alarms=[raised_alarm(a, start) for a in data.get("alarms") or []],
         polygons=list(plots.get("polygons") or []),
         frequencies=list(plots.get("frequencies") or []),
     )

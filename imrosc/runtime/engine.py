@@ -18,6 +18,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .alarms import Alarm, AlarmRule, AlarmTracker
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
 from .conditions import holds
@@ -219,12 +220,21 @@ class Engine:
     """Checks the invariants of an invariants document against what happens.
 
     ``document`` is the parsed invariants file. ``trace`` (optional) sees every checked
-    sample (reports draw trajectories and frequencies with it).
+    sample (reports draw trajectories and frequencies with it). Every method returns the
+    violations it found; the alarms they raise under the file's rule (``alarms``, or
+    ``rule`` when given) are collected by :meth:`take_alarms`.
     """
 
-    def __init__(self, document: Mapping[str, Any], trace: Optional[Trace] = None) -> None:
+    def __init__(
+        self,
+        document: Mapping[str, Any],
+        trace: Optional[Trace] = None,
+        rule: Optional[AlarmRule] = None,
+    ) -> None:
         self.document = document
         self.trace = trace
+        self.alarm_rule = rule if rule is not None else AlarmRule.from_json(document.get("alarms"))
+        self.alarms = AlarmTracker(self.alarm_rule)
         self.layouts: Dict[str, List[Mapping[str, Any]]] = {
             topic: list(info["variables"]) for topic, info in document["topics"].items()
         }
@@ -340,6 +350,11 @@ class Engine:
         self.next_arch: Optional[float] = None
         for point in self.points.values():
             point.reset()
+        self.alarms.reset()
+
+    def take_alarms(self) -> List[Alarm]:
+        """The alarms raised since the last call (or the last :meth:`reset`)."""
+        return self.alarms.take()
 
     def end_run(self) -> Found:
         """A recorded run ends: the violations of ordered-pair intervals still open, which
@@ -404,7 +419,10 @@ class Engine:
             for point in self._publish.get(topic, ()):
                 if point.plain and self.trace is None:
                     # the common case: the message is the row, nothing else to do
-                    found += point.checks.check(time, point.key, array)
+                    broken = point.checks.check(time, point.key, array)
+                    if broken or self.alarms.busy(point.key):
+                        self.alarms.sample(point.key, time, broken)
+                        found += broken
                 else:
                     found += self._publish_sample(point, time)
         events = self._publish_events.get(topic)
@@ -444,7 +462,10 @@ class Engine:
     def _check(self, point: _Point, time: float, row: Any, texts: Sequence[Any]) -> Found:
         if point.filters and not point.accepts(row, self.latest_named, texts):
             return []
-        return point.sample(time, row, texts, self.trace)
+        broken = point.sample(time, row, texts, self.trace)
+        if broken or self.alarms.busy(point.key):
+            self.alarms.sample(point.key, time, broken)
+        return broken
 
     def call(self, service: str, time: float, values: Mapping[str, Any]) -> Found:
         """A service call: ``values`` by field path (``request.a``, ``response.b``,
@@ -500,6 +521,7 @@ class Engine:
             if point.filters and not point.accepts(np.empty(0), self.latest_named):
                 continue
             found += point.arch.check(time, self.snapshot, self.snapshot_kinds)
+        self.alarms.event(found)
         return found
 
     def _event(self, point: _Point, time: float, event: str) -> Found:
@@ -508,6 +530,7 @@ class Engine:
             found += machine.event(time, event)
         for pattern in point.patterns:
             found += pattern.event(time, event)
+        self.alarms.event(found)
         return found
 
     def advance(self, now: float) -> Found:
@@ -515,6 +538,8 @@ class Engine:
         found: Found = []
         for point in self._timed:
             found += point.tick(now)
+        if found:
+            self.alarms.event(found)
         while self.next_arch is not None and self.next_arch <= now:
             found += self._arch(self.next_arch)
             self.next_arch += ARCH_PERIOD

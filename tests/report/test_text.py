@@ -38,15 +38,17 @@ def test_episodes_read_in_time_order_relative_to_the_start(
     replay_document: dict[str, Any],
 ) -> None:
     lines = render(replay_document, "text").splitlines()
-    times = [line.split()[0] for line in lines if line.startswith("  ") and " s  " in line]
-    assert times == ["12.300", "20.000", "31.250", "40.000"]
-    assert "(37x until 14.100 s)" in lines[3]
-    assert "observed 4.1, expected [-2.1, 3.7]" in lines[3]
-    assert "observed nan" in lines[6]
+    episodes = [line for line in lines if line.startswith("  ") and " s  " in line]
+    episodes = [line for line in episodes if not line.startswith("  ALARM")]
+    assert [line.split()[0] for line in episodes] == ["12.300", "20.000", "31.250", "40.000"]
+    assert "(37x until 14.100 s)" in episodes[0]
+    assert "observed 4.1, expected [-2.1, 3.7]" in episodes[0]
+    assert "observed nan" in episodes[3]
 
 
 def test_single_violation_has_no_repeat_note(replay_document: dict[str, Any]) -> None:
-    (line,) = [x for x in render(replay_document, "text").splitlines() if "31.250 s" in x]
+    lines = render(replay_document, "text").splitlines()
+    (line,) = [x for x in lines if "31.250 s" in x and not x.startswith("  ALARM")]
     assert "x until" not in line
     assert line.endswith("observed [4.2, 3.9], expected inside")
 
@@ -55,7 +57,9 @@ def test_a_run_without_violations_says_so(replay_document: dict[str, Any]) -> No
     text = render(replay_document, "text")
     assert "bags/success/nominal.bag: 4410 messages over 42.500 s, 2 skipped, no violations" in text
     assert "bags/fail/truncated.bag: unreadable: unexpected end of file in chunk 3" in text
-    assert text.endswith("3 runs, 1 with violations, 1 unreadable\n")
+    assert text.endswith("3 runs, 1 with violations, 1 with alarms, 1 unreadable\n")
+    assert "  ALARM 12.450 s  a  (persist)  i0123456789a" in text
+    assert "  ALARM 31.250 s  v  (2 invariants together)  i5b0c61e9d2f4" in text
 
 
 def test_kept_invariants_best_f_first_and_dropped_count() -> None:

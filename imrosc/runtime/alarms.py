@@ -1,0 +1,185 @@
+"""Alarms: when violations are worth acting on.
+
+A violation is one invariant broken by one sample or one event; an alarm is the engine's
+decision that the system is in trouble. A point's violations raise an alarm when
+
+* **persistence**: one invariant is violated by ``persist`` consecutive samples of its point
+  (or, when ``seconds`` is set, by consecutive samples spanning at least that long), or
+* **agreement**: ``distinct`` different invariants of the point are violated within
+  ``window`` seconds,
+
+and an *event* violation (a silent topic, an ordered pair past its maximum time, an
+unexpected or missing node, an event sequence outside its pattern) raises one at once: it
+is already the outcome of a timer or of a whole sequence. An alarm is raised once per
+episode: persistence again only after the invariant held on a sample of its point,
+agreement again only after fewer than ``distinct`` invariants were violated in the window.
+
+``imrosc infer`` calibrates the rule on the training runs (``docs/calibration.md``) and
+writes it into the invariants file as ``alarms``; a file without it gets
+:data:`EVERY_VIOLATION`, under which every violation is an alarm.
+
+>>> rule = AlarmRule(persist=3, distinct=2, window=1.0)
+>>> tracker = AlarmTracker(rule)
+>>> v = Violation(0.0, "a", "i1", "bounds", "upper", "x <= 1", 2.0, "<= 1")
+>>> [len(tracker.sample("a", t, [v._replace(time=t)])) for t in (0.0, 0.1, 0.2, 0.3)]
+[0, 0, 1, 0]
+>>> tracker.sample("a", 0.4, [v._replace(time=0.4, invariant="i2")])[0].rule
+'agree'
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
+
+from .violation import Violation, json_safe
+
+EVENT_FAMILIES = frozenset({"architecture", "interval", "pattern"})
+"""Families whose violations are events, not samples: each raises an alarm at once."""
+
+
+class AlarmRule(NamedTuple):
+    """When violations raise an alarm (see the module's docstring)."""
+
+    persist: int = 1
+    """Consecutive violating samples of one invariant (1: every violation alarms)."""
+    seconds: Optional[float] = None
+    """Or consecutive violating samples spanning at least this long (None: not used)."""
+    distinct: int = 0
+    """Distinct invariants of a point violated within ``window`` (0: not used)."""
+    window: float = 1.0
+    """Seconds of the agreement rule."""
+
+    def as_json(self) -> Dict[str, Any]:
+        return {
+            "persist": self.persist,
+            "seconds": self.seconds,
+            "distinct": self.distinct,
+            "window": self.window,
+        }
+
+    @classmethod
+    def from_json(cls, data: Optional[Mapping[str, Any]]) -> AlarmRule:
+        """The rule of an invariants file's ``alarms`` (every violation alarms without it)."""
+        if not data:
+            return EVERY_VIOLATION
+        seconds = data.get("seconds")
+        return cls(
+            max(1, int(data.get("persist", 1))),
+            None if seconds is None else float(seconds),
+            max(0, int(data.get("distinct", 0))),
+            float(data.get("window", 1.0)),
+        )
+
+    def overridden(self, **changes: Any) -> AlarmRule:
+        """The rule with the given fields replaced (``None`` values keep the field)."""
+        return self._replace(**{k: v for k, v in changes.items() if v is not None})
+
+
+EVERY_VIOLATION = AlarmRule()
+
+
+class Alarm(NamedTuple):
+    """An alarm: the violation that raised it, the rule (``persist``, ``agree``, ``event``)
+    and the invariants that took part."""
+
+    time: float
+    point: str
+    rule: str
+    invariants: Tuple[str, ...]
+    violation: Violation
+
+    def as_json(self) -> Dict[str, Any]:
+        return {
+            "time": self.time,
+            "point": self.point,
+            "rule": self.rule,
+            "invariants": list(self.invariants),
+            "violation": self.violation.as_json(),
+        }
+
+    def describe(self) -> str:
+        """One line: why the alarm was raised."""
+        v = self.violation
+        if self.rule == "agree":
+            why = f"{len(self.invariants)} invariants broken together"
+        elif self.rule == "persist":
+            why = "a violation that persists"
+        else:
+            why = "an event"
+        return f"alarm at {self.time:.3f} s, {self.point}: {why}; {v.invariant} {v.text}"
+
+
+class AlarmTracker:
+    """Turns a run's violations into alarms under one rule (one tracker per run)."""
+
+    def __init__(self, rule: AlarmRule = EVERY_VIOLATION) -> None:
+        self.rule = rule
+        self.reset()
+
+    def reset(self) -> None:
+        """A new run: no episode is open."""
+        self._episodes: Dict[str, Dict[str, List[float]]] = {}
+        """Point to invariant to ``[first time, samples, alarmed]`` of its open episode."""
+        self._recent: Dict[str, Deque[Tuple[float, str]]] = {}
+        self._agreeing: Set[str] = set()
+        self.raised: List[Alarm] = []
+
+    def busy(self, point: str) -> bool:
+        """Whether ``point`` has an open episode (a clean sample must then be told)."""
+        return bool(self._episodes.get(point))
+
+    def sample(self, point: str, time: float, found: Sequence[Violation]) -> List[Alarm]:
+        """A checked sample of ``point`` and the violations it gave (maybe none)."""
+        rule = self.rule
+        episodes = self._episodes.setdefault(point, {})
+        now_broken = {v.invariant for v in found}
+        for ident in [i for i in episodes if i not in now_broken]:
+            del episodes[ident]
+        raised: List[Alarm] = []
+        for v in found:
+            episode = episodes.get(v.invariant)
+            if episode is None:
+                episode = episodes[v.invariant] = [time, 0.0, 0.0]
+            episode[1] += 1
+            if episode[2]:
+                continue
+            lasting = rule.seconds is not None and time - episode[0] >= rule.seconds
+            if episode[1] >= rule.persist or lasting:
+                episode[2] = 1.0
+                raised.append(Alarm(time, point, "persist", (v.invariant,), v))
+        if rule.distinct > 0:
+            raised += self._agree(point, time, found)
+        self.raised += raised
+        return raised
+
+    def _agree(self, point: str, time: float, found: Sequence[Violation]) -> List[Alarm]:
+        recent = self._recent.setdefault(point, deque())
+        for v in found:
+            recent.append((time, v.invariant))
+        while recent and recent[0][0] < time - self.rule.window:
+            recent.popleft()
+        distinct = {ident for _, ident in recent}
+        if len(distinct) < self.rule.distinct:
+            self._agreeing.discard(point)
+            return []
+        if point in self._agreeing or not found:
+            return []
+        self._agreeing.add(point)
+        return [Alarm(time, point, "agree", tuple(sorted(distinct)), found[0])]
+
+    def event(self, found: Sequence[Violation]) -> List[Alarm]:
+        """Event violations (timers, graph, orderings): each raises an alarm."""
+        raised = [Alarm(v.time, v.point, "event", (v.invariant,), v) for v in found]
+        self.raised += raised
+        return raised
+
+    def take(self) -> List[Alarm]:
+        """The alarms raised since the last call."""
+        raised, self.raised = self.raised, []
+        return raised
+
+
+def alarms_json(alarms: Sequence[Alarm]) -> List[Dict[str, Any]]:
+    """JSON data of alarms."""
+    return [json_safe(a.as_json()) for a in alarms]

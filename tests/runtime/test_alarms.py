@@ -1,0 +1,115 @@
+"""Alarms: persistence, agreement and events, alone and inside the engine."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from imrosc.runtime import Engine, Violation
+from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
+from tests.runtime.test_engine import inv, var
+
+
+def broken(ident: str, time: float, point: str = "p") -> Violation:
+    return Violation(time, point, ident, "bounds", "upper", ident, 2.0, "<= 1")
+
+
+def test_persistence_needs_consecutive_samples() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=3))
+    assert tracker.sample("p", 0.0, [broken("a", 0.0)]) == []
+    assert tracker.sample("p", 0.1, [broken("a", 0.1)]) == []
+    assert tracker.sample("p", 0.2, []) == []  # a clean sample ends the episode
+    assert tracker.sample("p", 0.3, [broken("a", 0.3)]) == []
+    assert tracker.sample("p", 0.4, [broken("a", 0.4)]) == []
+    (alarm,) = tracker.sample("p", 0.5, [broken("a", 0.5)])
+    assert (alarm.time, alarm.rule, alarm.invariants) == (0.5, "persist", ("a",))
+    assert tracker.sample("p", 0.6, [broken("a", 0.6)]) == []  # once per episode
+    assert tracker.take() == [alarm]
+    assert tracker.take() == []
+
+
+def test_persistence_by_duration() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=100, seconds=1.0))
+    assert tracker.sample("p", 0.0, [broken("a", 0.0)]) == []
+    assert tracker.sample("p", 0.9, [broken("a", 0.9)]) == []
+    assert [a.rule for a in tracker.sample("p", 1.0, [broken("a", 1.0)])] == ["persist"]
+
+
+def test_other_points_do_not_end_an_episode() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=2))
+    tracker.sample("p", 0.0, [broken("a", 0.0)])
+    tracker.sample("q", 0.05, [])
+    assert len(tracker.sample("p", 0.1, [broken("a", 0.1)])) == 1
+
+
+def test_agreement_of_distinct_invariants_within_the_window() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=50, distinct=3, window=1.0))
+    assert tracker.sample("p", 0.0, [broken("a", 0.0)]) == []
+    assert tracker.sample("p", 0.8, [broken("b", 0.8)]) == []
+    assert tracker.sample("p", 1.6, [broken("c", 1.6)]) == []  # "a" left the window
+    (alarm,) = tracker.sample("p", 1.7, [broken("d", 1.7)])
+    assert alarm.rule == "agree" and alarm.invariants == ("b", "c", "d")
+    assert tracker.sample("p", 1.8, [broken("e", 1.8)]) == []  # the same episode
+    assert tracker.sample("p", 5.0, []) == []  # the window emptied: the episode ended
+    tracker.sample("p", 5.1, [broken("a", 5.1), broken("b", 5.1)])
+    assert [a.rule for a in tracker.sample("p", 5.2, [broken("c", 5.2)])] == ["agree"]
+
+
+def test_events_alarm_at_once_and_reset_forgets() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=5))
+    assert [a.rule for a in tracker.event([broken("a", 1.0)])] == ["event"]
+    tracker.sample("p", 0.0, [broken("b", 0.0)])
+    assert tracker.busy("p")
+    tracker.reset()
+    assert not tracker.busy("p") and tracker.take() == []
+
+
+def test_rule_from_the_file_and_overrides() -> None:
+    assert AlarmRule.from_json(None) == EVERY_VIOLATION
+    rule = AlarmRule.from_json({"persist": 4, "seconds": None, "distinct": 3, "window": 2.0})
+    assert rule == AlarmRule(4, None, 3, 2.0)
+    assert rule.overridden(persist=None, distinct=5) == AlarmRule(4, None, 5, 2.0)
+    assert AlarmRule.from_json(rule.as_json()) == rule
+
+
+def document(alarms: dict[str, Any] | None) -> dict[str, Any]:
+    doc: dict[str, Any] = {
+        "topics": {"/a/x": {"type": "T", "variables": [var("x.v", "v"), var("x.w", "w")]}},
+        "points": {
+            "x": {
+                "kind": "publish",
+                "trigger": "/a/x",
+                "variables": [var("x.v", "v"), var("x.w", "w")],
+            }
+        },
+        "invariants": [
+            inv("v_max", "x", "bounds", "upper", ["x.v"], max=1.0),
+            inv("w_max", "x", "bounds", "upper", ["x.w"], max=1.0),
+        ],
+    }
+    if alarms is not None:
+        doc["alarms"] = alarms
+    return doc
+
+
+def test_the_engine_raises_alarms_under_the_files_rule() -> None:
+    engine = Engine(document({"persist": 3, "distinct": 2, "window": 0.5}))
+    for k, (v, w) in enumerate([(2.0, 0.0), (2.0, 0.0), (0.0, 0.0), (2.0, 0.0), (2.0, 0.0)]):
+        assert len(engine.message("/a/x", 0.1 * k, [v, w])) == (v > 1)
+    assert engine.take_alarms() == []
+    engine.message("/a/x", 0.5, [2.0, 0.0])
+    (alarm,) = engine.take_alarms()
+    assert (alarm.rule, alarm.invariants) == ("persist", ("v_max",))
+    engine.reset()
+    engine.message("/a/x", 0.0, [2.0, 2.0])
+    assert [a.rule for a in engine.take_alarms()] == ["agree"]
+
+
+def test_without_a_rule_every_violation_alarms() -> None:
+    engine = Engine(document(None))
+    engine.message("/a/x", 0.0, [2.0, 0.0])
+    engine.message("/a/x", 0.1, [0.0, 0.0])
+    engine.message("/a/x", 0.2, [2.0, 0.0])
+    assert [a.time for a in engine.take_alarms()] == [0.0, 0.2]
+    strict = Engine(document(None), rule=AlarmRule(persist=2))
+    strict.message("/a/x", 0.0, [2.0, 0.0])
+    assert strict.take_alarms() == []
