@@ -7,12 +7,23 @@
 ===========================================================================
 a:::POINT  publish /x  (9 samples, 1 run)
 x.data >= 1
+
+A polygon lists every vertex (its ``text`` in the file lists the first few of a large one):
+
+>>> doc["invariants"] = [{"point": "a", "family": "polygon", "text": "...",
+...     "params": {"x": "x.u", "y": "x.v", "vertices": [[0, 0], [1, 0], [0, 1.5]]}}]
+>>> print(render(doc), end="")
+===========================================================================
+a:::POINT  publish /x  (9 samples, 1 run)
+(x.u, x.v) inside [(0, 0), (1, 0), (0, 1.5)] (3 vertices)
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from typing import Any
+
+from imrosc.infer.polygon.text import polygon_text
 
 RULE = "=" * 75
 
@@ -48,5 +59,13 @@ def render(
         lines += [RULE, header]
         for invariant in by_point[key]:
             prefix = f"[{invariant['id']}] " if ids and "id" in invariant else ""
-            lines.append(prefix + invariant["text"])
+            lines.append(prefix + text(invariant))
     return "\n".join(lines) + ("\n" if lines else "")
+
+
+def text(invariant: Mapping[str, Any]) -> str:
+    """How the listing shows an invariant: its ``text``, but a polygon with every vertex."""
+    params = invariant.get("params") or {}
+    if invariant["family"] == "polygon" and {"x", "y", "vertices"} <= params.keys():
+        return polygon_text(params["x"], params["y"], params["vertices"], whole=True)
+    return str(invariant["text"])

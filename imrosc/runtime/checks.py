@@ -261,18 +261,7 @@ class Checks:
                 inv = self.polygons[owner]
                 first, second = inv["variables"]
                 observed = (float(row[self.index[first]]), float(row[self.index[second]]))
-                found.append(
-                    Violation(
-                        time,
-                        point,
-                        inv["id"],
-                        "polygon",
-                        inv["kind"],
-                        "({}, {}) inside a {}-gon".format(first, second, len(inv["params"]["b"])),
-                        observed,
-                        "inside the polygon",
-                    )
-                )
+                found.append(_violation(time, point, inv, observed, _inside(inv)))
         if self.one_of_few is not None:
             for at, held, k in self.one_of_few:
                 number = row.item(at)
@@ -443,6 +432,13 @@ def _violation(
     return Violation(
         time, point, inv["id"], inv["family"], inv["kind"], inv["text"], observed, expected
     )
+
+
+def _inside(polygon: Mapping[str, Any]) -> str:
+    """What a polygon's violation expected: ``inside the 4-vertex polygon of (x, y)``."""
+    first, second = polygon["variables"]
+    count = len(polygon["params"]["vertices"])
+    return f"inside the {count}-vertex polygon of ({first}, {second})"
 
 
 class WindowChecks:

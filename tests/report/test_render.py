@@ -54,7 +54,7 @@ def test_json_refuses_non_finite_numbers() -> None:
     with pytest.raises(ReportError, match="not strict JSON"):
         render(document, "json")
     # text and HTML spell it
-    assert "observed nan, expected inside" in render(document, "text")
+    assert "observed nan, expected inside the 4-vertex polygon" in render(document, "text")
 
 
 def test_templates_are_package_data() -> None:

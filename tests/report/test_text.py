@@ -15,6 +15,7 @@ from imrosc.report import render
 from tests.report.documents import DOCUMENTS, FIXTURES, load
 
 UPDATE = os.environ.get("IMROSC_UPDATE_GOLDEN") == "1"
+PAIR = "(car_pose.pose.position.x, subject_pose.pose.position.x)"
 
 
 @pytest.mark.parametrize("name", DOCUMENTS)
@@ -50,7 +51,13 @@ def test_single_violation_has_no_repeat_note(replay_document: dict[str, Any]) ->
     lines = render(replay_document, "text").splitlines()
     (line,) = [x for x in lines if "31.250 s" in x and not x.startswith("  ALARM")]
     assert "x until" not in line
-    assert line.endswith("observed [4.2, 3.9], expected inside")
+    assert line.endswith("observed [4.2, 3.9], expected inside the 4-vertex polygon of " + PAIR)
+
+
+def test_a_polygon_reads_as_its_vertices(replay_document: dict[str, Any]) -> None:
+    lines = render(replay_document, "text").splitlines()
+    (line,) = [x for x in lines if "31.250 s" in x and not x.startswith("  ALARM")]
+    assert f"{PAIR} inside [(-2, -1), (3.5, -1), (3.5, 3), (-2, 3)] (4 vertices)  -- " in line
 
 
 def test_a_run_without_violations_says_so(replay_document: dict[str, Any]) -> None:

@@ -213,13 +213,20 @@ TRIANGLE = polygon("triangle", ["z", "w"], [(0, 0), (1, 0), (0, 1)])
 def test_polygons_are_half_planes() -> None:
     polygons = [SQUARE, TRIANGLE]
     assert check(polygons, row(x=0.5, y=1.0, z=0.25, w=0.75)) == []
+    # two edges broken: one violation
     assert check(polygons, row(x=1.5, y=1.5, z=0.5, w=0.5)) == [
-        ("square", (1.5, 1.5), "inside the polygon")  # two edges broken: one violation
+        ("square", (1.5, 1.5), "inside the 4-vertex polygon of (x, y)")
     ]
     assert check(polygons, row(x=0.5, y=0.5, z=0.75, w=0.5)) == [
-        ("triangle", (0.75, 0.5), "inside the polygon")
+        ("triangle", (0.75, 0.5), "inside the 3-vertex polygon of (z, w)")
     ]
     assert check(polygons, row(x=NAN, y=5.0, z=0.5, w=NAN)) == []
+
+
+def test_a_broken_polygon_reads_as_its_text() -> None:
+    checks = Checks([SQUARE], INDEX, STRINGS)
+    (broken,) = checks.check(3.0, POINT, row(x=2.0, y=0.5), ("idle",))
+    assert (broken.family, broken.kind, broken.text) == ("polygon", "hull", "square text")
 
 
 @st.composite

@@ -2,7 +2,8 @@
 
 ``make_states(variables, tunables, families)`` builds the point's :class:`PolygonState`;
 its invariants are half-planes ``A @ (x, y) <= b`` (params ``x``, ``y``, ``vertices``,
-``A``, ``b``, ``area``, ``box_area``, ``ratio``) kept by Algorithm 10's area ratio.
+``A``, ``b``, ``area``, ``box_area``, ``ratio``) kept by Algorithm 10's area ratio, and
+they read as their vertices (:func:`polygon_text`).
 """
 
 from __future__ import annotations
@@ -14,9 +15,9 @@ from imrosc.infer.polygon.state import (
     PolygonState,
     half_planes,
     make_states,
-    polygon_text,
     polygon_variables,
 )
+from imrosc.infer.polygon.text import polygon_text
 
 __all__ = [
     "THIN_RATIO",

@@ -19,7 +19,6 @@ bounds family already says as much), and when ``1 - 2**-n`` exceeds the confiden
 
 from __future__ import annotations
 
-import math
 from collections.abc import Collection, Sequence
 from typing import Any
 
@@ -29,6 +28,7 @@ from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, V
 from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, heads, seeds
 from imrosc.infer.polygon.guide import Guide
 from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
+from imrosc.infer.polygon.text import polygon_text
 from imrosc.ir import Tunables
 
 _REFRESH_AT = 512
@@ -54,23 +54,6 @@ def polygon_variables(variables: Sequence[Variable]) -> tuple[Variable, ...]:
     return tuple(v for v in variables if v.numeric and v.derived is None and v.type != "time")
 
 
-def _short(value: float) -> str:
-    """Three significant digits, but never fewer than the integer digits."""
-    if value == 0:
-        return "0"
-    if math.isfinite(value) and 1e3 <= abs(value) < 1e15:
-        return str(round(value))
-    return f"{value:.3g}"
-
-
-def _term(coefficient: float, name: str, first: bool) -> str:
-    magnitude = abs(coefficient)
-    body = name if magnitude == 1 else f"{_short(magnitude)}*{name}"
-    if first:
-        return body if coefficient > 0 else f"-{body}"
-    return f" + {body}" if coefficient > 0 else f" - {body}"
-
-
 def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """``(A, b, tight)`` with ``A @ p <= b`` for every point of the hull of
     counter-clockwise ``vertices``, one row per edge, each row scaled so its larger
@@ -78,7 +61,7 @@ def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray, FloatArra
 
     ``b`` includes a margin of ``2**-50 * (|a| max|x| + |b| max|y|)``, more than the
     rounding of ``a * x + b * y`` for any point of the hull, so every sample passes the
-    float64 check with no further tolerance; ``tight`` is ``b`` without it (for text).
+    float64 check with no further tolerance; ``tight`` is ``b`` without it.
     """
     nxt = np.roll(vertices, -1, axis=0)
     a = nxt[:, 1] - vertices[:, 1]
@@ -94,10 +77,10 @@ def half_planes(vertices: FloatArray) -> tuple[FloatArray, FloatArray, FloatArra
 
 def _all_half_planes(
     hull: GroupSet, starts: IntArray, ends: IntArray
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     """:func:`half_planes` of the hulls at ``[starts, ends)`` at once, the same arithmetic
-    element by element: ``(a, b, offsets, tight)`` per edge, the hulls' edges one after
-    the other (edge ``k`` of a hull leaves its vertex ``k``)."""
+    element by element: ``(a, b, offsets)`` per edge, the hulls' edges one after the
+    other (edge ``k`` of a hull leaves its vertex ``k``)."""
     count = ends - starts
     first = np.cumsum(count) - count  # each hull's first edge
     poly = np.repeat(np.arange(len(count)), count)
@@ -123,28 +106,7 @@ def _all_half_planes(
     wide = np.maximum.reduceat(np.abs(vx), first)[poly]
     tall = np.maximum.reduceat(np.abs(vy), first)[poly]
     magnitude = np.abs(a) * wide + np.abs(b) * tall
-    return a, b, top + 8 * _UNIT * magnitude, top
-
-
-def polygon_text(x: str, y: str, normals: FloatArray, offsets: FloatArray) -> str:
-    """The thesis' form: ``x + 0.0554*y >= -1.89 ∩ ...`` (coefficients to 3 digits)."""
-    return _text(x, y, normals.tolist(), offsets.tolist())
-
-
-def _text(x: str, y: str, normals: list[list[float]], offsets: list[float]) -> str:
-    """:func:`polygon_text` of plain lists."""
-    parts: list[str] = []
-    for (ca, cb), c in zip(normals, offsets, strict=True):
-        unit = ca if abs(ca) >= abs(cb) else cb
-        flip = unit < 0
-        sa, sb, sc = (-ca, -cb, -c) if flip else (ca, cb, c)
-        terms = ""
-        if sa != 0:
-            terms += _term(sa, x, True)
-        if sb != 0:
-            terms += _term(sb, y, not terms)
-        parts.append(f"{terms} {'>=' if flip else '<='} {_short(sc)}")
-    return " ∩ ".join(parts)
+    return a, b, top + 8 * _UNIT * magnitude
 
 
 def _changed(before: GroupSet, after: GroupSet, groups: IntArray) -> IntArray:
@@ -276,7 +238,7 @@ class PolygonState:
             return found
         index = np.array(chosen, np.int64)
         planes = _all_half_planes(hull, starts[index], ends[index])
-        a, b, offsets, tight = (values.tolist() for values in planes)
+        a, b, offsets = (values.tolist() for values in planes)
         vx, vy = hull.x.tolist(), hull.y.tolist()
         edge = 0
         for k in chosen:
@@ -287,6 +249,7 @@ class PolygonState:
             mine = slice(edge, edge + hi - lo)
             edge += hi - lo
             normals = [[ca, cb] for ca, cb in zip(a[mine], b[mine], strict=True)]
+            vertices = [[px, py] for px, py in zip(vx[lo:hi], vy[lo:hi], strict=True)]
             found.append(
                 Invariant(
                     family=self.family,
@@ -296,14 +259,14 @@ class PolygonState:
                     params={
                         "x": x,
                         "y": y,
-                        "vertices": [[px, py] for px, py in zip(vx[lo:hi], vy[lo:hi], strict=True)],
+                        "vertices": vertices,
                         "A": normals,
                         "b": offsets[mine],
                         "area": float(area[k]),
                         "box_area": float(box_area[k]),
                         "ratio": float(ratio[k]),
                     },
-                    text=_text(x, y, normals, tight[mine]),
+                    text=polygon_text(x, y, vertices),
                     samples=int(self.count[group]),
                     confidence=confidence(n),
                     condition=context.condition,
