@@ -1,0 +1,754 @@
+"""Detection efficacy: alarms on runs the invariants were not learnt from, with known faults.
+
+    python bench/efficacy.py [--only alfa,crazyflie,sim] [--folds 5] [-j N] [--keep DIR]
+
+Every part learns with ``imrosc.detect.run_detect`` and replays with ``imrosc.replay.Replayer``
+under the alarm rule the invariants document carries; nothing here tunes anything. An alarm's
+time is in bag-clock seconds; a fault's onset is the bag time it starts at.
+
+Scoring, per run (:func:`outcome`, :func:`score`):
+
+* **detected**: the run's *first* alarm is at or after the fault's onset (an alarm before the
+  onset is a false alarm, and the run is then not counted as detected, whatever follows);
+* **delay**: first alarm at or after the onset minus the onset (printed for every run that
+  alarmed after the onset; the mean and max are over detected runs only);
+* **false-alarm run**: a fault run with an alarm before its onset, or a nominal run with any
+  alarm;
+* **recall**: detected fault runs / fault runs;
+* **precision**: detected runs / runs with any alarm (nominal runs that alarmed count in the
+  denominator), "n/a" when no run alarmed.
+
+Parts:
+
+* **alfa**: the 21 labelled flights of ``../shared/data/real/alfa`` (``onsets.json``) in K
+  folds by recording session (flights sharing the date-time stamp of their name stay in one
+  fold; sessions go, largest first, to the fold with the fewest flights). Each fold learns
+  from the other folds' no-failure flights whole and their fault flights up to the onset
+  (copies of the bags holding the messages before the onset only, every connection kept),
+  then replays its own flights whole. Printed: each flight (alarms, first alarm, delay), then
+  per fault class and overall the runs, detected, recall, false-alarm runs, precision, mean
+  and max delay. Reference to beat: RLS on ALFA, precision 0.88, recall 0.88, mean delay
+  2.02 s (Keipour, Mousaei, Scherer, ICRA 2019).
+* **crazyflie**: the scope of ``examples/crazyflie.xml``. Learn on ``sine_1.bag`` alone, replay
+  ``sine_2.bag`` (alarms, violations, first alarm) and ``sine_1.bag``; learn on both, replay both
+  and six faulty copies of ``sine_2`` the bench writes itself, each fault starting at 60 % of
+  the bag's duration (:data:`FAULTS`): detected, delay, alarms before the onset.
+* **sim**: the simulated landing system (``imrosc.sim``, ``landing_sim.xml`` of ``imrosc demo``):
+  learn on nominal runs, replay two held-out nominal runs and one held-out run of each fault
+  scenario (the fault from 10 s on): detected, delay, alarms before the fault.
+
+Targets (issue 17), each printed MET or NOT MET from the measured figures: ALFA k-fold recall
+>= 0.85 with false alarms on <= 10 % of flights and mean delay <= 2.5 s; Crazyflie sine_1 ->
+sine_2 without an alarm; all six injected faults detected within 1.5 s of the onset with no
+alarm before it; the training bags replayed without an alarm; every simulated scenario
+detected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import functools
+import json
+import math
+import os
+import re
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from lxml import etree
+from rosbags.rosbag1 import Reader, Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from imrosc.detect import run_detect  # noqa: E402
+from imrosc.diagnostics import render_text  # noqa: E402
+from imrosc.replay import Replayer, RunResult  # noqa: E402
+
+DATA = ROOT.parent / "shared" / "data" / "real"
+ALFA = DATA / "alfa"
+CRAZYFLIE = DATA / "crazyflie"
+SECOND = 1_000_000_000
+PARTS = ("alfa", "crazyflie", "sim")
+
+ALFA_SCOPE = '<scope>\n    <publish id="m">/alfa/merged</publish>\n  </scope>'
+REFERENCE = (
+    "RLS on ALFA: precision 0.88, recall 0.88, mean delay 2.02 s (Keipour et al., ICRA 2019)"
+)
+ALFA_RECALL, ALFA_FALSE, ALFA_DELAY = 0.85, 0.10, 2.5
+FAULT_DELAY = 1.5
+FAULT_AT = 0.6
+"""The injected faults start at this fraction of sine_2's duration."""
+SIM_NOMINAL, SIM_HELD_OUT, SIM_START = 6, 2, 10.0
+TARGETS = (
+    f"ALFA k-fold: recall >= {ALFA_RECALL}, false alarms on <= {ALFA_FALSE:.0%} of flights, "
+    f"mean delay <= {ALFA_DELAY} s",
+    "Crazyflie: learnt on sine_1, sine_2 replays with 0 alarms",
+    f"Crazyflie: all six injected faults detected within {FAULT_DELAY} s of the onset, "
+    "0 alarms before it",
+    "Crazyflie: the training bags replay with 0 alarms",
+    "Simulated landing system: every fault scenario detected",
+)
+
+
+# --- bags as lists of messages -------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Topic:
+    """A ROS 1 connection as written: topic, type, definition, md5sum, callerid, latching."""
+
+    topic: str
+    msgtype: str
+    msgdef: str
+    md5sum: str
+    callerid: str | None = None
+    latching: int | None = None
+
+
+@dataclass(frozen=True)
+class Message:
+    """One message of a bag: its connection, bag time (ns) and serialized bytes."""
+
+    topic: Topic
+    time: int
+    raw: bytes
+
+
+class Bag(NamedTuple):
+    """A ROS 1 bag read whole: its connections, messages in time order, start and end (ns)."""
+
+    topics: list[Topic]
+    messages: list[Message]
+    start: int
+    end: int
+
+
+def read_bag(path: Path) -> Bag:
+    """Every connection and message of a ROS 1 bag."""
+    with Reader(path) as reader:
+        topics = {
+            c.id: Topic(
+                c.topic,
+                c.msgtype,
+                c.msgdef.data,
+                c.digest,
+                getattr(c.ext, "callerid", None),
+                getattr(c.ext, "latching", None),
+            )
+            for c in reader.connections
+        }
+        messages = [Message(topics[c.id], stamp, bytes(raw)) for c, stamp, raw in reader.messages()]
+        return Bag(list(topics.values()), messages, reader.start_time, reader.end_time)
+
+
+def write_bag(path: Path, messages: Iterable[Message], topics: Sequence[Topic] = ()) -> Path:
+    """Write a ROS 1 bag: the ``topics`` given (even without messages), then those of the
+    messages, each with its own definition and callerid; messages in time order."""
+    ordered = sorted(messages, key=lambda m: m.time)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with Writer(path) as writer:
+        connections = {}
+        for topic in [*topics, *(m.topic for m in ordered)]:
+            if topic not in connections:
+                connections[topic] = writer.add_connection(
+                    topic.topic,
+                    topic.msgtype,
+                    msgdef=topic.msgdef,
+                    md5sum=topic.md5sum,
+                    callerid=topic.callerid,
+                    latching=topic.latching,
+                )
+        for message in ordered:
+            writer.write(connections[message.topic], message.time, message.raw)
+    return path
+
+
+def crop(bag: Path, onset: int, out: Path) -> Path:
+    """A copy of ``bag`` holding the messages before ``onset`` (ns) only, every connection."""
+    read = read_bag(bag)
+    return write_bag(out, [m for m in read.messages if m.time < onset], read.topics)
+
+
+@functools.cache
+def _typestore(msgtype: str, msgdef: str) -> Typestore:
+    store = get_typestore(Stores.EMPTY)
+    store.register(get_types_from_msg(msgdef, msgtype))
+    return store
+
+
+def decode(message: Message) -> Any:
+    """The message's value, decoded with the definition its bag holds."""
+    topic = message.topic
+    return _typestore(topic.msgtype, topic.msgdef).deserialize_ros1(message.raw, topic.msgtype)
+
+
+def encode(message: Message, value: Any) -> Message:
+    """The message carrying ``value`` instead (same connection and time)."""
+    topic = message.topic
+    store = _typestore(topic.msgtype, topic.msgdef)
+    return dataclasses.replace(message, raw=bytes(store.serialize_ros1(value, topic.msgtype)))
+
+
+# --- injected faults -----------------------------------------------------------------------
+
+IMU, POS, RPY, RANGES = "/cf1/imu", "/cf1/log_pos", "/cf1/log_rpy", "/cf1/log_ranges"
+JUMP = 0.5
+"""Metres added to log_pos's x (its first value) by the position jump."""
+ACCEL_SCALE = 1.5
+INTRUDER = "/crazyflie_server_2"
+Inject = Callable[[list[Message], int], list[Message]]
+
+
+def _changed(
+    messages: list[Message], onset: int, topic: str, change: Callable[[Any], Any]
+) -> list[Message]:
+    """The messages with ``change`` applied to the values of ``topic``'s from the onset on."""
+    return [
+        encode(m, change(decode(m))) if m.topic.topic == topic and m.time >= onset else m
+        for m in messages
+    ]
+
+
+def slowed_topic(messages: list[Message], onset: int) -> list[Message]:
+    """/cf1/imu at a third of its rate from the onset on (every third message kept)."""
+    out, seen = [], 0
+    for m in messages:
+        if m.topic.topic == IMU and m.time >= onset:
+            seen += 1
+            if seen % 3 != 1:
+                continue
+        out.append(m)
+    return out
+
+
+def dead_topic(messages: list[Message], onset: int) -> list[Message]:
+    """/cf1/log_ranges stops at the onset."""
+    return [m for m in messages if not (m.topic.topic == RANGES and m.time >= onset)]
+
+
+def frozen_sensor(messages: list[Message], onset: int) -> list[Message]:
+    """/cf1/log_rpy repeats the values of its last message before the onset (headers go on)."""
+    before = [m for m in messages if m.topic.topic == RPY and m.time < onset]
+    if not before:
+        return list(messages)
+    last = decode(before[-1])
+    return _changed(messages, onset, RPY, lambda v: dataclasses.replace(last, header=v.header))
+
+
+def position_jump(messages: list[Message], onset: int) -> list[Message]:
+    """/cf1/log_pos's x (its first value) JUMP metres further from the onset on."""
+
+    def jump(value: Any) -> Any:
+        values = value.values.copy()
+        values[0] += JUMP
+        return dataclasses.replace(value, values=values)
+
+    return _changed(messages, onset, POS, jump)
+
+
+def scaled_imu(messages: list[Message], onset: int) -> list[Message]:
+    """/cf1/imu's linear acceleration (all three axes) times ACCEL_SCALE from the onset on."""
+
+    def scale(value: Any) -> Any:
+        a = value.linear_acceleration
+        scaled = dataclasses.replace(
+            a, x=a.x * ACCEL_SCALE, y=a.y * ACCEL_SCALE, z=a.z * ACCEL_SCALE
+        )
+        return dataclasses.replace(value, linear_acceleration=scaled)
+
+    return _changed(messages, onset, IMU, scale)
+
+
+def second_publisher(messages: list[Message], onset: int) -> list[Message]:
+    """From the onset on, a second connection on /cf1/log_pos under the callerid INTRUDER
+    publishes a copy of each message 1 ms after it."""
+    extra = [
+        Message(dataclasses.replace(m.topic, callerid=INTRUDER), m.time + 1_000_000, m.raw)
+        for m in messages
+        if m.topic.topic == POS and m.time >= onset
+    ]
+    return sorted([*messages, *extra], key=lambda m: m.time)
+
+
+FAULTS: dict[str, Inject] = {
+    "slowed topic": slowed_topic,
+    "dead topic": dead_topic,
+    "frozen sensor": frozen_sensor,
+    "position jump": position_jump,
+    "scaled IMU": scaled_imu,
+    "second publisher": second_publisher,
+}
+"""The faults injected into sine_2: each takes its messages and the onset (ns) and returns
+the faulty messages."""
+
+
+# --- scoring -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One replayed run: its group (fault class, or ``nominal``), onset and alarm times (s)."""
+
+    name: str
+    group: str
+    onset: float | None
+    alarms: tuple[float, ...]
+    violations: int = 0
+    error: str | None = None
+    start: float = 0.0
+    """The bag's start (s), for times printed from the start."""
+
+    @property
+    def first(self) -> float | None:
+        return min(self.alarms) if self.alarms else None
+
+    @property
+    def before(self) -> int:
+        """Alarms before the onset (every alarm of a nominal run)."""
+        if self.onset is None:
+            return len(self.alarms)
+        return sum(t < self.onset for t in self.alarms)
+
+    @property
+    def after(self) -> float | None:
+        """The first alarm at or after the onset."""
+        if self.onset is None:
+            return None
+        found = [t for t in self.alarms if t >= self.onset]
+        return min(found) if found else None
+
+    @property
+    def delay(self) -> float | None:
+        """First alarm at or after the onset minus the onset."""
+        after = self.after
+        return None if after is None or self.onset is None else after - self.onset
+
+    @property
+    def detected(self) -> bool:
+        """A fault run whose first alarm is at or after its onset."""
+        first = self.first
+        return self.onset is not None and first is not None and first >= self.onset
+
+    @property
+    def false_alarm(self) -> bool:
+        return self.before > 0
+
+
+def outcome(name: str, group: str, onset: float | None, result: RunResult) -> Outcome:
+    """The outcome of one replay (alarm times in bag-clock seconds)."""
+    return Outcome(
+        name,
+        group,
+        onset,
+        tuple(sorted(a.time for a in result.alarms)),
+        len(result.violations),
+        result.error,
+        result.start,
+    )
+
+
+@dataclass(frozen=True)
+class Score:
+    """Detection figures over a set of runs (see the module's docstring)."""
+
+    runs: int
+    faulty: int
+    detected: int
+    false_alarms: int
+    alarmed: int
+    delays: tuple[float, ...]
+
+    @property
+    def recall(self) -> float:
+        return self.detected / self.faulty if self.faulty else math.nan
+
+    @property
+    def precision(self) -> float:
+        return self.detected / self.alarmed if self.alarmed else math.nan
+
+    @property
+    def false_rate(self) -> float:
+        return self.false_alarms / self.runs if self.runs else math.nan
+
+    @property
+    def mean_delay(self) -> float:
+        return sum(self.delays) / len(self.delays) if self.delays else math.nan
+
+    @property
+    def max_delay(self) -> float:
+        return max(self.delays) if self.delays else math.nan
+
+
+def score(outcomes: Iterable[Outcome]) -> Score:
+    """Recall, false alarms, precision and delays of a set of runs."""
+    found = list(outcomes)
+    detected = [o for o in found if o.detected]
+    return Score(
+        runs=len(found),
+        faulty=sum(o.onset is not None for o in found),
+        detected=len(detected),
+        false_alarms=sum(o.false_alarm for o in found),
+        alarmed=sum(bool(o.alarms) for o in found),
+        delays=tuple(o.delay for o in detected if o.delay is not None),
+    )
+
+
+# --- ALFA folds ----------------------------------------------------------------------------
+
+SESSION = re.compile(r"\d{4}-\d{2}-\d{2}-\d{2}-\d{2}-\d{2}")
+
+
+def session_of(name: str) -> str:
+    """The recording session of an ALFA flight: the date-time stamp in its file name."""
+    found = SESSION.search(Path(name).name)
+    return found.group(0) if found else Path(name).stem
+
+
+def session_folds(names: Iterable[str], folds: int) -> list[list[str]]:
+    """``folds`` folds of flights (fewer when there are fewer sessions), no session split:
+    sessions, largest first (then by stamp), each go to the fold with the fewest flights."""
+    sessions: dict[str, list[str]] = {}
+    for name in sorted(names):
+        sessions.setdefault(session_of(name), []).append(name)
+    out: list[list[str]] = [[] for _ in range(max(1, min(folds, len(sessions))))]
+    for _, flights in sorted(sessions.items(), key=lambda s: (-len(s[1]), s[0])):
+        smallest = min(range(len(out)), key=lambda i: (len(out[i]), i))
+        out[smallest].extend(flights)
+    return [sorted(fold) for fold in out if fold]
+
+
+# --- learning and replaying ----------------------------------------------------------------
+
+
+def write_config(path: Path, project: str, scope: str, bags: Sequence[Path]) -> Path:
+    """An imROS configuration: ``scope`` (XML text) and a <detect> of ``bags``."""
+    listed = "\n".join(f"    <bag>{bag.resolve()}</bag>" for bag in bags)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(
+        f'<imROS project="{project}">\n  {scope}\n  <detect inv="{project}.inv">\n'
+        f"{listed}\n  </detect>\n</imROS>\n"
+    )
+    return path
+
+
+def learn(config: Path, bags: Sequence[Path], workers: int | None) -> dict[str, Any]:
+    """The invariants document ``run_detect`` gives (exits with its diagnostics if none)."""
+    result = run_detect(config, bags=list(bags), workers=workers)
+    if result.document is None:
+        sys.exit(f"inference failed for {config}:\n{render_text(result.diagnostics, 1)}")
+    return result.document
+
+
+def describe_rule(document: dict[str, Any]) -> str:
+    rule = document.get("alarms")
+    return json.dumps(rule, sort_keys=True) if rule else "none (every violation alarms)"
+
+
+def crazyflie_scope() -> str:
+    """The <scope> of examples/crazyflie.xml, as XML text."""
+    tree = etree.parse(str(ROOT / "examples" / "crazyflie.xml"))
+    scope = tree.getroot().find("scope")
+    assert scope is not None
+    scope.tail = None
+    return etree.tostring(scope, encoding="unicode")
+
+
+def fmt(value: float | None, digits: int = 2) -> str:
+    """A figure, or "-" when there is none (no minus sign on a rounded zero)."""
+    if value is None or math.isnan(value):
+        return "-"
+    return f"{round(value, digits) + 0.0:.{digits}f}"
+
+
+def print_outcomes(outcomes: Sequence[Outcome]) -> None:
+    """One line per run: alarms, alarms before the onset, first alarm, delay."""
+    width = max([len(o.name) for o in outcomes] + [3])
+    group = max([len(o.group) for o in outcomes] + [5])
+    print(
+        f"  {'run':<{width}}  {'class':<{group}} {'onset s':>8} {'alarms':>6} {'before':>6} "
+        f"{'first s':>8} {'delay s':>8}  detected"
+    )
+    for o in outcomes:
+        onset = None if o.onset is None else o.onset - o.start
+        first = None if o.first is None else o.first - o.start
+        mark = "error: " + o.error if o.error else ("yes" if o.detected else "no")
+        if o.onset is None:
+            mark = o.error or "(nominal)"
+        print(
+            f"  {o.name:<{width}}  {o.group:<{group}} {fmt(onset):>8} {len(o.alarms):>6} "
+            f"{o.before:>6} {fmt(first):>8} {fmt(o.delay):>8}  {mark}"
+        )
+
+
+def print_scores(groups: dict[str, list[Outcome]]) -> None:
+    print(
+        f"  {'class':<10} {'runs':>4} {'faulty':>6} {'detected':>8} {'recall':>6} "
+        f"{'false-alarm runs':>17} {'precision':>9} {'mean delay':>10} {'max delay':>9}"
+    )
+    for group, found in groups.items():
+        s = score(found)
+        print(
+            f"  {group:<10} {s.runs:>4} {s.faulty:>6} {s.detected:>8} {fmt(s.recall):>6} "
+            f"{s.false_alarms:>9} ({fmt(s.false_rate * 100, 0):>3} %) {fmt(s.precision):>9} "
+            f"{fmt(s.mean_delay):>10} {fmt(s.max_delay):>9}"
+        )
+
+
+# --- the parts -----------------------------------------------------------------------------
+
+
+@dataclass
+class Verdicts:
+    """Each target's verdict (None: its part did not run)."""
+
+    found: dict[str, bool | None] = dataclasses.field(
+        default_factory=lambda: dict.fromkeys(TARGETS)
+    )
+    figures: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def set(self, index: int, ok: bool, figures: str) -> None:
+        """Target ``index`` of TARGETS: its verdict and the figures it rests on."""
+        self.found[TARGETS[index]] = ok
+        self.figures[TARGETS[index]] = figures
+
+
+def alfa_part(work: Path, folds: int, workers: int | None, verdicts: Verdicts) -> None:
+    onsets: dict[str, dict[str, Any]] = json.loads((ALFA / "onsets.json").read_text())
+    split = session_folds(onsets, folds)
+    print(f"\n== ALFA: {len(onsets)} flights, {len(split)}-fold by recording session ==")
+    print(f"reference to beat: {REFERENCE}")
+    started = time.monotonic()
+    training: dict[str, Path] = {}
+    for name, info in sorted(onsets.items()):
+        if info["onset_ns"] is None:
+            training[name] = ALFA / name
+        else:
+            training[name] = crop(ALFA / name, int(info["onset_ns"]), work / "pre_onset" / name)
+    print(
+        f"wrote {sum(i['onset_ns'] is not None for i in onsets.values())} pre-onset copies "
+        f"in {time.monotonic() - started:.1f} s"
+    )
+    outcomes: list[Outcome] = []
+    for index, held in enumerate(split):
+        bags = [training[n] for n in sorted(onsets) if n not in held]
+        config = write_config(work / f"fold_{index}" / "alfa.xml", "alfa", ALFA_SCOPE, bags)
+        tick = time.monotonic()
+        document = learn(config, bags, workers)
+        learnt = time.monotonic() - tick
+        replayer = Replayer(document)
+        tick = time.monotonic()
+        for name in held:
+            info = onsets[name]
+            onset = None if info["onset_ns"] is None else info["onset_ns"] / SECOND
+            group = info["class"] if onset is not None else "no_failure"
+            outcomes.append(outcome(name, group, onset, replayer.run(ALFA / name)))
+        sessions = sorted({session_of(n) for n in held})
+        print(
+            f"fold {index}: {len(held)} flights of {len(sessions)} sessions held out, learnt "
+            f"from {len(bags)} bags ({len(document['invariants'])} invariants, alarm rule "
+            f"{describe_rule(document)}) in {learnt:.1f} s, replayed in "
+            f"{time.monotonic() - tick:.1f} s"
+        )
+    outcomes.sort(key=lambda o: o.name)
+    named = [
+        dataclasses.replace(o, name=Path(o.name).stem.removeprefix("carbonZ_")) for o in outcomes
+    ]
+    print("\nflights (times in s from the bag's start):")
+    print_outcomes(named)
+    groups: dict[str, list[Outcome]] = {}
+    for o in outcomes:
+        groups.setdefault(o.group, []).append(o)
+    groups = dict(sorted(groups.items()))
+    groups["overall"] = outcomes
+    print("\nper class (precision: detected / flights with any alarm):")
+    print_scores(groups)
+    s = score(outcomes)
+    verdicts.set(
+        0,
+        s.recall >= ALFA_RECALL and s.false_rate <= ALFA_FALSE and s.mean_delay <= ALFA_DELAY,
+        f"recall {fmt(s.recall)}, false alarms on {fmt(s.false_rate * 100, 0)} % of flights, "
+        f"mean delay {fmt(s.mean_delay)} s",
+    )
+
+
+def _replay_line(label: str, result: RunResult) -> str:
+    first = min(result.alarms, key=lambda a: a.time) if result.alarms else None
+    text = f"  {label}: {len(result.alarms)} alarms, {len(result.violations)} violations"
+    if result.error:
+        text += f", error: {result.error}"
+    if first is not None:
+        text += f"; first {first.describe()} ({first.time - result.start:.2f} s from the start)"
+    return text
+
+
+def crazyflie_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
+    print("\n== Crazyflie: examples/crazyflie.xml's scope ==")
+    scope = crazyflie_scope()
+    sine_1, sine_2 = CRAZYFLIE / "sine_1.bag", CRAZYFLIE / "sine_2.bag"
+    config = write_config(work / "sine_1" / "crazyflie.xml", "crazyflie", scope, [sine_1])
+    document = learn(config, [sine_1], workers)
+    print(
+        f"learnt on sine_1: {len(document['invariants'])} invariants, "
+        f"alarm rule {describe_rule(document)}"
+    )
+    replayer = Replayer(document)
+    held_out = replayer.run(sine_2)
+    own = replayer.run(sine_1)
+    print(_replay_line("sine_2 (held out)", held_out))
+    print(_replay_line("sine_1 (training)", own))
+    verdicts.set(
+        1,
+        not held_out.alarms and held_out.error is None,
+        f"{len(held_out.alarms)} alarms, {len(held_out.violations)} violations",
+    )
+
+    both = [sine_1, sine_2]
+    config = write_config(work / "sine_1_2" / "crazyflie.xml", "crazyflie", scope, both)
+    document = learn(config, both, workers)
+    print(
+        f"learnt on sine_1 and sine_2: {len(document['invariants'])} invariants, "
+        f"alarm rule {describe_rule(document)}"
+    )
+    replayer = Replayer(document)
+    trained = [replayer.run(bag) for bag in both]
+    for path, result in zip(both, trained, strict=True):
+        print(_replay_line(f"{path.name} (training)", result))
+    own_alarms = len(own.alarms) + sum(len(r.alarms) for r in trained)
+    verdicts.set(3, own_alarms == 0, f"{own_alarms} alarms over the 3 training replays")
+
+    bag = read_bag(sine_2)
+    onset = bag.start + round(FAULT_AT * (bag.end - bag.start))
+    print(
+        f"faults injected into sine_2 from {(onset - bag.start) / SECOND:.2f} s "
+        f"({FAULT_AT:.0%} of {(bag.end - bag.start) / SECOND:.2f} s):"
+    )
+    outcomes = []
+    for name, inject in FAULTS.items():
+        path = write_bag(
+            work / "faults" / f"{name.replace(' ', '_')}.bag",
+            inject(bag.messages, onset),
+            bag.topics,
+        )
+        result = replayer.run(path)
+        outcomes.append(outcome(name, "injected", onset / SECOND, result))
+    print_outcomes(outcomes)
+    ok = all(
+        o.detected and o.delay is not None and o.delay <= FAULT_DELAY and o.before == 0
+        for o in outcomes
+    )
+    caught = sum(o.detected and o.delay is not None and o.delay <= FAULT_DELAY for o in outcomes)
+    verdicts.set(
+        2,
+        ok,
+        f"{caught} of {len(outcomes)} detected within {FAULT_DELAY} s, "
+        f"{sum(o.before for o in outcomes)} alarms before the onsets",
+    )
+
+
+def sim_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
+    from imrosc.demo import CONFIG, example_configs
+    from imrosc.sim import SCENARIO_KINDS, Scenario, write_run, write_runs
+    from imrosc.sim.recording import START_NS
+
+    print(f"\n== Simulated landing system ({CONFIG}): learn on {SIM_NOMINAL} nominal runs ==")
+    source = next(p for p in example_configs() if p.name == CONFIG)
+    config = work / CONFIG
+    shutil.copyfile(source, config)
+    shutil.copyfile(source.with_name("landing_sim.graph.yaml"), work / "landing_sim.graph.yaml")
+    tick = time.monotonic()
+    nominal = write_runs(work / "bags" / "nominal", runs=SIM_NOMINAL, seed=0, fmt="ros1")
+    held = write_runs(work / "bags" / "held_out", runs=SIM_HELD_OUT, seed=100, fmt="ros1")
+    faulty = [
+        write_run(
+            work / "bags" / "fail" / f"{kind}.bag",
+            seed=200 + index,
+            fmt="ros1",
+            scenario=Scenario(kind, start=SIM_START),
+        )
+        for index, kind in enumerate(SCENARIO_KINDS)
+    ]
+    print(
+        f"simulated {len(nominal) + len(held) + len(faulty)} runs in "
+        f"{time.monotonic() - tick:.1f} s"
+    )
+    document = learn(config, nominal, workers)
+    print(f"learnt: {len(document['invariants'])} invariants, alarm rule {describe_rule(document)}")
+    replayer = Replayer(document)
+    start = START_NS / SECOND
+    outcomes = [
+        outcome(f"nominal, seed {100 + i}", "nominal", None, replayer.run(b))
+        for i, b in enumerate(held)
+    ]
+    outcomes += [
+        outcome(kind, kind, start + SIM_START, replayer.run(bag))
+        for kind, bag in zip(SCENARIO_KINDS, faulty, strict=True)
+    ]
+    print(f"replayed (fault from {SIM_START:.0f} s; times in s from the run's start):")
+    print_outcomes(outcomes)
+    print_scores({"overall": outcomes})
+    found = [o for o in outcomes if o.onset is not None]
+    verdicts.set(
+        4,
+        all(o.detected for o in found),
+        f"{sum(o.detected for o in found)} of {len(found)} scenarios detected",
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", default=",".join(PARTS), help="comma list of " + ", ".join(PARTS))
+    parser.add_argument("--folds", type=int, default=5, help="ALFA folds (default 5)")
+    parser.add_argument("-j", "--workers", type=int, default=None, help="inference workers")
+    parser.add_argument("--keep", type=Path, default=None, help="keep the written bags here")
+    args = parser.parse_args(argv)
+    parts = [p.strip() for p in args.only.split(",") if p.strip()]
+    unknown = sorted(set(parts) - set(PARTS))
+    if unknown or args.folds < 2:
+        parser.error(f"unknown part {unknown}" if unknown else "--folds must be at least 2")
+    if args.keep is not None and args.keep.exists() and any(args.keep.iterdir()):
+        parser.error(f"--keep {args.keep}: not empty")
+    print("Targets (issue 17):")
+    for target in TARGETS:
+        print(f"  - {target}")
+    verdicts = Verdicts()
+    scratch = tempfile.TemporaryDirectory(prefix="imrosc-efficacy-")
+    work = args.keep if args.keep is not None else Path(scratch.name)
+    started = time.monotonic()
+    with scratch:
+        if "alfa" in parts:
+            if (ALFA / "onsets.json").is_file():
+                alfa_part(work / "alfa", args.folds, args.workers, verdicts)
+            else:
+                print(f"\nALFA: {ALFA} missing, skipped")
+        if "crazyflie" in parts:
+            if (CRAZYFLIE / "sine_2.bag").is_file():
+                crazyflie_part(work / "crazyflie", args.workers, verdicts)
+            else:
+                print(f"\nCrazyflie: {CRAZYFLIE} missing, skipped")
+        if "sim" in parts:
+            (work / "sim").mkdir(parents=True, exist_ok=True)
+            sim_part(work / "sim", args.workers, verdicts)
+    print(f"\nVerdicts ({time.monotonic() - started:.0f} s):")
+    for target, ok in verdicts.found.items():
+        word = "not run" if ok is None else ("MET" if ok else "NOT MET")
+        figures = verdicts.figures.get(target, "")
+        print(f"  {word:<8} {target}" + (f"  [{figures}]" if figures else ""))
+    if args.keep is not None:
+        print(f"bags and configurations kept in {args.keep}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
