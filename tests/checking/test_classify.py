@@ -10,10 +10,11 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from imrosc.classify import Score, classify, label_onset, run_check
+from imrosc.classify import Score, classify, label_onset, load_project, run_check
 from imrosc.cli import main
 from imrosc.demo import example_configs
 from imrosc.invariants import load
+from imrosc.ir import Project, from_json, to_json
 from imrosc.sim import Scenario, ScenarioKind, write_run, write_runs
 from tests.checking import onsets
 
@@ -371,3 +372,17 @@ def test_alfa_flight_classified_with_its_label_topic(tmp_path: Path) -> None:
             assert run["delay"] >= 0
     detection = result.report["detection"]
     assert detection["fail_runs"] == 4 and detection["with_onset"] == 4
+
+
+def test_fail_onsets_are_lowered_one_per_fail_and_round_trip() -> None:
+    example = Path(__file__).parents[2] / "examples" / "uav_landing.xml"
+    project, problems = load_project(example)
+    assert project is not None and project.check is not None, problems
+    check = project.check
+    assert check.fail == ("bags/fail", "bags/fail_labelled", "bags/fail_logged")
+    seconds, topic, file = check.onsets
+    assert (seconds.seconds, seconds.topic, seconds.file) == (10.0, None, None)
+    assert (topic.seconds, topic.topic) == (None, "/failure_status")
+    assert file.file == "bags/fail_logged/onsets.json" and file.given
+    assert all(o.span.line > check.span.line for o in check.onsets)
+    assert from_json(Project, to_json(project)) == project
