@@ -8,12 +8,23 @@ and invariants whose F-score is below the threshold are dropped from the refined
 When no success run violates it and no fail run either, precision is undefined (0/0) and
 the F-score is 0: an invariant that never fires detects nothing.
 
+A ``<fail>`` entry may give its fault's onset (seconds after each bag's start, a label
+topic whose first non-zero message is the onset, or a JSON file of onsets per bag). A failed
+run with an onset is then two observations: the part before the onset is a nominal run (an
+invariant it violates counts as a false positive, as on a successful run) and the rest is the
+failed run (an invariant violated at or after the onset is a true positive, else a false
+negative). The equations are unchanged. At the run level the engine's alarms are scored:
+per failed run, the first alarm at or after the onset and its delay, and whether an alarm came
+before it (a false alarm); per successful run, whether any alarm came.
+
 Comparison (thesis 5.2): the invariants of one data set replayed on another; an invariant
 violated in some run of the other set is broken there.
 """
 
 from __future__ import annotations
 
+import json
+import math
 import multiprocessing
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -22,16 +33,17 @@ from typing import Any
 
 from imrosc import __version__
 from imrosc.backends.registry import GENERATED_MARK
-from imrosc.bags import discover_bags
+from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.check import check_loaded
-from imrosc.diagnostics import Diagnostic, finalize, has_errors
+from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import default_workers
 from imrosc.infer.registry import group_of
 from imrosc.invariants import InvariantsFileError, load
-from imrosc.ir import Project
+from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.replay import Replayer
 from imrosc.schema.loader import load_config
+from imrosc.schema.names import resolve_name
 
 
 class CheckStageError(Exception):
@@ -119,7 +131,136 @@ def read_invariants(path: Path) -> dict[str, Any]:
         raise CheckStageError(str(error)) from None
 
 
+# -- onsets ------------------------------------------------------------------------------------
+
+
+class OnsetFileError(CheckStageError):
+    """An onsets file that cannot be read or is not a mapping of bags to onsets."""
+
+
+def onsets_file(path: Path) -> dict[Path, float | None]:
+    """The onsets a JSON file gives, by resolved bag path (keys are relative to the file).
+
+    A value is seconds after the bag's start, an object with ``onset_s`` (the ALFA data
+    set's form), or null (no fault).
+    """
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise OnsetFileError(f"{path}: cannot read the onsets file: {error.strerror}") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise OnsetFileError(f"{path}: the onsets file is not JSON: {error}") from None
+    if not isinstance(data, dict):
+        raise OnsetFileError(f"{path}: the onsets file must map bag paths to onsets")
+    out: dict[Path, float | None] = {}
+    for key, item in data.items():
+        value = item.get("onset_s") if isinstance(item, dict) else item
+        number = value is None or (
+            isinstance(value, int | float) and not isinstance(value, bool) and value >= 0
+        )
+        if not number or (value is not None and not math.isfinite(value)):
+            raise OnsetFileError(
+                f"{path}: the onset of {key!r} is {value!r}; expected seconds >= 0 or null"
+            )
+        out[(path.parent / key).resolve()] = None if value is None else float(value)
+    return out
+
+
+def _numeric(value: Any) -> float | None:
+    if isinstance(value, bool | int | float):
+        return float(value)
+    return None
+
+
+def label_value(message: Any) -> float | None:
+    """A label message's value: its ``data``, else its only numeric field (None: neither)."""
+    if hasattr(message, "data"):
+        return _numeric(message.data)
+    fields = getattr(message, "__dataclass_fields__", None) or {}
+    numbers = [_numeric(getattr(message, name)) for name in fields]
+    found = [n for n in numbers if n is not None]
+    return found[0] if len(found) == 1 else None
+
+
+def label_onset(bag: Path, topic: str) -> tuple[float | None, str | None]:
+    """Seconds from the bag's start to the first non-zero message on ``topic``, or why not.
+
+    NaN values are skipped (no label); an unreadable bag gives its error.
+    """
+    try:
+        with open_bag(bag) as reader:
+            start = reader.start_time / 1e9
+            connections = [c for c in reader.connections if c.topic == topic]
+            if not connections:
+                return None, f"{bag} has no topic {topic} to read the fault's onset from"
+            for connection, stamp, raw in reader.messages(connections=connections):
+                try:
+                    message = reader.deserialize(raw, connection.msgtype)
+                except MessageError:
+                    continue
+                value = label_value(message)
+                if value is None:
+                    return None, (
+                        f"{bag}: {topic} ({connection.msgtype}) has no data field or single "
+                        f"numeric field to read the fault's onset from"
+                    )
+                if value != 0 and not math.isnan(value):
+                    return stamp / 1e9 - start, None
+    except BagError as error:
+        return None, str(error)
+    return None, f"{bag}: {topic} never turns non-zero, so the fault's onset is unknown"
+
+
+@dataclass(frozen=True)
+class OnsetSpec:
+    """How a failed run's onset is found: given seconds, or a label topic to read."""
+
+    seconds: float | None = None
+    topic: str | None = None
+    problem: str | None = None
+    """Why an onset was asked for but none can be given (the file does not list the bag)."""
+
+
 # -- replay in worker processes --------------------------------------------------------------
+
+
+@dataclass
+class RunOutcome:
+    """What replaying one run gave, as classification needs it (times from the bag's start)."""
+
+    bag: Path
+    error: str | None = None
+    start: float = 0.0
+    end: float = 0.0
+    onset: float | None = None
+    """Seconds after the start when the fault begins (None: unknown or a successful run)."""
+    onset_problem: str | None = None
+    """Why an onset that was asked for cannot be used."""
+    first: dict[str, float] = field(default_factory=dict)
+    """Per violated invariant, its first violation."""
+    after: dict[str, float] = field(default_factory=dict)
+    """Per invariant violated at or after the onset, its first violation there."""
+    alarms: list[dict[str, Any]] = field(default_factory=list)
+    """The alarms: ``time`` (from the start), ``point``, ``rule``, ``invariant``."""
+
+    @property
+    def violated(self) -> set[str]:
+        """Ids of the invariants the run broke."""
+        return set(self.first)
+
+    @property
+    def before(self) -> set[str]:
+        """Ids of the invariants broken before the onset (none without an onset)."""
+        if self.onset is None:
+            return set()
+        return {ident for ident, time in self.first.items() if time < self.onset}
+
+    @property
+    def detected(self) -> set[str]:
+        """Ids of the invariants that detect the fault: broken at or after the onset, or
+        anywhere in a run without one."""
+        return set(self.after) if self.onset is not None else self.violated
+
 
 _WORKER: Replayer | None = None
 
@@ -129,25 +270,68 @@ def _start_worker(document: Mapping[str, Any]) -> None:
     _WORKER = Replayer(document)
 
 
-def _violated(bag: Path) -> tuple[Path, set[str], str | None]:
+def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
     assert _WORKER is not None
+    bag, spec = task
     result = _WORKER.run(bag)
-    return bag, result.violated, result.error
+    out = RunOutcome(bag, result.error, result.start, result.end)
+    if result.error is not None:
+        return out
+    if spec is not None:
+        onset, problem = spec.seconds, spec.problem
+        if spec.topic is not None:
+            onset, problem = label_onset(bag, spec.topic)
+        duration = max(result.end - result.start, 0.0)
+        if onset is not None and onset > duration:
+            onset, problem = (
+                None,
+                (f"{bag}: the onset {onset:g} s is past the end of the bag ({duration:.3f} s)"),
+            )
+        out.onset, out.onset_problem = onset, problem
+    for v in result.violations:
+        at = v.time - result.start
+        if at < out.first.get(v.invariant, math.inf):
+            out.first[v.invariant] = at
+        if out.onset is not None and at >= out.onset and at < out.after.get(v.invariant, math.inf):
+            out.after[v.invariant] = at
+    out.alarms = [
+        {
+            "time": a.time - result.start,
+            "point": a.point,
+            "rule": a.rule,
+            "invariant": a.violation.invariant,
+        }
+        for a in sorted(result.alarms, key=lambda a: a.time)
+    ]
+    return out
+
+
+def observe_runs(
+    document: Mapping[str, Any],
+    bags: Sequence[Path],
+    workers: int | None = None,
+    onsets: Mapping[Path, OnsetSpec] | None = None,
+) -> dict[Path, RunOutcome]:
+    """Replay each bag (in worker processes) and keep what classification needs; a bag in
+    ``onsets`` also gets its fault's onset."""
+    tasks = [(bag, (onsets or {}).get(bag)) for bag in bags]
+    workers = min(workers or default_workers(), max(len(bags), 1))
+    if workers <= 1:
+        _start_worker(document)
+        found = [_observe(task) for task in tasks]
+    else:
+        context = multiprocessing.get_context("fork")
+        with context.Pool(workers, _start_worker, (document,)) as pool:
+            found = pool.map(_observe, tasks, chunksize=1)
+    return {outcome.bag: outcome for outcome in found}
 
 
 def violated_per_bag(
     document: Mapping[str, Any], bags: Sequence[Path], workers: int | None = None
 ) -> dict[Path, tuple[set[str], str | None]]:
     """Per bag, the ids of the invariants it violates (or the error that stopped it)."""
-    workers = min(workers or default_workers(), max(len(bags), 1))
-    if workers <= 1:
-        _start_worker(document)
-        found = [_violated(bag) for bag in bags]
-    else:
-        context = multiprocessing.get_context("fork")
-        with context.Pool(workers, _start_worker, (document,)) as pool:
-            found = pool.map(_violated, bags, chunksize=1)
-    return {bag: (ids, error) for bag, ids, error in found}
+    found = observe_runs(document, bags, workers)
+    return {bag: (outcome.violated, outcome.error) for bag, outcome in found.items()}
 
 
 # -- the two modes ------------------------------------------------------------------------------
@@ -164,19 +348,30 @@ def classify(
     *,
     beta: float,
     threshold: float,
+    before: Mapping[Path, set[str]] | None = None,
+    delays: Mapping[str, Sequence[float]] | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, dict[str, int]]]:
-    """Scores per invariant and counts per family."""
+    """Scores per invariant and counts per family.
+
+    ``fail`` holds, per failed run, the invariants that detect its fault (violated at or
+    after its onset, or anywhere without one); ``before``, per failed run with an onset,
+    the invariants violated before it: that part is a nominal run, its violations false
+    positives. ``delays``: per invariant, its detection delays (s) on runs with an onset.
+    """
     scores: list[dict[str, Any]] = []
     families: dict[str, dict[str, int]] = {}
+    before = before or {}
     for inv in document["invariants"]:
         ident = inv["id"]
+        early = sum(ident in ids for ids in before.values())
         score = Score(
-            sum(ident in ids for ids in success.values()),
-            len(success),
+            sum(ident in ids for ids in success.values()) + early,
+            len(success) + len(before),
             sum(ident in ids for ids in fail.values()),
             len(fail),
             beta,
         )
+        waits = (delays or {}).get(ident) or ()
         fscore = score.fscore
         kept = fscore >= threshold if fscore is not None else score.violated_success == 0
         scores.append(
@@ -198,6 +393,9 @@ def classify(
                 "kept": kept,
             }
         )
+        if delays is not None:
+            scores[-1]["fp_before_onset"] = early
+            scores[-1]["delay_mean"] = _number(sum(waits) / len(waits)) if waits else None
         counts = families.setdefault(inv["family"], {"total": 0, "kept": 0})
         counts["total"] += 1
         counts["kept"] += int(kept)
@@ -273,14 +471,118 @@ def group_counts(document: Mapping[str, Any]) -> dict[str, int]:
     return found
 
 
+def _diagnostic(config_path: Path, span: Any, code: str, message: str) -> Diagnostic:
+    return make(str(config_path), span.line, span.column, code, message)
+
+
+def fail_onsets(
+    config_path: Path, check: Check, bags: Mapping[str, Sequence[Path]]
+) -> tuple[dict[Path, OnsetSpec], dict[Path, Onset]]:
+    """Per failed run whose ``<fail>`` gives an onset: how to find it, and that ``<fail>``.
+
+    ``bags``: the bags each ``<fail>`` entry names. An unreadable onsets file raises
+    :class:`OnsetFileError`.
+    """
+    base = config_path.parent
+    onsets = check.onsets or tuple(Onset(check.span) for _ in check.fail)
+    specs: dict[Path, OnsetSpec] = {}
+    where: dict[Path, Onset] = {}
+    files: dict[str, dict[Path, float | None]] = {}
+    for entry, onset in zip(check.fail, onsets, strict=False):
+        if not onset.given:
+            continue
+        if onset.file is not None and onset.file not in files:
+            files[onset.file] = onsets_file(base / onset.file)
+        for bag in bags.get(entry, ()):
+            where[bag] = onset
+            if onset.seconds is not None:
+                specs[bag] = OnsetSpec(seconds=onset.seconds)
+            elif onset.topic is not None:
+                specs[bag] = OnsetSpec(topic=resolve_name(onset.topic))
+            elif onset.file is not None:
+                table = files[onset.file]
+                key = bag.resolve()
+                if key not in table:
+                    problem = f"{bag} is not in the onsets file {onset.file}"
+                    specs[bag] = OnsetSpec(problem=problem)
+                elif table[key] is None:
+                    problem = f"the onsets file {onset.file} gives {bag} no onset (null)"
+                    specs[bag] = OnsetSpec(problem=problem)
+                else:
+                    specs[bag] = OnsetSpec(seconds=table[key])
+    return specs, where
+
+
+def _seconds(value: float | None) -> float | None:
+    return None if value is None else round(value, 6)
+
+
+def run_entry(outcome: RunOutcome, kind: str) -> dict[str, Any]:
+    """One run of the report: its alarms against its onset (times from the bag's start)."""
+    times = [a["time"] for a in outcome.alarms]
+    entry: dict[str, Any] = {
+        "bag": str(outcome.bag),
+        "kind": kind,
+        "duration": _seconds(max(outcome.end - outcome.start, 0.0)),
+        "violated": len(outcome.first),
+        "alarms": len(times),
+        "first_alarm": _seconds(times[0]) if times else None,
+    }
+    if kind == "success":
+        entry["false_alarm"] = bool(times)
+        return entry
+    onset = outcome.onset
+    early = [t for t in times if onset is not None and t < onset]
+    late = [t for t in times if onset is None or t >= onset]
+    entry.update(
+        {
+            "onset": _seconds(onset),
+            "alarms_before_onset": len(early),
+            "false_alarm": bool(early),
+            "detected": bool(late),
+            "detection": _seconds(late[0]) if late else None,
+            "delay": _seconds(late[0] - onset) if late and onset is not None else None,
+        }
+    )
+    return entry
+
+
+def detection(runs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The run-level summary of the report's ``runs``: recall over failed runs (an alarm at
+    or after the onset), runs with a false alarm, detection delays."""
+    success = [r for r in runs if r["kind"] == "success"]
+    fail = [r for r in runs if r["kind"] == "fail"]
+    delays = [r["delay"] for r in fail if r.get("delay") is not None]
+    detected = sum(r["detected"] for r in fail)
+    nominal = len(success) + sum(1 for r in fail if r.get("onset"))
+    false_alarms = sum(r["false_alarm"] for r in runs)
+    return {
+        "success_runs": len(success),
+        "fail_runs": len(fail),
+        "with_onset": sum(1 for r in fail if r.get("onset") is not None),
+        "detected": detected,
+        "recall": _number(detected / len(fail)) if fail else None,
+        "false_alarm_success": sum(r["false_alarm"] for r in success),
+        "false_alarm_fail": sum(r["false_alarm"] for r in fail),
+        "false_alarm_rate": _number(false_alarms / nominal) if nominal else None,
+        "delay_mean": _number(sum(delays) / len(delays)) if delays else None,
+        "delay_max": _number(max(delays)) if delays else None,
+    }
+
+
 def run_check(
     config_path: Path,
     *,
     inv: Path | None = None,
     output: Path | None = None,
     workers: int | None = None,
+    cross_validate: int | None = None,
 ) -> CheckResult:
-    """The check stage of ``config_path``: classification or comparison."""
+    """The check stage of ``config_path``: classification or comparison.
+
+    ``cross_validate`` K: the successful runs that are also ``<detect>`` runs are scored at
+    the run level against invariants inferred from the other K-1 folds of the detect bags.
+    """
     out = CheckResult()
     project, out.diagnostics = load_project(config_path)
     if project is None:
@@ -288,6 +590,10 @@ def run_check(
     check = project.check
     if check is None:
         raise CheckStageError(f"{config_path}: the configuration has no <check> element")
+    if cross_validate is not None and check.mode != "classify":
+        raise CheckStageError(
+            f"{config_path}: --cross-validate scores <success> runs; this <check> compares <bag>s"
+        )
     base = config_path.parent
     inv_path = inv or base / check.inv
     document = read_invariants(inv_path)
@@ -307,28 +613,155 @@ def run_check(
         else {"reference": check.bags}
     )
     found: dict[str, list[Path]] = {}
+    per_entry: dict[str, list[Path]] = {}
     for name, entries in groups.items():
-        found[name], problems = bags_of(base, entries)
-        out.diagnostics += problems
+        found[name] = []
+        for entry in entries:
+            bags, problems = bags_of(base, [entry])
+            out.diagnostics += problems
+            found[name] += bags
+            if name == "fail":
+                per_entry[entry] = bags
         report[name] = [str(b) for b in found[name]]
+    specs, where = (
+        fail_onsets(config_path, check, per_entry) if check.mode == "classify" else ({}, {})
+    )
     everything = [b for bags in found.values() for b in bags]
-    violated = violated_per_bag(document, everything, workers)
+    observed = observe_runs(document, everything, workers, specs)
     report["errors"] = [
-        {"bag": str(bag), "error": error} for bag, (_, error) in violated.items() if error
+        {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
     ]
     runs = {
-        name: {b: violated[b][0] for b in bags if violated[b][1] is None}
+        name: {b: observed[b] for b in bags if observed[b].error is None}
         for name, bags in found.items()
     }
     if check.mode == "classify":
+        for bag, outcome in runs["fail"].items():
+            if outcome.onset_problem is not None:
+                message = f"{outcome.onset_problem}; the run is scored whole"
+                span = where[bag].span
+                out.diagnostics.append(_diagnostic(config_path, span, "onset-unusable", message))
+        overlap = success_in_detect(project, base, found["success"])
+        if overlap:
+            shown = ", ".join(str(b) for b in overlap[:3]) + (", ..." if len(overlap) > 3 else "")
+            message = (
+                f"{len(overlap)} of {len(found['success'])} <success> bags are <detect> bags "
+                f"({shown}): false positives are 0 by construction; hold successful runs "
+                f"out of <detect> or run imrosc classify --cross-validate K"
+            )
+            out.diagnostics.append(
+                _diagnostic(config_path, check.span, "success-in-detect", message)
+            )
+        report["success_in_detect"] = [str(b) for b in overlap]
+        success_runs = dict(runs["success"])
+        if cross_validate is not None:
+            report["cross_validation"], replaced, problems = cross_validated(
+                config_path, project, found["success"], cross_validate, workers
+            )
+            out.diagnostics += problems
+            success_runs.update({b: o for b, o in replaced.items() if o.error is None})
+        onset_runs = {b: o for b, o in runs["fail"].items() if o.onset is not None}
+        delays: dict[str, list[float]] = {}
+        for outcome in onset_runs.values():
+            assert outcome.onset is not None
+            for ident, at in outcome.after.items():
+                delays.setdefault(ident, []).append(at - outcome.onset)
         scores, families = classify(
-            document, runs["success"], runs["fail"], beta=check.beta, threshold=check.threshold
+            document,
+            {b: o.violated for b, o in runs["success"].items()},
+            {b: o.detected for b, o in runs["fail"].items()},
+            beta=check.beta,
+            threshold=check.threshold,
+            before={b: o.before for b, o in onset_runs.items() if o.onset},
+            delays=delays if onset_runs else None,
         )
         report["scores"], report["families"] = scores, families
+        report["runs"] = [run_entry(o, "success") for o in success_runs.values()]
+        report["runs"] += [run_entry(o, "fail") for o in runs["fail"].values()]
+        report["detection"] = detection(report["runs"])
         out.refined = refined(document, scores, report)
         out.output = output or inv_path.with_name(inv_path.stem + ".refined.inv")
         report["output"] = str(out.output)
     else:
-        report["scores"], report["families"] = compare(document, runs["reference"])
+        report["scores"], report["families"] = compare(
+            document, {b: o.violated for b, o in runs["reference"].items()}
+        )
+    out.diagnostics = finalize(out.diagnostics)
     out.report = report
     return out
+
+
+def success_in_detect(project: Project, base: Path, success: Sequence[Path]) -> list[Path]:
+    """The ``<success>`` bags that are also ``<detect>`` bags (resolved paths compared)."""
+    if project.detect is None:
+        return []
+    detect, _ = bags_of(base, project.detect.bags)
+    learnt = {b.resolve() for b in detect}
+    return [b for b in success if b.resolve() in learnt]
+
+
+def cross_validated(
+    config_path: Path,
+    project: Project,
+    success: Sequence[Path],
+    folds: int,
+    workers: int | None,
+) -> tuple[dict[str, Any], dict[Path, RunOutcome], list[Diagnostic]]:
+    """The successful runs that are detect runs, each replayed against the invariants
+    inferred from the folds of the detect bags that do not hold it (stability's folds)."""
+    from imrosc.detect import run_detect
+    from imrosc.stability import folds_of
+
+    if project.detect is None:
+        raise CheckStageError(f"{config_path}: --cross-validate needs a <detect> element")
+    detect, problems = bags_of(config_path.parent, project.detect.bags)
+    if not 2 <= folds <= len(detect):
+        raise CheckStageError(
+            f"{config_path}: --cross-validate {folds} needs 2 <= K <= the {len(detect)} "
+            f"<detect> bag(s)"
+        )
+    rounds: list[dict[str, Any]] = []
+    replaced: dict[Path, RunOutcome] = {}
+    for held_out in folds_of(detect, folds):
+        train = [b for b in detect if b not in held_out]
+        held = {b.resolve() for b in held_out}
+        scored = [b for b in success if b.resolve() in held]
+        detected = run_detect(config_path, workers=workers, bags=train)
+        for problem in detected.diagnostics:
+            if problem.code in ("bag-error", "bag-empty", "bag-type-drift"):
+                problems.append(problem)
+        inferred = detected.document
+        if inferred is None or has_errors(detected.diagnostics):
+            raise CheckStageError(
+                f"{config_path}: cross-validation could not infer from "
+                f"{', '.join(str(b) for b in train)}: "
+                + "; ".join(
+                    d.as_text() for d in detected.diagnostics if d.severity.value == "error"
+                )
+            )
+        outcomes = observe_runs(inferred, scored, workers) if scored else {}
+        replaced.update(outcomes)
+        rounds.append(
+            {
+                "held_out": [str(b) for b in held_out],
+                "trained_on": [str(b) for b in train],
+                "invariants": len(inferred["invariants"]),
+                "success": [
+                    {
+                        "bag": str(b),
+                        "violated": len(o.first),
+                        "alarms": len(o.alarms),
+                        "error": o.error,
+                    }
+                    for b, o in outcomes.items()
+                ],
+            }
+        )
+    report = {
+        "folds": folds,
+        "rounds": rounds,
+        "scored": [str(b) for b in replaced],
+        "note": "successful runs that are detect runs are scored against the invariants of "
+        "the folds that do not hold them; failed runs against the checked invariants file",
+    }
+    return report, replaced, problems

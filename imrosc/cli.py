@@ -400,6 +400,14 @@ def replay(
     type=click.Path(dir_okay=False, path_type=Path),
     help="Where to write the refined invariants [default: <inv>.refined.inv].",
 )
+@click.option(
+    "--cross-validate",
+    "cross_validate",
+    type=click.IntRange(min=2),
+    metavar="K",
+    help="Score the <success> runs that are <detect> runs against invariants inferred from "
+    "the other K-1 folds of the <detect> bags (run-level false alarms).",
+)
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
@@ -408,18 +416,21 @@ def classify(
     jobs: int | None,
     inv: Path | None,
     refined: Path | None,
+    cross_validate: int | None,
     output_format: str,
     report_path: Path | None,
     force: bool,
 ) -> None:
     """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
-    useful ones."""
+    useful ones; with fault onsets, score the alarms and their delays too."""
     from imrosc.build import OverwriteRefusedError, write_files
     from imrosc.classify import CheckStageError, run_check
     from imrosc.invariants import dumps
 
     try:
-        result = run_check(config, inv=inv, output=refined, workers=jobs)
+        result = run_check(
+            config, inv=inv, output=refined, workers=jobs, cross_validate=cross_validate
+        )
     except CheckStageError as error:
         click.echo(f"imrosc classify: {error}", err=True)
         sys.exit(EXIT_ERRORS)

@@ -114,6 +114,12 @@ CODES: tuple[Code, ...] = (
         "semantic",
         "A <check> has <success> without <fail> or the reverse, or no bags at all.",
     ),
+    Code(
+        "onset-conflict",
+        _E,
+        "semantic",
+        "A <fail> gives its fault's onset more than one way (onset, onset_topic, onsets).",
+    ),
     Code("unused-condition", _W, "semantic", "A condition that no point uses."),
     Code(
         "uninvolved-event",
@@ -143,6 +149,21 @@ CODES: tuple[Code, ...] = (
         _W,
         "translate",
         "A topic has another message type here than in an earlier bag; fields match by name.",
+    ),
+    # The check stage (imrosc classify).
+    Code(
+        "onset-unusable",
+        _W,
+        "classify",
+        "A <fail> run's onset cannot be used (past the bag's end, a label topic missing or "
+        "never non-zero, a bag the onsets file does not list); the run is scored whole.",
+    ),
+    Code(
+        "success-in-detect",
+        _W,
+        "classify",
+        "A <success> bag is also a <detect> bag: it cannot violate what was learnt from it, so "
+        "false positives are 0 by construction.",
     ),
     # Lowering (imrosc build).
     Code(

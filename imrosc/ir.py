@@ -184,6 +184,23 @@ class Detect:
 
 
 @dataclass(frozen=True)
+class Onset:
+    """When the fault of a ``<fail>`` entry's runs begins: at most one of ``seconds`` (after
+    each bag's start), ``topic`` (a label topic: its first non-zero message) and ``file`` (a
+    JSON file of onsets per bag); none of them: the onset is unknown."""
+
+    span: Span
+    seconds: float | None = None
+    topic: str | None = None
+    file: str | None = None
+
+    @property
+    def given(self) -> bool:
+        """Whether the entry says when its fault begins."""
+        return self.seconds is not None or self.topic is not None or self.file is not None
+
+
+@dataclass(frozen=True)
 class Check:
     """Classification (success/fail runs, thesis 4.2) or comparison (bags, thesis 5.2)."""
 
@@ -195,6 +212,8 @@ class Check:
     bags: tuple[str, ...] = ()
     threshold: float = 0.5
     beta: float = 1.0
+    onsets: tuple[Onset, ...] = ()
+    """One per ``fail`` entry, in order (the entry's span; its onset if it gives one)."""
 
 
 @dataclass(frozen=True)

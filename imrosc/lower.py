@@ -159,6 +159,17 @@ def _check(config: LoadedConfig, element: etree._Element, fallback: str) -> ir.C
         bags=_texts(element, "bag"),
         threshold=_number(element, "threshold", 0.5),
         beta=_number(element, "beta", 1.0),
+        onsets=tuple(_onset(config, child) for child in children(element, "fail")),
+    )
+
+
+def _onset(config: LoadedConfig, element: etree._Element) -> ir.Onset:
+    seconds, topic, file = (element.get(name) for name in ("onset", "onset_topic", "onsets"))
+    return ir.Onset(
+        span=_span(config, element),
+        seconds=None if seconds is None else float(seconds),
+        topic=None if topic is None else topic.strip(),
+        file=None if file is None else file.strip(),
     )
 
 

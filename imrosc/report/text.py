@@ -81,6 +81,8 @@ def classify(view: Classify) -> str:
     lines = [f"imrosc {view.mode} of {view.invariants} ({view.config})", view.summary]
     if view.output:
         lines.append(f"refined invariants written to {view.output}")
+    if view.success_warning:
+        lines.append(f"warning: {view.success_warning}")
     lines += _errors(view)
     lines.append("")
     if view.compare:
@@ -118,7 +120,33 @@ def classify(view: Classify) -> str:
     else:
         lines.append("no invariant kept")
     lines.append(view.dropped_line)
+    lines += _runs(view)
     return "\n".join(lines) + "\n"
+
+
+def _runs(view: Classify) -> list[str]:
+    """The run level: each run's alarms against its fault's onset, then the summary."""
+    if not view.runs:
+        return []
+    lines = ["", "runs (alarms; times from each run's start):"]
+    rows = [
+        [
+            r.kind,
+            r.bag,
+            r.onset,
+            r.first_alarm,
+            r.detection,
+            r.delay,
+            str(r.before_onset),
+            r.verdict,
+        ]
+        for r in view.runs
+    ]
+    headers = ["kind", "bag", "onset", "first alarm", "detection", "delay", "early", "verdict"]
+    lines += ["  " + line for line in table(headers, rows, "llrrrrrl")]
+    if view.detection is not None:
+        lines.append(view.detection.summary)
+    return lines
 
 
 def stability(view: Stability) -> str:

@@ -289,6 +289,60 @@ class BagError:
 
 
 @dataclass(frozen=True)
+class ClassifiedRun:
+    """A run of a classify document at the run level: its alarms against its fault's onset
+    (times from the run's start)."""
+
+    bag: str
+    kind: str
+    onset: str
+    first_alarm: str
+    detection: str
+    delay: str
+    alarms: int
+    before_onset: int
+    false_alarm: bool
+    detected: bool
+
+    @property
+    def verdict(self) -> str:
+        """``detected``, ``missed``, ``false alarm``, ``detected, false alarm`` or ``quiet``."""
+        if self.kind == "success":
+            return "false alarm" if self.false_alarm else "quiet"
+        parts = ["detected" if self.detected else "missed"]
+        if self.false_alarm:
+            parts.append("false alarm")
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """The run-level summary: recall over failed runs, false alarms, delays."""
+
+    fail_runs: int
+    success_runs: int
+    with_onset: int
+    detected: int
+    recall: str
+    false_alarm_success: int
+    false_alarm_fail: int
+    false_alarm_rate: str
+    delay_mean: str
+    delay_max: str
+
+    @property
+    def summary(self) -> str:
+        """The summary in one line."""
+        return (
+            f"{self.detected} of {plural(self.fail_runs, 'fail run')} detected "
+            f"(recall {self.recall}; {self.with_onset} with an onset); false alarms in "
+            f"{self.false_alarm_success} of {self.success_runs} success and "
+            f"{self.false_alarm_fail} of {self.fail_runs} fail runs "
+            f"(rate {self.false_alarm_rate}); delay mean {self.delay_mean}, max {self.delay_max}"
+        )
+
+
+@dataclass(frozen=True)
 class Classify:
     """A classify or compare document."""
 
@@ -305,6 +359,23 @@ class Classify:
     families: list[Family]
     all: Family
     scores: list[Score]
+    runs: list[ClassifiedRun] = field(default_factory=list)
+    detection: Detection | None = None
+    success_in_detect: list[str] = field(default_factory=list)
+    cross_validation: str | None = None
+
+    @property
+    def success_warning(self) -> str | None:
+        """What a reader must know when success runs trained the invariants."""
+        if not self.success_in_detect:
+            return None
+        line = (
+            f"{len(self.success_in_detect)} of {plural(len(self.success), 'success run')} "
+            f"trained the invariants (<detect>): their false positives are 0 by construction"
+        )
+        if self.cross_validation:
+            return f"{line}; {self.cross_validation}"
+        return f"{line}; imrosc classify --cross-validate K scores them honestly"
 
     @property
     def compare(self) -> bool:
@@ -405,6 +476,52 @@ def _families(data: Mapping[str, Any], scores: Sequence[Score]) -> list[Family]:
     return rows
 
 
+def _at(item: Any) -> str:
+    return seconds(float(item)) if finite(item) else UNDEFINED
+
+
+def classified_run(data: Mapping[str, Any]) -> ClassifiedRun:
+    """One entry of a classify document's ``runs``."""
+    return ClassifiedRun(
+        bag=_text(data.get("bag")),
+        kind=_text(data.get("kind")),
+        onset=_at(data.get("onset")),
+        first_alarm=_at(data.get("first_alarm")),
+        detection=_at(data.get("detection")),
+        delay=_at(data.get("delay")),
+        alarms=int(data.get("alarms") or 0),
+        before_onset=int(data.get("alarms_before_onset") or 0),
+        false_alarm=bool(data.get("false_alarm")),
+        detected=bool(data.get("detected")),
+    )
+
+
+def detection(data: Mapping[str, Any]) -> Detection:
+    """A classify document's ``detection`` summary."""
+    return Detection(
+        fail_runs=int(data.get("fail_runs") or 0),
+        success_runs=int(data.get("success_runs") or 0),
+        with_onset=int(data.get("with_onset") or 0),
+        detected=int(data.get("detected") or 0),
+        recall=fraction(data.get("recall")),
+        false_alarm_success=int(data.get("false_alarm_success") or 0),
+        false_alarm_fail=int(data.get("false_alarm_fail") or 0),
+        false_alarm_rate=fraction(data.get("false_alarm_rate")),
+        delay_mean=_at(data.get("delay_mean")),
+        delay_max=_at(data.get("delay_max")),
+    )
+
+
+def _cross_validation(data: Any) -> str | None:
+    if not isinstance(data, Mapping):
+        return None
+    scored = len(data.get("scored") or [])
+    return (
+        f"{scored} of them scored at the run level by "
+        f"{_count(data.get('folds'))}-fold cross-validation"
+    )
+
+
 def classify(document: Mapping[str, Any]) -> Classify:
     """A classify document (``"format": "imrosc-classify"``, either mode) read."""
     scores = sorted(
@@ -436,6 +553,14 @@ def classify(document: Mapping[str, Any]) -> Classify:
             unbroken=sum(f.unbroken for f in families),
         ),
         scores=scores,
+        runs=[classified_run(r) for r in document.get("runs") or []],
+        detection=(
+            detection(document["detection"])
+            if isinstance(document.get("detection"), Mapping)
+            else None
+        ),
+        success_in_detect=[str(b) for b in document.get("success_in_detect") or []],
+        cross_validation=_cross_validation(document.get("cross_validation")),
     )
 
 

@@ -28,6 +28,9 @@ EVENT_TAGS = ("publish", "call")
 
 ARCH_KINDS = ("pub", "sub", "srv")
 
+ONSET_ATTRIBUTES = ("onset", "onset_topic", "onsets")
+"""The ways a ``<fail>`` gives its fault's onset (at most one)."""
+
 _LETTER_ID = re.compile(r"[a-z]+")
 _DIGIT_ID = re.compile(r"[0-9]+")
 _VIOLATION = re.compile(r"^(?P<points>[^>-]*)->(?P<actions>.*)$", re.DOTALL)
@@ -315,6 +318,8 @@ class _Pass:
 
     def check_check(self, check: etree._Element) -> None:
         successes, fails = children(check, "success"), children(check, "fail")
+        for fail in fails:
+            self.check_onset(fail)
         bags = children(check, "bag")
         if (successes or fails) and bags:
             message = "<check> classifies with <success>/<fail> or compares with <bag>, not both"
@@ -331,6 +336,24 @@ class _Pass:
                 f"failed runs to score invariants"
             )
             self.at_element(check, "check-incomplete", message)
+
+    def check_onset(self, fail: etree._Element) -> None:
+        given = [name for name in ONSET_ATTRIBUTES if fail.get(name) is not None]
+        if len(given) > 1:
+            message = (
+                f"<fail> gives its onset {len(given)} ways ({', '.join(given)}); "
+                f"keep one of onset, onset_topic and onsets"
+            )
+            self.at_attribute(fail, given[1], "onset-conflict", message)
+        topic = fail.get("onset_topic")
+        if topic is not None:
+            token = topic.strip()
+            start = topic.index(token) if token else 0
+            for problem in check_graph_name(token, "onset topic"):
+                offset = start + problem.offset
+                self.at_attribute(fail, "onset_topic", problem.code, problem.message, offset)
+        if fail.get("onsets") is not None and not fail.get("onsets", "").strip():
+            self.at_attribute(fail, "onsets", "invalid-value", "onsets names no file")
 
     def check_monitor(self, monitor: etree._Element, root: etree._Element) -> None:
         sources = [monitor, *children(root, "check"), *children(root, "detect")]

@@ -5,15 +5,18 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner
 
-from imrosc.classify import Score, classify, run_check
+from imrosc.classify import Score, classify, label_onset, load_project, run_check
 from imrosc.cli import main
 from imrosc.demo import example_configs
 from imrosc.invariants import load
+from imrosc.ir import Project, from_json, to_json
 from imrosc.sim import Scenario, ScenarioKind, write_run, write_runs
+from tests.checking import onsets
 
 # Table 4.1: % true negative, % false positive, % true positive, % false negative, precision,
 # recall, F at beta 0.5, 1.0, 2.0
@@ -130,3 +133,256 @@ def test_classify_without_check_or_with_a_bad_inv(tmp_path: Path, landing: Path)
     broken.write_text("{not json")
     done = runner.invoke(main, ["classify", str(landing / "landing_sim.xml"), "--inv", str(broken)])
     assert done.exit_code == 1 and "broken.inv:1:2: not JSON" in done.output
+
+
+# -- onset-aware classification ---------------------------------------------------------------
+
+CLASSIFY_FIXTURES = Path(__file__).parents[1] / "fixtures" / "classify"
+ALFA = Path("/work/shared/data/real/alfa")
+needs_alfa = pytest.mark.skipif(not (ALFA / "onsets.json").is_file(), reason="ALFA data missing")
+
+
+def test_a_violation_before_the_onset_is_a_false_positive() -> None:
+    document = {
+        "invariants": [
+            {"id": i, "point": "a", "family": "bounds", "kind": "range", "text": ""}
+            for i in ("early", "late", "both")
+        ]
+    }
+    success = {Path("s"): set[str]()}
+    fail = {Path("f"): {"late", "both"}}  # broken at or after the onset
+    before = {Path("f"): {"early", "both"}}  # broken before it: a nominal run's violation
+    scores, _ = classify(
+        document, success, fail, beta=1.0, threshold=0.5, before=before, delays={"late": [0.5]}
+    )
+    early, late, both = scores
+    assert (early["tp"], early["fp"], early["tn"], early["fn"]) == (0, 1, 1, 1)
+    assert (late["tp"], late["fp"], late["tn"], late["fn"]) == (1, 0, 2, 0)
+    assert (both["tp"], both["fp"], both["tn"], both["fn"]) == (1, 1, 1, 0)
+    assert [s["fp_before_onset"] for s in scores] == [1, 0, 1]
+    assert late["delay_mean"] == 0.5 and early["delay_mean"] is None
+    assert late["fscore"] == 1.0 and both["precision"] == pytest.approx(2 / 3, abs=1e-6)
+
+
+@pytest.fixture(scope="module")
+def prepared(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Bags with a fault at 12 s and the invariants of their nominal runs."""
+    folder = tmp_path_factory.mktemp("onsets")
+    onsets.project(folder, '<fail onset="12">bags/bad</fail>')
+    return folder
+
+
+def _by_bag(report: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    return {Path(r["bag"]).name: r for r in report["runs"]}
+
+
+def _same_scoring(report: dict[str, Any]) -> None:
+    runs = _by_bag(report)
+    assert runs["s0.bag"]["false_alarm"] is False and runs["s0.bag"]["alarms"] == 0
+    late, glitch = runs["late.bag"], runs["glitch.bag"]
+    assert late["onset"] == glitch["onset"] == onsets.ONSET
+    assert late["first_alarm"] == late["detection"] == onsets.ONSET and late["delay"] == 0.0
+    assert late["false_alarm"] is False and late["alarms_before_onset"] == 0
+    assert glitch["first_alarm"] == 3.0 and glitch["false_alarm"] is True
+    assert glitch["detected"] is True and glitch["delay"] == 0.0
+    assert report["detection"] == {
+        "success_runs": 1,
+        "fail_runs": 2,
+        "with_onset": 2,
+        "detected": 2,
+        "recall": 1.0,
+        "false_alarm_success": 0,
+        "false_alarm_fail": 1,
+        "false_alarm_rate": round(1 / 3, 6),
+        "delay_mean": 0.0,
+        "delay_max": 0.0,
+    }
+    bound = next(s for s in report["scores"] if s["family"] == "bounds")
+    # the glitch's pre-onset half is a nominal run that breaks the bound: one false positive
+    assert (bound["tp"], bound["fp"], bound["tn"], bound["fn"]) == (2, 1, 2, 0)
+    assert bound["fp_before_onset"] == 1 and bound["delay_mean"] == 0.0
+
+
+@pytest.mark.parametrize(
+    "fail",
+    [
+        '<fail onset="12">bags/bad</fail>',
+        '<fail onset_topic="/failure_status">bags/bad</fail>',
+        '<fail onset_topic="failure_status">bags/bad</fail>',  # relative: resolved
+        '<fail onsets="onsets.json">bags/bad</fail>',
+    ],
+    ids=["seconds", "topic", "relative-topic", "file"],
+)
+def test_the_three_ways_of_giving_the_onset_score_alike(
+    prepared: Path, tmp_path: Path, fail: str
+) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    (folder / "onsets.json").write_text(
+        json.dumps({"bags/bad/late.bag": 12, "bags/bad/glitch.bag": {"onset_s": 12.0}})
+    )
+    config = onsets.project(folder, fail)
+    result = run_check(config, workers=1)
+    assert [d for d in result.diagnostics if d.code != "relative-name"] == []
+    _same_scoring(result.report)
+
+
+def test_without_an_onset_the_whole_fail_run_counts(prepared: Path, tmp_path: Path) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    report = run_check(onsets.project(folder, "<fail>bags/bad</fail>"), workers=1).report
+    bound = next(s for s in report["scores"] if s["family"] == "bounds")
+    assert (bound["tp"], bound["fp"], bound["tn"], bound["fn"]) == (2, 0, 1, 0)
+    assert "fp_before_onset" not in bound
+    glitch = _by_bag(report)["glitch.bag"]
+    assert glitch["onset"] is None and glitch["detection"] == 3.0 and glitch["delay"] is None
+    assert report["detection"]["with_onset"] == 0 and report["detection"]["delay_mean"] is None
+
+
+def _expected(case: Path) -> set[tuple[str, int, str, str]]:
+    found = set()
+    for line in (case / "classify.expect").read_text().splitlines():
+        where, severity, code = line.split(": ")
+        name, number = where.split(":")
+        found.add((name, int(number), severity, code.strip("[]")))
+    return found
+
+
+@pytest.mark.parametrize(
+    "case", sorted(p for p in CLASSIFY_FIXTURES.iterdir() if p.is_dir()), ids=lambda p: p.name
+)
+def test_classify_fixture_reports_exactly_its_expectations(
+    case: Path, prepared: Path, tmp_path: Path
+) -> None:
+    """Each ``tests/fixtures/classify/<code>/`` runs on the prepared bags; ``classify.expect``
+    lists every diagnostic as ``FILE:LINE: severity: [code]``."""
+    folder = onsets.copy(prepared, tmp_path / case.name)
+    shutil.copytree(case, folder, dirs_exist_ok=True)
+    result = run_check(folder / "config.xml", workers=1)
+    got = {(Path(d.path).name, d.line, d.severity.value, d.code) for d in result.diagnostics}
+    assert got == _expected(case), [d.as_text() for d in result.diagnostics]
+
+
+def test_unusable_onsets_name_the_bag_and_score_the_run_whole(
+    prepared: Path, tmp_path: Path
+) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    shutil.copytree(CLASSIFY_FIXTURES / "onset-unusable", folder, dirs_exist_ok=True)
+    done = CliRunner().invoke(main, ["classify", str(folder / "config.xml"), "--format", "json"])
+    assert done.exit_code == 0, done.output
+    assert "Traceback" not in done.output
+    messages = done.stderr
+    assert "late.bag: the onset 50 s is past the end of the bag (19.900 s)" in messages
+    assert "never.bag: /failure_status never turns non-zero" in messages
+    assert "glitch.bag has no topic /no_such_label" in messages
+    assert "other.bag is not in the onsets file onsets.json" in messages
+    runs = [r for r in json.loads(done.stdout)["runs"] if r["kind"] == "fail"]
+    assert len(runs) == 4 and {r["onset"] for r in runs} == {None}
+    glitch = next(r for r in runs if r["bag"].endswith("glitch.bag"))
+    assert glitch["detection"] == 3.0 and glitch["false_alarm"] is False  # scored whole
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("{not json", "the onsets file is not JSON"),
+        ("[1, 2]", "must map bag paths to onsets"),
+        ('{"bags/bad/late.bag": -4}', "expected seconds >= 0 or null"),
+        ('{"bags/bad/late.bag": {"onset_s": "soon"}}', "expected seconds >= 0 or null"),
+        (None, "cannot read the onsets file"),
+    ],
+)
+def test_a_bad_onsets_file_is_one_line(
+    prepared: Path, tmp_path: Path, content: str | None, message: str
+) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    if content is not None:
+        (folder / "onsets.json").write_text(content)
+    config = onsets.project(folder, '<fail onsets="onsets.json">bags/bad</fail>')
+    done = CliRunner().invoke(main, ["classify", str(config)])
+    assert done.exit_code == 1 and "Traceback" not in done.output
+    assert message in done.output and "onsets.json" in done.output
+
+
+def test_success_runs_that_trained_the_invariants_are_cross_validated(
+    prepared: Path, tmp_path: Path
+) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    config = onsets.project(folder, '<fail onset="12">bags/bad</fail>', success="bags/train")
+    plain = run_check(config, workers=1)
+    assert [d.code for d in plain.diagnostics] == ["success-in-detect"]
+    assert "3 of 3 <success> bags are <detect> bags" in plain.diagnostics[0].message
+    assert len(plain.report["success_in_detect"]) == 3
+    done = CliRunner().invoke(
+        main, ["classify", str(config), "--cross-validate", "3", "-j", "1", "--format", "json"]
+    )
+    assert done.exit_code == 0, done.output
+    report = json.loads(done.stdout)
+    cv = report["cross_validation"]
+    assert cv["folds"] == 3 and len(cv["rounds"]) == 3
+    assert sorted(cv["scored"]) == sorted(report["success"])
+    for fold in cv["rounds"]:
+        assert len(fold["held_out"]) == 1 and len(fold["trained_on"]) == 2
+        assert [s["bag"] for s in fold["success"]] == fold["held_out"]
+    assert report["detection"]["success_runs"] == 3
+    done = CliRunner().invoke(main, ["classify", str(config), "--cross-validate", "4"])
+    assert done.exit_code == 1 and "needs 2 <= K <= the 3 <detect> bag(s)" in done.output
+    assert "Traceback" not in done.output
+
+
+@needs_alfa
+def test_alfa_onsets_come_from_the_failure_status_topic() -> None:
+    """The real ALFA flights: the first non-zero /failure_status is onsets.json's onset."""
+    table = json.loads((ALFA / "onsets.json").read_text())
+    for key, entry in table.items():
+        onset, problem = label_onset(ALFA / key, "/failure_status")
+        if entry["onset_s"] is None:
+            assert onset is None and problem is not None and "never turns non-zero" in problem
+        else:
+            assert problem is None and onset == pytest.approx(entry["onset_s"], abs=1e-3)
+
+
+@needs_alfa
+def test_alfa_flight_classified_with_its_label_topic(tmp_path: Path) -> None:
+    nominal = sorted((ALFA / "no_failure").glob("*.bag"))
+    engine = ALFA / "engine" / "carbonZ_2018-07-30-16-39-00_2_engine_failure.bag"
+    config = tmp_path / "alfa.xml"
+    config.write_text(
+        f"""<imROS project="alfa">
+  <scope><publish id="a">/alfa/merged</publish></scope>
+  <detect inv="alfa.inv" discrete="0"><bag>{nominal[0]}</bag><bag>{nominal[1]}</bag></detect>
+  <check inv="alfa.inv">
+    <success>{nominal[2]}</success>
+    <fail onset_topic="/failure_status">{engine}</fail>
+    <fail onsets="{ALFA / "onsets.json"}">{ALFA / "rudder"}</fail>
+  </check>
+</imROS>
+"""
+    )
+    done = CliRunner().invoke(main, ["infer", str(config), "-q", "-j", "1"])
+    assert done.exit_code == 0, done.output
+    result = run_check(config, workers=1)
+    assert result.diagnostics == []
+    table = json.loads((ALFA / "onsets.json").read_text())
+    runs = [r for r in result.report["runs"] if r["kind"] == "fail"]
+    assert len(runs) == 4
+    for run in runs:
+        expected = table[str(Path(run["bag"]).relative_to(ALFA))]["onset_s"]
+        assert run["onset"] == pytest.approx(expected, abs=1e-3)
+        if run["detected"]:
+            assert run["delay"] == pytest.approx(run["detection"] - run["onset"], abs=1e-5)
+            assert run["delay"] >= 0
+    detection = result.report["detection"]
+    assert detection["fail_runs"] == 4 and detection["with_onset"] == 4
+
+
+def test_fail_onsets_are_lowered_one_per_fail_and_round_trip() -> None:
+    example = Path(__file__).parents[2] / "examples" / "uav_landing.xml"
+    project, problems = load_project(example)
+    assert project is not None and project.check is not None, problems
+    check = project.check
+    assert check.fail == ("bags/fail", "bags/fail_labelled", "bags/fail_logged")
+    seconds, topic, file = check.onsets
+    assert (seconds.seconds, seconds.topic, seconds.file) == (10.0, None, None)
+    assert (topic.seconds, topic.topic) == (None, "/failure_status")
+    assert file.file == "bags/fail_logged/onsets.json" and file.given
+    assert all(o.span.line > check.span.line for o in check.onsets)
+    assert from_json(Project, to_json(project)) == project

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 FIXTURES = Path(__file__).parent / "fixtures"
-DOCUMENTS = ["replay", "replay_empty", "classify", "compare", "stability"]
+DOCUMENTS = ["replay", "replay_empty", "classify", "classify_onsets", "compare", "stability"]
 
 
 def load(name: str) -> dict[str, Any]:

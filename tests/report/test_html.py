@@ -15,11 +15,19 @@ from imrosc.report.html import environment
 from imrosc.report.svg import LIMIT
 from tests.report.documents import DOCUMENTS, load
 
-SVGS = {"replay": 3, "replay_empty": 0, "classify": 3, "compare": 4, "stability": 1}
+SVGS = {
+    "replay": 3,
+    "replay_empty": 0,
+    "classify": 3,
+    "classify_onsets": 2,
+    "compare": 4,
+    "stability": 1,
+}
 SOURCES = {
     "replay": "out/landing_sim.inv",
     "replay_empty": "empty.inv",
     "classify": "out/landing_sim.inv",
+    "classify_onsets": "out/alfa.inv",
     "compare": "out/landing_sim.inv",
     "stability": "examples/landing_sim.xml",
 }
@@ -296,3 +304,11 @@ def test_stability_grouped_bars() -> None:
         "40",
         "6.25%",
     ]
+
+
+def test_classify_runs_against_their_onsets() -> None:
+    page = html_of("classify_onsets")
+    assert "<h2>Runs</h2>" in page and "detected, false alarm" in page
+    assert "2 of 3 fail runs detected (recall 0.667; 2 with an onset)" in page
+    assert "Warning: 1 of 2 success runs trained the invariants" in page
+    assert "1 of them scored at the run level by 2-fold cross-validation" in page
