@@ -113,8 +113,10 @@ class Alarm(NamedTuple):
 class AlarmTracker:
     """Turns a run's violations into alarms under one rule (one tracker per run)."""
 
-    def __init__(self, rule: AlarmRule = EVERY_VIOLATION) -> None:
+    def __init__(self, rule: AlarmRule = EVERY_VIOLATION, record: bool = False) -> None:
         self.rule = rule
+        self.record = record
+        """Keep, for calibration, every violating sample with its episode's length."""
         self.reset()
 
     def reset(self) -> None:
@@ -124,6 +126,9 @@ class AlarmTracker:
         self._recent: Dict[str, Deque[Tuple[float, str]]] = {}
         self._agreeing: Set[str] = set()
         self.raised: List[Alarm] = []
+        self.fed: List[Tuple[float, str, str, int]] = []
+        """``(time, point, invariant, samples of its episode so far)`` of every violating
+        sample (``record``)."""
 
     def busy(self, point: str) -> bool:
         """Whether ``point`` has an open episode (a clean sample must then be told)."""
@@ -142,6 +147,8 @@ class AlarmTracker:
             if episode is None:
                 episode = episodes[v.invariant] = [time, 0.0, 0.0]
             episode[1] += 1
+            if self.record:
+                self.fed.append((time, point, v.invariant, int(episode[1])))
             if episode[2]:
                 continue
             lasting = rule.seconds is not None and time - episode[0] >= rule.seconds
@@ -174,10 +181,41 @@ class AlarmTracker:
         self.raised += raised
         return raised
 
+    def alarmed(self, found: Sequence[Violation], raised: Sequence[Alarm]) -> List[Violation]:
+        """Those of ``found`` that belong to an alarm: one that ``raised`` it, or one whose
+        invariant's episode or point's agreement is in alarm. A monitor withholds a blocked
+        message for these, and lets the others through."""
+        ids = {id(a.violation) for a in raised}
+        out: List[Violation] = []
+        for v in found:
+            episode = self._episodes.get(v.point, {}).get(v.invariant)
+            if id(v) in ids or (episode is not None and episode[2]) or v.point in self._agreeing:
+                out.append(v)
+        return out
+
     def take(self) -> List[Alarm]:
         """The alarms raised since the last call."""
         raised, self.raised = self.raised, []
         return raised
+
+
+def agreement(fed: Sequence[Tuple[float, str, str, int]], window: float) -> int:
+    """The most distinct invariants of one point violated within ``window`` seconds, over
+    violating samples as :attr:`AlarmTracker.fed` keeps them (in time order).
+
+    >>> agreement([(0.0, "p", "a", 1), (0.5, "p", "b", 1), (0.6, "q", "c", 1),
+    ...            (1.2, "p", "c", 1)], 1.0)
+    2
+    """
+    recent: Dict[str, Deque[Tuple[float, str]]] = {}
+    most = 0
+    for time, point, ident, _ in fed:
+        queue = recent.setdefault(point, deque())
+        queue.append((time, ident))
+        while queue[0][0] < time - window:
+            queue.popleft()
+        most = max(most, len({i for _, i in queue}))
+    return most
 
 
 def alarms_json(alarms: Sequence[Alarm]) -> List[Dict[str, Any]]:

@@ -54,6 +54,21 @@ def test_agreement_of_distinct_invariants_within_the_window() -> None:
     assert [a.rule for a in tracker.sample("p", 5.2, [broken("c", 5.2)])] == ["agree"]
 
 
+def test_violations_in_an_alarmed_episode_are_alarmed() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=2))
+    first = [broken("a", 0.0)]
+    tracker.sample("p", 0.0, first)
+    assert tracker.alarmed(first, tracker.take()) == []
+    second = [broken("a", 0.1), broken("b", 0.1)]
+    tracker.sample("p", 0.1, second)
+    assert tracker.alarmed(second, tracker.take()) == second[:1]
+    third = [broken("a", 0.2)]  # still the alarmed episode, no new alarm
+    tracker.sample("p", 0.2, third)
+    assert tracker.take() == [] and tracker.alarmed(third, []) == third
+    events = [broken("c", 0.3)]
+    assert tracker.alarmed(events, tracker.event(events)) == events
+
+
 def test_events_alarm_at_once_and_reset_forgets() -> None:
     tracker = AlarmTracker(AlarmRule(persist=5))
     assert [a.rule for a in tracker.event([broken("a", 1.0)])] == ["event"]
