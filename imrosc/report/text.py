@@ -38,6 +38,7 @@ def replay(view: Replay) -> str:
         lines += ["", f"{run.bag}: {run.summary}"]
         if run.error is not None:
             continue
+        lines += [f"  warning: {w}" for w in run.warnings]
         if not run.episodes:
             if run.violated:  # violations counted without episodes: say so, list nothing
                 lines.append("  no episodes recorded")

@@ -78,6 +78,8 @@ class Run:
     episodes: list[Episode]
     polygons: list[Mapping[str, Any]] = field(default_factory=list)
     frequencies: list[Mapping[str, Any]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    """What the run could not check (topics of the invariants missing from the bag)."""
 
     @property
     def duration(self) -> float:
@@ -174,6 +176,7 @@ def run(data: Mapping[str, Any]) -> Run:
         episodes=episodes,
         polygons=list(plots.get("polygons") or []),
         frequencies=list(plots.get("frequencies") or []),
+        warnings=[_text(w) for w in data.get("warnings") or []],
     )
 
 
