@@ -381,7 +381,12 @@ def replay(
         problems += bad
     _report(problems, "text")
     report, results = replay_document(inv, document, found, plots=not no_plots)
-    _emit(report, "json" if as_json else output_format, report_path, force)
+    shown = "json" if as_json else output_format
+    if shown != "text" or report_path is not None:  # the text report on stdout says it
+        for result in results:
+            for warning in result.warnings:
+                click.echo(f"imrosc replay: {result.bag}: warning: {warning}", err=True)
+    _emit(report, shown, report_path, force)
     broken = any(r.alarms or r.error for r in results) or has_errors(problems)
     violated = any(r.violations for r in results)
     sys.exit(EXIT_ERRORS if broken else EXIT_VIOLATIONS if violated else EXIT_CLEAN)

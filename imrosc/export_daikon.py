@@ -49,6 +49,8 @@ def write_decls(stream: TextIO, specs: Iterable[PointSpec]) -> None:
 
 
 def _value(value: Any) -> tuple[str, int]:
+    if value is None:  # an architecture resource the snapshot cannot tell yet
+        return "nonsensical", 2
     if isinstance(value, frozenset):
         value = ",".join(sorted(value))
     if isinstance(value, str):

@@ -3,8 +3,10 @@
 The very engine the monitor runs (``imrosc.runtime``) gets each message flattened with the
 flattener the monitor uses, each service call, parameter set and architecture snapshot
 from the ``/imrosc/*`` records, and the clock of the bag. A bag without architecture
-records gives its connections' publishers (ROS 1 ``callerid``) at its start, which tells
-publishers only, as in inference. Each bag is one run: the engine is reset between bags.
+records gives its connections' publishers (ROS 1 ``callerid``), each from its connection's
+first message on, which tells publishers only, as in inference. Each bag is one run: the
+engine is reset between bags. A bag missing topics the invariants read gets a warning; a bag
+holding none of them is not read at all.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import numpy as np
 from imrosc import __version__, records
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, open_bag
+from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, AlarmRule, alarms_json
 from imrosc.runtime.flatten import make_flattener
@@ -41,6 +44,8 @@ class RunResult:
     end: float = 0.0
     skipped: int = 0
     error: str | None = None
+    warnings: list[str] = field(default_factory=list)
+    """What the run could not check: topics of the invariants missing from the bag."""
 
     @property
     def violated(self) -> set[str]:
@@ -56,13 +61,36 @@ def _snapshot(record: records.ArchSnapshot) -> dict[str, dict[str, frozenset[str
     }
 
 
-def _callerids(connections: Iterable[Any]) -> dict[str, dict[str, frozenset[str]]]:
-    publishers: dict[str, set[str]] = {}
-    for connection in connections:
-        callerid = getattr(connection.ext, "callerid", None)
-        if callerid and not connection.topic.startswith(records.RECORD_PREFIX):
-            publishers.setdefault(connection.topic, set()).add(callerid)
-    return {"pub": {t: frozenset(p) for t, p in publishers.items()}}
+class _Publishers:
+    """The publishers of a bag without architecture records, each from its connection's
+    first message on (``starts``, earliest first)."""
+
+    def __init__(self, starts: list[PublisherStart]) -> None:
+        self.starts = starts
+        self.seen: dict[str, set[str]] = {}
+
+    def until(self, engine: Engine, stamp: int) -> list[Violation]:
+        """Feed the engine a snapshot at each first message up to ``stamp`` (ns)."""
+        found: list[Violation] = []
+        while self.starts and self.starts[0].time <= stamp:
+            at = self.starts[0].time
+            while self.starts and self.starts[0].time == at:
+                start = self.starts.pop(0)
+                self.seen.setdefault(start.topic, set()).add(start.node)
+            snapshot = {"pub": {t: frozenset(p) for t, p in self.seen.items()}}
+            found += engine.graph(at / 1e9, snapshot, ("pub",))
+        return found
+
+
+def _topic_warnings(wanted: Iterable[str], present: Iterable[str]) -> list[str]:
+    """A warning naming the invariants' topics a bag lacks (all of them: nothing is read)."""
+    wanted = sorted(set(wanted))
+    missing = sorted(set(wanted) - set(present))
+    if not missing:
+        return []
+    if len(missing) == len(wanted):
+        return [f"none of the invariants' topics is in this bag ({', '.join(missing)}): not read"]
+    return [f"no messages on {', '.join(missing)}: their invariants are not checked"]
 
 
 class Replayer:
@@ -92,11 +120,16 @@ class Replayer:
                 wanted = [
                     c
                     for c in reader.connections
-                    if c.topic in self.flatteners or c.topic in RECORDS
+                    if (c.topic in self.flatteners or c.topic in RECORDS) and c.msgcount
                 ]
-                if not any(c.topic == records.ARCH_TOPIC for c in reader.connections):
-                    found += engine.graph(result.start, _callerids(reader.connections), ("pub",))
-                for connection, stamp, raw in reader.messages(connections=wanted):
+                present = {c.topic for c in wanted}
+                result.warnings += _topic_warnings(self.flatteners, present)
+                publishers = _Publishers(
+                    [] if records.ARCH_TOPIC in present else publisher_starts(reader)
+                )
+                # rosbags reads every message when given no connection
+                for connection, stamp, raw in reader.messages(wanted) if wanted else ():
+                    found += publishers.until(engine, stamp)
                     result.messages += 1
                     time = stamp / 1e9
                     try:
@@ -110,6 +143,7 @@ class Replayer:
                         found += engine.message(topic, time, flatten(message))
                     else:
                         found += self._record(topic, time, message)
+                found += publishers.until(engine, reader.end_time)
                 withdrawn = {id(v) for v in engine.end_run()}
                 if withdrawn:
                     found[:] = [v for v in found if id(v) not in withdrawn]
@@ -282,6 +316,7 @@ def replay_document(
                 "messages": result.messages,
                 "skipped": result.skipped,
                 "error": result.error,
+                "warnings": list(result.warnings),
                 "violations": len(result.violations),
                 "alarms": alarms_json(result.alarms),
                 "episodes": episodes(result.violations),

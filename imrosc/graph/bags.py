@@ -17,14 +17,21 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from rosbags.highlevel import AnyReader
-from rosbags.interfaces import ConnectionExtRosbag1
+from rosbags.interfaces import Connection, ConnectionExtRosbag1
 
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag, time_text
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.graph.model import SOURCE_CALLERID, SOURCE_RECORDS, Graph, Node
 from imrosc.records import ARCH_TOPIC, RECORD_PREFIX, RECORD_TYPE, RecordError, decode_arch
 
-__all__ = ["BagGraphs", "graph_from_bag", "graph_from_bags", "read_bag_graphs"]
+__all__ = [
+    "BagGraphs",
+    "PublisherStart",
+    "graph_from_bag",
+    "graph_from_bags",
+    "publisher_starts",
+    "read_bag_graphs",
+]
 
 
 @dataclass
@@ -47,6 +54,44 @@ def _callers(reader: AnyReader) -> list[Node]:
             continue
         nodes.append(Node(ext.callerid, publishes=frozenset({connection.topic})))
     return nodes
+
+
+@dataclass(frozen=True)
+class PublisherStart:
+    """A ROS 1 connection's publisher and when it first published (bag time, ns)."""
+
+    time: int
+    topic: str
+    node: str
+
+
+def _first_message(reader: AnyReader, connection: Connection) -> int | None:
+    """Time (ns) of the connection's first message, from the bag's index; ``None`` for a
+    connection with no message."""
+    indexes = getattr(connection.owner, "indexes", None)
+    if not isinstance(indexes, dict):  # not a ROS 1 reader: the bag's start stands for it
+        return int(reader.start_time) if connection.msgcount else None
+    found = indexes.get(connection.id)
+    return int(found[0].time) if found else None
+
+
+def publisher_starts(reader: AnyReader) -> list[PublisherStart]:
+    """Each ROS 1 connection's publisher (``callerid``) from its first message on, earliest
+    first; the recording node's own topics and connections without messages left out."""
+    starts: dict[tuple[str, str], int] = {}
+    for connection in reader.connections:
+        ext = connection.ext
+        if not isinstance(ext, ConnectionExtRosbag1) or not ext.callerid:
+            continue
+        if connection.topic.startswith(RECORD_PREFIX):
+            continue
+        first = _first_message(reader, connection)
+        if first is None:
+            continue
+        key = (connection.topic, ext.callerid)
+        starts[key] = min(first, starts.get(key, first))
+    found = [PublisherStart(time, topic, node) for (topic, node), time in starts.items()]
+    return sorted(found, key=lambda s: (s.time, s.topic, s.node))
 
 
 def _record_problem(path: Path, time_ns: int, message: str) -> Diagnostic:

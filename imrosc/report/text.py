@@ -49,6 +49,7 @@ def replay(view: Replay) -> str:
             )
         if len(run.alarms) > ALARMS_SHOWN:
             lines.append(f"  ... {len(run.alarms) - ALARMS_SHOWN} more alarms")
+        lines += [f"  warning: {w}" for w in run.warnings]
         if not run.episodes:
             if run.violated:  # violations counted without episodes: say so, list nothing
                 lines.append("  no episodes recorded")

@@ -108,6 +108,8 @@ class Run:
     alarms: list[RaisedAlarm] = field(default_factory=list)
     polygons: list[Mapping[str, Any]] = field(default_factory=list)
     frequencies: list[Mapping[str, Any]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    """What the run could not check (topics of the invariants missing from the bag)."""
 
     @property
     def duration(self) -> float:
@@ -214,6 +216,7 @@ def run(data: Mapping[str, Any]) -> Run:
         alarms=[raised_alarm(a, start) for a in data.get("alarms") or []],
         polygons=list(plots.get("polygons") or []),
         frequencies=list(plots.get("frequencies") or []),
+        warnings=[_text(w) for w in data.get("warnings") or []],
     )
 
 

@@ -1,8 +1,13 @@
 """Architecture checks: the publishers, subscribers and servers of a snapshot (Algorithm 7).
 
 For the current set ``S`` of a resource, ``max_*`` is broken by an unexpected node
-(``S - max``) and ``min_*`` by a missing one (``min - S``). Reports are edge-triggered: a
+(``S - max``; observed: the unexpected nodes) and ``min_*`` by a missing one (``min - S``;
+observed: ``S``, the expected text names the missing nodes). Reports are edge-triggered: a
 broken invariant is reported again only when what breaks it changes.
+
+ROS 1 anonymous node names (``init_node(anonymous=True)``: ``/record_1553088502272947227``,
+``/listener_12345_1553088502272``) change from run to run; :func:`node_name` writes each as
+its base name and ``_*`` (``/record_*``), in the snapshots and in the invariants alike.
 
 >>> check = ArchChecks([{"id": "i1", "family": "architecture", "kind": "max_pubs",
 ...     "text": "max_pubs(/t) = {/a}", "variables": ["pubs(/t)"],
@@ -15,7 +20,8 @@ broken invariant is reported again only when what breaks it changes.
 
 from __future__ import annotations
 
-from typing import Any, Dict, FrozenSet, List, Mapping, Optional, Sequence, Tuple
+import re
+from typing import Any, Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 from .violation import Violation
 
@@ -23,6 +29,29 @@ Snapshot = Mapping[str, Mapping[str, FrozenSet[str]]]
 """Kind (``pub``, ``sub``, ``srv``) to resource to node names."""
 
 _KINDS = {"pubs": "pub", "subs": "sub", "srvs": "srv"}
+
+ANONYMOUS = re.compile(r"^(.*?[^/_])(?:_\d+)?_\d{10,}$")
+"""A ROS 1 anonymous node name: a base, maybe ``_<pid>``, then ``_`` and 10 or more digits
+(rospy ``_<pid>_<time in ms>``, roscpp and rosbag ``_<time in ns>``)."""
+ANONYMOUS_SUFFIX = "_*"
+"""What replaces the numbers of an anonymous name (``*`` is in no ROS name)."""
+
+
+def node_name(name: str) -> str:
+    """``name``, or the stable form of an anonymous name.
+
+    >>> node_name("/record_1553088502272947227"), node_name("/listener_12345_1553088502272")
+    ('/record_*', '/listener_*')
+    >>> node_name("/cf1/crazyflie_server"), node_name("/camera_2"), node_name("/id_123456789")
+    ('/cf1/crazyflie_server', '/camera_2', '/id_123456789')
+    """
+    match = ANONYMOUS.match(name)
+    return name if match is None else match.group(1) + ANONYMOUS_SUFFIX
+
+
+def node_names(names: Iterable[str]) -> FrozenSet[str]:
+    """The set of :func:`node_name` of ``names``."""
+    return frozenset(node_name(name) for name in names)
 
 
 class ArchChecks:
@@ -37,7 +66,7 @@ class ArchChecks:
             bound, _, noun = inv["kind"].partition("_")
             params = inv["params"]
             self.items.append(
-                (_KINDS[noun], params["resource"], bound == "max", frozenset(params["nodes"]), inv)
+                (_KINDS[noun], params["resource"], bound == "max", node_names(params["nodes"]), inv)
             )
         self.reported: Dict[str, Optional[FrozenSet[str]]] = {}
 
@@ -48,29 +77,50 @@ class ArchChecks:
     def check(
         self, time: float, snapshot: Snapshot, kinds: Sequence[str] = ("pub", "sub", "srv")
     ) -> List[Violation]:
-        """Violations of ``snapshot``; only the invariants of ``kinds`` are checked (a bag
-        without architecture records tells publishers only)."""
+        """Violations of ``snapshot``; only the invariants of ``kinds`` are checked.
+
+        A source that tells publishers only (``kinds`` without ``sub``: a bag without
+        architecture records, whose publishers are known from their first message) does
+        not know a topic it does not list yet: that topic is not checked. Otherwise a
+        resource the snapshot does not list has nobody."""
         found: List[Violation] = []
+        unlisted_unknown = "sub" not in kinds
         for kind, resource, is_max, nodes, inv in self.items:
             if kind not in kinds:
                 continue
-            current = snapshot.get(kind, {}).get(resource, frozenset())
+            listed = snapshot.get(kind, {}).get(resource)
+            if listed is None and unlisted_unknown:
+                continue
+            current = node_names(listed or ())
             wrong = current - nodes if is_max else nodes - current
             before = self.reported.get(inv["id"])
             self.reported[inv["id"]] = wrong or None
             if not wrong or wrong == before:
                 continue
-            expected = ("only " if is_max else "at least ") + ("{" + ", ".join(sorted(nodes)) + "}")
-            found.append(
-                Violation(
-                    time,
-                    self.point,
-                    inv["id"],
-                    inv["family"],
-                    inv["kind"],
-                    inv["text"],
-                    sorted(wrong),
-                    expected,
-                )
-            )
+            found.append(self._violation(time, inv, is_max, nodes, current, wrong))
         return found
+
+    def _violation(
+        self,
+        time: float,
+        inv: Mapping[str, Any],
+        is_max: bool,
+        nodes: FrozenSet[str],
+        current: FrozenSet[str],
+        wrong: FrozenSet[str],
+    ) -> Violation:
+        """``max_*``: observed the unexpected nodes; ``min_*``: observed the nodes there,
+        expected naming the missing ones."""
+        if is_max:
+            observed, expected = sorted(wrong), "only " + _braces(nodes)
+        else:
+            observed = sorted(current)
+            expected = f"at least {_braces(nodes)} (missing {', '.join(sorted(wrong))})"
+        return Violation(
+            time, self.point, inv["id"], inv["family"], inv["kind"], inv["text"], observed, expected
+        )
+
+
+def _braces(nodes: Iterable[str]) -> str:
+    """``{/a, /b}``, sorted."""
+    return "{" + ", ".join(sorted(nodes)) + "}"

@@ -461,6 +461,8 @@ class WindowChecks:
             else:
                 continue
             self.window = float(inv["params"]["window"])
+        self.recovered = max([_number(i["params"]["min"]) for i in self.frequency], default=0.0)
+        """The frequency at which no lower bound is broken: a silence is over."""
         self.arrays: Dict[str, Tuple[Any, Any, Any, List[Mapping[str, Any]]]] = {}
         for family, found in self.per_variable.items():
             if found:
@@ -483,12 +485,15 @@ class WindowChecks:
         frequency: float,
         derived: Callable[[str], Any],
         cleared: Any,
+        silent: bool = False,
     ) -> Found:
-        """Violations of one defined window; ``derived(family)`` gives its values."""
+        """Violations of one defined window; ``derived(family)`` gives its values. With
+        ``silent`` (a silence already reported) a frequency below a minimum is not."""
         found: Found = []
         for inv in self.frequency:
             lo, hi = _number(inv["params"]["min"]), _number(inv["params"]["max"])
-            if (frequency < lo or frequency > hi) and inv["id"] not in cleared:
+            low = frequency < lo and not silent
+            if (low or frequency > hi) and inv["id"] not in cleared:
                 expected = f"[{show(lo)}, {show(hi)}] Hz"
                 found.append(_violation(time, point, inv, frequency, expected))
         for family, (at, lo, hi, invs) in self.arrays.items():

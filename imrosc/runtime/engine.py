@@ -111,6 +111,8 @@ class _Point:
             else 0.0
         )
         self.silent = False
+        """The timer reported a silence that the frequency has not recovered from yet (its
+        lower bounds are not reported again meanwhile)."""
         self.arch = ArchChecks(invariants, key) if self.kind == "arch" else None
         self.intervals: List[IntervalMachine] = []
         self.patterns: List[PatternMachine] = []
@@ -164,17 +166,18 @@ class _Point:
         found = self.checks.check(time, self.key, row, strings)
         frequency: Optional[float] = None
         if self.windows is not None:
-            self.silent = False
             defined = self.windows.add(time, row[self.tracked_at])
             windows = self.windows
             frequency = windows.frequency()
             if defined:
+                # a silence reported by the timer lasts until the frequency is back up
+                self.silent = self.silent and frequency < self.window_checks.recovered
 
                 def derived(family: str) -> Any:
                     return windows.variance() if family == "variance" else windows.rate()
 
                 found += self.window_checks.check(
-                    time, self.key, frequency, derived, self.checks.cleared
+                    time, self.key, frequency, derived, self.checks.cleared, self.silent
                 )
             else:
                 frequency = None
@@ -357,9 +360,10 @@ class Engine:
         return self.alarms.take()
 
     def end_run(self) -> Found:
-        """A recorded run ends: the violations of ordered-pair intervals still open, which
-        the caller should withdraw (inference neither records nor checks an interval its
-        run did not close). A live monitor never calls this."""
+        """A recorded run ends: the violations of ordered-pair intervals still open and still
+        within their maximum time, which the caller should withdraw (inference neither
+        records nor checks an interval its run did not close); an interval whose maximum
+        time ran out before the end stays reported. A live monitor never calls this."""
         found: Found = []
         for point in self.points.values():
             for machine in point.intervals:

@@ -60,12 +60,15 @@ class IntervalMachine:
         self.counts: Dict[str, int] = {}
         self.timed_out = False
         self.pending: Found = []
-        """Violations of the interval still open (a run that ends now never closes it)."""
+        """Violations of the interval still open (a run that ends now never closes it;
+        :meth:`unfinished`)."""
 
     def unfinished(self) -> Found:
-        """The violations raised by the interval still open, which the end of a recorded
-        run leaves unchecked, as inference leaves it unrecorded; then closed."""
-        found = self.pending
+        """The violations raised by the interval still open and still within ``max_time``,
+        which the end of a recorded run leaves undecided, as inference leaves it
+        unrecorded; then closed. An interval whose ``max_time`` ran out is decided: its
+        violations stand, and none is returned."""
+        found = [] if self.timed_out else self.pending
         self.reset()
         return found
 

@@ -23,7 +23,9 @@ import numpy.typing as npt
 
 from imrosc import records
 from imrosc.bags import MessageError, open_bag
+from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.infer.core import Samples, Variable
+from imrosc.runtime.arch import node_names
 from imrosc.translate.catalog import flatten_json
 from imrosc.translate.columns import Columns, Flattener
 from imrosc.translate.condition import ConditionError, evaluate_mask
@@ -37,7 +39,8 @@ CHUNK_MESSAGES = 16384
 ARCH_PERIOD = 1.0
 """Architecture and parameter points are sampled once a second (and at every change), as a
 recorder polling the master every second would see them; a bag without records gives its
-connections' publishers (ROS 1 ``callerid``) for its whole length. (A parameter record is
+connections' publishers (ROS 1 ``callerid``), each from its connection's first message on
+(a topic none of them has published yet is unknown, not empty). (A parameter record is
 written only when a value changes: sampled at its changes alone, a parameter that keeps its
 value would give a point one sample, too few to justify any invariant.)"""
 PARAMS = records.PARAMS_TOPIC
@@ -142,7 +145,7 @@ class BagTranslator:
             self._arch = _ArchClock(reader.start_time / 1e9, reader.end_time / 1e9)
             self._param_clock = _ParamClock(reader.start_time / 1e9, reader.end_time / 1e9)
             if not any(c.topic == ARCH for c in reader.connections):
-                self._arch.current = _callerid_snapshot(reader.connections)
+                self._arch.starts = publisher_starts(reader)
             wanted = [c for c in reader.connections if c.topic in self.topics | self.records]
             buffer: dict[str, list[tuple[int, float, Any, str]]] = {}
             count = 0
@@ -355,7 +358,7 @@ class BagTranslator:
                 continue  # callerids say nothing of subscribers and servers
             for resource in resources:
                 column = np.empty(len(rows), dtype=object)
-                column[:] = [_ends(s.snapshot, kind, resource) for s in rows.extra]
+                column[:] = [s.ends(kind, resource) for s in rows.extra]
                 columns[f"{ARCH_VARIABLE[kind]}({resource})"] = column
         return Rows(rows.seq, rows.time, columns)
 
@@ -389,27 +392,28 @@ class BagTranslator:
         return Rows(seq[order], np.concatenate(times)[order], {"event": event})
 
 
-def _ends(snapshot: records.ArchSnapshot, kind: str, resource: str) -> frozenset[str]:
-    if kind == "srv":
-        return frozenset(snapshot.services.get(resource, ()))
-    ends = snapshot.topics.get(resource)
-    if ends is None:
-        return frozenset()
-    return frozenset(ends.pubs if kind == "pub" else ends.subs)
-
-
 @dataclass
 class _Snapshot:
+    """The graph in force; ``callerid_only``: the publishers seen so far in a bag without
+    records (a topic it does not list is unknown)."""
+
     snapshot: records.ArchSnapshot
     callerid_only: bool = False
 
+    def ends(self, kind: str, resource: str) -> frozenset[str] | None:
+        """Who publishes, subscribes to or serves ``resource`` (anonymous names in their
+        stable form, ``imrosc.runtime.arch.node_name``); ``None`` when unknown."""
+        snapshot = self.snapshot
+        if kind == "srv":
+            return node_names(snapshot.services.get(resource, ()))
+        ends = snapshot.topics.get(resource)
+        if ends is None:
+            return None if self.callerid_only else frozenset()
+        return node_names(ends.pubs if kind == "pub" else ends.subs)
 
-def _callerid_snapshot(connections: Sequence[Any]) -> _Snapshot:
-    publishers: dict[str, set[str]] = {}
-    for connection in connections:
-        callerid = getattr(connection.ext, "callerid", None)
-        if callerid and not connection.topic.startswith(records.RECORD_PREFIX):
-            publishers.setdefault(connection.topic, set()).add(callerid)
+
+def _callerid_snapshot(publishers: Mapping[str, set[str]]) -> _Snapshot:
+    """The snapshot of the publishers seen so far (topic to callerids)."""
     topics = {t: records.TopicEnds(frozenset(p), frozenset()) for t, p in publishers.items()}
     return _Snapshot(records.ArchSnapshot(topics, {}), callerid_only=True)
 
@@ -491,8 +495,44 @@ class _Clock(ABC, Generic[State]):
         return out
 
 
+@dataclass
 class _ArchClock(_Clock[_Snapshot]):
-    """The architecture in force, from the records' snapshots."""
+    """The architecture in force, from the records' snapshots or, in a bag without records,
+    from ``starts``: each connection's publisher from its first message on."""
+
+    starts: list[PublisherStart] = field(default_factory=list)
+    publishers: dict[str, set[str]] = field(default_factory=dict)
+
+    def rows(
+        self,
+        records_rows: Rows | None,
+        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
+        *,
+        final: bool,
+    ) -> Rows:
+        changes = self.changes(records_rows) if records_rows is not None else []
+        changes += self._started(buffer, final=final)
+        return self.frame(self.ticks(changes, buffer, final=final))
+
+    def _started(
+        self, buffer: Mapping[str, list[tuple[int, float, Any, str]]], *, final: bool
+    ) -> list[tuple[float, int, _Snapshot]]:
+        """A change at each time a publisher first published, up to the chunk's last
+        message (the bag's end for the ``final`` chunk); its message number follows the
+        last message at or before it."""
+        entries = sorted((e[1], e[0]) for es in buffer.values() for e in es)
+        times = np.array([t for t, _ in entries], dtype=np.float64)
+        seqs = np.array([s for _, s in entries], dtype=np.int64)
+        horizon = self.end if final else (float(times[-1]) if len(times) else self.start)
+        found: list[tuple[float, int, _Snapshot]] = []
+        while self.starts and self.starts[0].time / 1e9 <= horizon:
+            at = self.starts[0].time
+            while self.starts and self.starts[0].time == at:
+                start = self.starts.pop(0)
+                self.publishers.setdefault(start.topic, set()).add(start.node)
+            snapshot = _callerid_snapshot(self.publishers)
+            found.append((at / 1e9, self._seq(seqs, times, at / 1e9), snapshot))
+        return found
 
     def changes(self, records_rows: Rows) -> list[tuple[float, int, _Snapshot]]:
         found: list[tuple[float, int, _Snapshot]] = []

@@ -13,6 +13,7 @@ from imrosc.bags import open_bag
 from imrosc.classify import run_check
 from imrosc.cli import main
 from imrosc.detect import run_detect
+from imrosc.graph.bags import publisher_starts
 from imrosc.replay import replay
 from imrosc.report import render
 from imrosc.runtime import Engine, Violation
@@ -53,17 +54,27 @@ def _direct(document: dict[str, Any], bag: Path) -> list[Violation]:
     flatteners = {t: make_flattener(i["variables"]) for t, i in document["topics"].items()}
     found: list[Violation] = []
     with open_bag(bag) as reader:
+        # a publisher is known from its connection's first message (the bag's index)
+        starts = publisher_starts(reader)
         publishers: dict[str, set[str]] = {}
-        for c in reader.connections:
-            publishers.setdefault(c.topic, set()).add(str(getattr(c.ext, "callerid", "")))
-        snapshot = {"pub": {topic: frozenset(nodes) for topic, nodes in publishers.items()}}
-        found += engine.graph(reader.start_time / 1e9, snapshot, ("pub",))
+
+        def graph(until: int) -> None:
+            nonlocal found
+            while starts and starts[0].time <= until:
+                at = starts[0].time
+                while starts and starts[0].time == at:
+                    publishers.setdefault(starts[0].topic, set()).add(starts.pop(0).node)
+                snapshot = {"pub": {t: frozenset(nodes) for t, nodes in publishers.items()}}
+                found += engine.graph(at / 1e9, snapshot, ("pub",))
+
         wanted = [c for c in reader.connections if c.topic in flatteners]
         for connection, stamp, raw in reader.messages(connections=wanted):
+            graph(stamp)
             message = reader.deserialize(raw, connection.msgtype)
             found += engine.message(
                 connection.topic, stamp / 1e9, flatteners[connection.topic](message)
             )
+        graph(reader.end_time)
     return found
 
 

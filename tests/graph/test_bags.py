@@ -6,7 +6,14 @@ from pathlib import Path
 
 import pytest
 
-from imrosc.graph.bags import graph_from_bag, graph_from_bags, read_bag_graphs
+from imrosc.bags import open_bag
+from imrosc.graph.bags import (
+    PublisherStart,
+    graph_from_bag,
+    graph_from_bags,
+    publisher_starts,
+    read_bag_graphs,
+)
 from imrosc.graph.model import Graph
 from imrosc.records import ARCH_TOPIC, PARAMS_TOPIC
 from tests.graph import SECOND, Message, arch, arch_message, write_ros1_bag, write_ros2_bag
@@ -49,6 +56,28 @@ def test_callerids_are_publishers(tmp_path: Path) -> None:
     }
     assert graph.sources == ("callerid",)
     assert not graph.knows_subscriptions
+
+
+def test_publishers_start_at_their_connections_first_message(tmp_path: Path) -> None:
+    bag = write_ros1_bag(
+        tmp_path / "late.bag",
+        [
+            Message("/t", 1 * SECOND, callerid="/a"),
+            Message("/t", 2 * SECOND, callerid="/a"),
+            Message("/t", 16 * SECOND, callerid="/b"),
+            Message("/u", 3 * SECOND, callerid="/a"),
+            arch_message(1.0, arch({})),
+        ],
+    )
+    with open_bag(bag) as reader:
+        assert publisher_starts(reader) == [
+            PublisherStart(1 * SECOND, "/t", "/a"),
+            PublisherStart(3 * SECOND, "/u", "/a"),
+            PublisherStart(16 * SECOND, "/t", "/b"),
+        ]
+    ros2 = write_ros2_bag(tmp_path / "ros2", [Message("/t", SECOND)])
+    with open_bag(ros2) as reader:
+        assert publisher_starts(reader) == []  # no callerid in ROS 2 bags
 
 
 def test_records_are_merged_over_snapshots(tmp_path: Path) -> None:

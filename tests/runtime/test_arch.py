@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
-from imrosc.runtime.arch import ArchChecks
+from imrosc.runtime.arch import ArchChecks, node_name
 from imrosc.runtime.violation import Violation
 
 POINT = "arch"
@@ -67,14 +67,16 @@ def test_unexpected_and_missing_nodes() -> None:
     found = checks.check(1.0, snapshot(pubs=("/a", "/b"), subs=("/x",), srvs=(), quiet=("/q",)))
     assert seen(found) == [
         (1.0, "max_pub", ["/b"], "only {/a}"),
-        (1.0, "min_sub", ["/y"], "at least {/x, /y}"),
-        (1.0, "min_srv", ["/server"], "at least {/server}"),
+        (1.0, "min_sub", ["/x"], "at least {/x, /y} (missing /y)"),
+        (1.0, "min_srv", [], "at least {/server} (missing /server)"),
         (1.0, "nobody", ["/q"], "only {}"),
     ]
     first = found[0]
     assert (first.point, first.family, first.kind) == (POINT, "architecture", "max_pubs")
     assert first.text == "max_pubs(/t) = {/a}"
-    assert seen(checks.check(2.0, snapshot(pubs=()))) == [(2.0, "min_pub", ["/a"], "at least {/a}")]
+    assert seen(checks.check(2.0, snapshot(pubs=()))) == [
+        (2.0, "min_pub", [], "at least {/a} (missing /a)")
+    ]
 
 
 def test_reports_are_edge_triggered() -> None:
@@ -102,3 +104,38 @@ def test_a_source_that_tells_publishers_only() -> None:
     assert seen(found) == [(0.0, "max_pub", ["/b"], "only {/a}")]
     everything = checks.check(1.0, publishers_only)
     assert [v.invariant for v in everything] == ["min_sub", "min_srv"]
+
+
+def test_a_source_that_tells_publishers_only_does_not_know_unlisted_topics() -> None:
+    checks = ArchChecks(INVARIANTS, POINT)
+    # /t has published nothing yet: neither its minimum nor its maximum is checked
+    assert checks.check(0.0, {"pub": {"/other": frozenset({"/z"})}}, kinds=("pub",)) == []
+    found = checks.check(1.0, {"pub": {"/t": frozenset({"/b"})}}, kinds=("pub",))
+    assert seen(found) == [
+        (1.0, "max_pub", ["/b"], "only {/a}"),
+        (1.0, "min_pub", ["/b"], "at least {/a} (missing /a)"),
+    ]
+
+
+def test_anonymous_names_have_one_stable_form() -> None:
+    assert node_name("/record_1553088502272947227") == "/record_*"
+    assert node_name("/rviz_1553074025852102923") == "/rviz_*"
+    assert node_name("/listener_12345_1553088502272") == "/listener_*"
+    assert node_name("/ns/talker_1234567890") == "/ns/talker_*"
+    for name in ("/camera_2", "/robot_1/driver", "/id_123456789", "/scan_2019_06", "/_1234567890"):
+        assert node_name(name) == name
+
+
+def test_anonymous_publishers_of_another_run_break_nothing() -> None:
+    # an invariants file holding the names of one run (or their stable form) and a run with
+    # new numbers: the same nodes
+    for required in ("/rviz_1553074025852102923", "/rviz_*"):
+        invariants = [
+            invariant("max", "max_pubs", "/rosout", ["/a", required]),
+            invariant("min", "min_pubs", "/rosout", ["/a", required]),
+        ]
+        checks = ArchChecks(invariants, POINT)
+        later = frozenset({"/a", "/rviz_1553099999999999999"})
+        assert checks.check(0.0, {"pub": {"/rosout": later}}) == []
+        missing = checks.check(1.0, {"pub": {"/rosout": frozenset({"/a"})}})
+        assert seen(missing) == [(1.0, "min", ["/a"], "at least {/a, /rviz_*} (missing /rviz_*)")]

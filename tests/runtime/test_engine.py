@@ -280,14 +280,14 @@ def test_the_architecture_is_checked_at_changes_and_every_second() -> None:
         "pub": {"/a/pose": frozenset({"/n1", "/n2"})},
         "sub": {"/a/pose": frozenset()},
     }
-    assert seen(e.graph(10.0, graph)) == [(10.0, "max_pubs", ["/n2"]), (10.0, "min_subs", ["/m"])]
+    assert seen(e.graph(10.0, graph)) == [(10.0, "max_pubs", ["/n2"]), (10.0, "min_subs", [])]
     assert e.advance(12.5) == []  # rechecked at 11 and 12: the same breaks
     healed: Snapshot = {
         "pub": {"/a/pose": frozenset({"/n1"})},
         "sub": {"/a/pose": frozenset({"/m"})},
     }
     assert e.graph(13.0, healed) == []
-    assert seen(e.graph(14.0, graph)) == [(14.0, "max_pubs", ["/n2"]), (14.0, "min_subs", ["/m"])]
+    assert seen(e.graph(14.0, graph)) == [(14.0, "max_pubs", ["/n2"]), (14.0, "min_subs", [])]
     # a source that tells publishers only
     assert seen(e.graph(15.0, {"pub": {"/a/pose": frozenset({"/n3"})}}, ("pub",))) == [
         (15.0, "max_pubs", ["/n3"])
@@ -335,9 +335,79 @@ def test_a_silent_topic_is_reported_once() -> None:
     assert found[0].expected == "at least 8.0 Hz (no message for 0.25 s)"
     assert e.advance(2.5) == []
     assert e.advance(5.0) == []  # once, though the topic stays silent
-    # messages again: the window's frequency is checked as usual, and the timer rearms
-    assert stream(e, 5.0, 5.0, x=6.0) == [(5.0, "freq", 1.0), (5.0, "freq_state", 1.0)]
-    assert seen(e.advance(5.5)) == [(5.5, "freq", 1.0)]  # silent again: reported again
+    # messages again: the same silence until the window is back at 8 Hz (the conditional
+    # point, without a timer, reports its windows as usual)
+    assert stream(e, 5.0, 5.0, x=6.0) == [(5.0, "freq_state", 1.0)]
+    assert e.advance(5.5) == []
+    assert [f for f in stream(e, 5.5, 6.5, x=6.0) if f[1] == "freq"] == []
+    # recovered at 6.375 (8 in the window): a new silence is a new report
+    assert seen(e.advance(6.75)) == [(6.75, "freq", 6.0)]
+
+
+def alone(*invariants: dict[str, Any]) -> Engine:
+    """An engine of ``/p`` (one float ``x``) and the events ``a`` (``/p``) and ``b`` (``/q``),
+    holding ``invariants`` only."""
+    x = [var("p.x", "x")]
+    return Engine(
+        {
+            "format": "imrosc-invariants",
+            "version": 1,
+            "topics": {"/p": {"type": "T", "variables": x}, "/q": {"type": "T", "variables": []}},
+            "points": {
+                "p": {"kind": "publish", "trigger": "/p", "variables": x},
+                "events": {
+                    "kind": "temporal",
+                    "trigger": "",
+                    "events": [["a", "publish", "/p"], ["b", "publish", "/q"]],
+                    "variables": [{"name": "event", "type": "string", "path": "", "derived": None}],
+                },
+            },
+            "invariants": list(invariants),
+        }
+    )
+
+
+def test_a_pause_is_one_violation_of_the_frequency_minimum() -> None:
+    e = alone(inv("freq", "p", "frequency", "range", [], min=9.0, max=11.0, window=1.0))
+    found: list[Violation] = []
+    times = [k / 10 for k in range(51)] + [8.0 + k / 10 for k in range(51)]  # 3 s without
+    for time in times:
+        found += e.message("/p", time, [1.0])
+    assert [(v.time, v.expected) for v in found] == [(8.0, "at least 9.0 Hz (no message for 3 s)")]
+    # back at 10 Hz since 9 s: a second pause is a second violation, reported once
+    found = [*e.message("/p", 14.0, [1.0]), *e.message("/p", 14.01, [1.0])]
+    assert [v.time for v in found] == [14.0]
+    assert seen(e.message("/p", 14.02, [1.0])) == []  # 3 in the window: still the silence
+
+
+def test_a_dead_topic_stays_reported_when_the_run_ends() -> None:
+    # a -> b within 0.5 s; /q (b) dies at 2 s while /p (a) goes on to 10 s
+    e = alone(
+        inv(
+            "a_to_b",
+            "events",
+            "interval",
+            "interval",
+            ["event"],
+            first="a",
+            second="b",
+            min_time=0.0,
+            max_time=0.5,
+            min_events={},
+            max_events={"a": 100},
+        )
+    )
+    found: list[Violation] = []
+    for k in range(11):
+        found += e.message("/p", float(k), [1.0])
+        if k < 2:
+            found += e.message("/q", k + 0.25, [])
+    assert seen(found) == [(3.0, "a_to_b", 1.0)]  # b overdue since 2.5 s
+    assert e.end_run() == []  # decided long before the end: it stands
+    # an interval still within its maximum when the run ends is undecided
+    e.reset()
+    assert e.message("/p", 0.0, [1.0]) == []
+    assert e.end_run() == []
 
 
 def test_frequency_and_rate_of_full_windows() -> None:
@@ -367,9 +437,7 @@ def test_clear_stops_reports() -> None:
     assert e.message("/a/go", 11.0, []) == []
     assert e.message("/a/go", 11.5, []) == []
     assert e.advance(20.0) == []
-    assert seen(e.graph(21.0, {"pub": {"/a/pose": frozenset({"/n9"})}})) == [
-        (21.0, "min_subs", ["/m"])
-    ]
+    assert seen(e.graph(21.0, {"pub": {"/a/pose": frozenset({"/n9"})}})) == [(21.0, "min_subs", [])]
     assert e.params(22.0, {"/gain": 7.0}) == []
     assert pose(e, 23.0, 1.0, frame="odom") == [
         (23.0, "gain_in_pose", 7.0),  # the parameter point's bounds only were cleared

@@ -143,9 +143,12 @@ def test_bags_without_records_give_publishers_from_callerid(tmp_path: Path) -> N
     config = CONFIG.replace('<call id="c">/srv</call>', "").replace('events="a,c"', 'events="a,b"')
     specs, layouts, catalog = specs_for(config, [bag])
     got = collect(BagTranslator(specs, layouts, catalog.callerids), bag)
-    assert got["d"]["time"] == pytest.approx([0.5, 1.5, 2.5, 3.5, 4.5, 5.5])
-    assert got["d"]["pubs(/out)"] == [frozenset({"/ctl"})] * 6
-    assert got["d"]["pubs(/in)"] == [frozenset({"/src"})] * 6
+    # a change at each connection's first message (/out 0.5 s, /mode 0.6 s, /in 1 s), then
+    # one sample a second from the bag's start (0.5 s)
+    assert got["d"]["time"] == pytest.approx([0.5, 0.6, 1.0, 1.5, 2.5, 3.5, 4.5, 5.5])
+    assert got["d"]["pubs(/out)"] == [frozenset({"/ctl"})] * 8
+    # /in is unknown before its first message (no sample of it), not empty
+    assert got["d"]["pubs(/in)"] == [None, None] + [frozenset({"/src"})] * 6
     assert "subs(/out)" not in got["d"]  # callerids say nothing of subscribers
 
 

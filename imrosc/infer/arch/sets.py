@@ -3,7 +3,8 @@
 An architecture point's samples are snapshots of the ROS graph. Each variable is a set
 column named ``pubs(/topic)``, ``subs(/topic)`` or ``srvs(/service)`` holding, per snapshot,
 the ``frozenset`` of node names that publish, subscribe or serve (the empty set when the
-resource is absent from the snapshot). Over all snapshots the maximum set is the union and
+resource is absent from the snapshot; ``None`` when the snapshot cannot tell, which is no
+sample of that resource). Over all snapshots the maximum set is the union and
 the minimum set the intersection (Algorithm 7)::
 
     max_pubs(/a/subject_pose) = {/a/uav}
@@ -155,10 +156,13 @@ class ArchitectureState:
         self.resources: dict[str, _NodeSets] = {name: _NodeSets() for name in self.names}
 
     def observe(self, name: str, cells: Iterable[Any]) -> None:
-        """Add snapshots of one variable (in time order)."""
+        """Add snapshots of one variable (in time order); a ``None`` cell is a snapshot that
+        does not know the resource (a bag without records, before any publisher of the
+        topic published) and counts for nothing."""
         history = self.resources[name]
         for cell in cells:
-            history.add(_as_set(cell))
+            if cell is not None:
+                history.add(_as_set(cell))
 
     def sets(self, name: str) -> tuple[frozenset[str], frozenset[str]]:
         """(maximum, minimum) node sets of a variable so far."""
