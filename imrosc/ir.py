@@ -237,6 +237,27 @@ class Violation:
 
 
 @dataclass(frozen=True)
+class AlarmOverrides:
+    """The ``<monitor>``'s ``alarm_*`` attributes: the fields of the invariants file's alarm
+    rule they replace (``None``: the file's value is kept)."""
+
+    persist: int | None = None
+    """Consecutive violating samples of one invariant that raise an alarm."""
+    seconds: float | None = None
+    """Or consecutive violating samples spanning at least this many seconds."""
+    distinct: int | None = None
+    """Distinct invariants of a point violated within ``window`` (0: agreement off)."""
+    window: float | None = None
+    """Seconds of the agreement rule."""
+
+    def given(self) -> dict[str, int | float]:
+        """The overridden fields by their name in the rule (``AlarmRule``)."""
+        return {
+            f.name: v for f in dataclasses.fields(self) if (v := getattr(self, f.name)) is not None
+        }
+
+
+@dataclass(frozen=True)
 class Monitor:
     """The monitor to synthesize (thesis 4.3)."""
 
@@ -247,6 +268,7 @@ class Monitor:
     block: tuple[str, ...] = ()
     actions: tuple[Action, ...] = ()
     violations: tuple[Violation, ...] = ()
+    alarms: AlarmOverrides = field(default_factory=AlarmOverrides)
 
 
 @dataclass(frozen=True)

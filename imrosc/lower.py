@@ -204,6 +204,19 @@ def _monitor(config: LoadedConfig, element: etree._Element, fallback: str) -> ir
         block=tuple(dict.fromkeys(block)),
         actions=tuple(_action(config, child) for child in children(element, "action")),
         violations=tuple(violations),
+        alarms=_alarms(element),
+    )
+
+
+def _alarms(element: etree._Element) -> ir.AlarmOverrides:
+    """The ``alarm_*`` attributes of ``<monitor>`` (absent ones keep the file's rule)."""
+    persist, seconds = element.get("alarm_persist"), element.get("alarm_seconds")
+    distinct, window = element.get("alarm_distinct"), element.get("alarm_window")
+    return ir.AlarmOverrides(
+        persist=None if persist is None else int(persist),
+        seconds=None if seconds is None else float(seconds),
+        distinct=None if distinct is None else int(distinct),
+        window=None if window is None else float(window),
     )
 
 

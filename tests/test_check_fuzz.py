@@ -24,6 +24,7 @@ ATTRIBUTES = [
     *("project", "id", "label", "relative", "conds", "events", "inv", "launch"),
     *("threshold", "beta", "window", "confidence", "drop_ratio", "hull_chunk"),
     *("discrete", "max_interval", "max_events", "period", "bogus"),
+    *("alarm_persist", "alarm_seconds", "alarm_distinct", "alarm_window"),
 ]
 SNIPPETS = [
     "/a/x",

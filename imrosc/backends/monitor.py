@@ -5,8 +5,9 @@ and the graph tell, checks every name, type and field path that will reach a gen
 and returns a :class:`MonitorSpec`: the package and node names, the topics the node subscribes
 to (with their ROS 1 ``pkg/Type`` and ROS 2 ``pkg/msg/Type`` names and the Python expression of
 each flattened value), the blocked topics and the services it relays, the actions, the
-violation map from scope ids to action ids, the parameters it polls, its period and the paths
-inside the package. Templates only format a spec; every decision is taken here.
+violation map from scope ids to action ids, the parameters it polls, its period, the
+``<monitor>``'s overrides of the invariants file's alarm rule and the paths inside the
+package. Templates only format a spec; every decision is taken here.
 
 Checks (each failure is a diagnostic naming the file, and nothing is rendered):
 
@@ -38,7 +39,7 @@ import keyword
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -202,6 +203,9 @@ class MonitorSpec:
     launch: str | None
     depends: tuple[str, ...]
     invariants_path: str = INVARIANTS_PATH
+    alarms: Mapping[str, int | float] = field(default_factory=dict)
+    """The ``<monitor>``'s overrides of the invariants file's alarm rule (``persist``,
+    ``seconds``, ``distinct``, ``window``; only the given ones)."""
 
     @property
     def topic_relays(self) -> dict[str, str]:
@@ -245,6 +249,7 @@ class MonitorSpec:
             },
             "violations": {key: list(ids) for key, ids in self.violations.items()},
             "params": list(self.params),
+            "alarms": dict(self.alarms),
         }
 
 
@@ -569,6 +574,7 @@ def _build(
         params=tuple(sorted(params)),
         launch=monitor.launch,
         depends=tuple(depends),
+        alarms=monitor.alarms.given(),
     )
 
 

@@ -1,8 +1,11 @@
 """What the monitor node decides, without ROS: plain functions the node calls.
 
 The node (``node.py``) is ROS plumbing around the runtime engine; everything it decides is
-here, so it is tested without rospy: which actions a batch of violations takes
-(:func:`select_actions`), the JSON warning published on ``/m/broken_inv``
+here, so it is tested without rospy: the alarm rule the engine runs under
+(:func:`alarm_document`), what the node does about each violation once the engine told which
+raised or belong to an alarm (:func:`reports`: warn, and act only on a newly raised alarm),
+whether a blocked message or call is withheld (:func:`withheld`), which actions a batch of
+alarms takes (:func:`select_actions`), the JSON warning published on ``/m/broken_inv``
 (:func:`violation_json`), the graph as the invariants know it once the monitor's own relays
 are folded back (:func:`logical_graph`), the unknown publishers to unregister
 (:func:`to_unregister`), how an action's YAML value fills a message (:func:`fill`), how a
@@ -70,6 +73,14 @@ class _V(NamedTuple):
     point: str
 
 
+class _A(NamedTuple):
+    """A stand-in alarm for the examples."""
+
+    point: str
+    rule: str
+    violation: Any
+
+
 def scope_id(point: str) -> str:
     """The scope id of a point key: ``a``, ``a?1`` and ``a?x==3`` all belong to ``a``."""
     return point.split("?", 1)[0]
@@ -78,13 +89,108 @@ def scope_id(point: str) -> str:
 def select_actions(
     violations: Iterable[Any], violation_map: Mapping[str, Sequence[str]]
 ) -> List[str]:
-    """The action ids a batch of violations takes, each once, in the order first named."""
+    """The action ids a batch of alarms (or violations: anything with a ``point``) takes,
+    each once, in the order first named."""
     taken: List[str] = []
     for violation in violations:
         for action in violation_map.get(scope_id(violation.point), ()):
             if action not in taken:
                 taken.append(action)
     return taken
+
+
+def alarm_document(
+    document: Mapping[str, Any], overrides: Optional[Mapping[str, Any]]
+) -> Mapping[str, Any]:
+    """The invariants document with its alarm rule (``alarms``) overridden by the
+    ``<monitor>``'s ``alarm_*`` attributes (the spec's ``alarms``): an engine built from it
+    runs under ``AlarmRule.from_json(document["alarms"]).overridden(**overrides)``.
+
+    >>> alarm_document({"alarms": {"persist": 4, "distinct": 3}}, {"distinct": 0})["alarms"]
+    {'persist': 4, 'distinct': 0}
+    """
+    if not overrides:
+        return document
+    merged = dict(document)
+    merged["alarms"] = dict(document.get("alarms") or {}, **overrides)
+    return merged
+
+
+class Report(NamedTuple):
+    """What the node does about one violation: warn, as an alarm or as a violation alone."""
+
+    violation: Any
+    alarm: bool
+    """Whether the violation belongs to an alarm (raised it, or is part of an alarmed
+    episode or agreement)."""
+    rule: Optional[str]
+    """The rule of the alarm it raised (``persist``, ``agree``, ``event``); ``None`` when
+    it raised none."""
+    actions: List[str]
+    """The actions taken for it: its point's, when it raised an alarm; else none."""
+
+
+def reports(
+    found: Sequence[Any],
+    raised: Sequence[Any],
+    alarmed: Sequence[Any],
+    violation_map: Mapping[str, Sequence[str]],
+) -> List[Report]:
+    """A report per violation of ``found``, given the alarms the engine ``raised`` with them
+    and those of ``found`` that belong to an alarm (``engine.alarms.alarmed``).
+
+    >>> v, w = _V("a"), _V("a")
+    >>> [r[1:] for r in reports([v, w], [_A("a", "persist", v)], [v], {"a": ["f"]})]
+    [(True, 'persist', ['f']), (False, None, [])]
+    """
+    belongs = {id(v) for v in alarmed}
+    rules: Dict[int, str] = {}
+    for alarm in raised:
+        rules.setdefault(id(alarm.violation), alarm.rule)
+    out: List[Report] = []
+    for violation in found:
+        rule = rules.get(id(violation))
+        actions = list(violation_map.get(scope_id(violation.point), ())) if rule else []
+        out.append(Report(violation, rule is not None or id(violation) in belongs, rule, actions))
+    return out
+
+
+def take_alarms(engine: Any, found: Sequence[Any]) -> Tuple[List[Any], List[Any]]:
+    """Right after the engine's calls that gave ``found`` (under the node's lock, so no
+    other call slips in between): the alarms raised since the last take and those of
+    ``found`` that belong to an alarm."""
+    raised: List[Any] = engine.take_alarms()
+    return raised, engine.alarms.alarmed(found, raised)
+
+
+def withheld(caused: Iterable[Any], alarmed: Sequence[Any]) -> bool:
+    """Whether a blocked message (or call) is withheld: one of the violations it ``caused``
+    belongs to an alarm. A violation alone lets it through.
+
+    >>> v = _V("a")
+    >>> withheld([v], [v]), withheld([v], []), withheld([], [v])
+    (True, False, False)
+    """
+    if not alarmed:  # the relay's usual path: nothing in alarm
+        return False
+    belongs = {id(v) for v in alarmed}
+    return any(id(v) in belongs for v in caused)
+
+
+def withheld_for(caused: Iterable[Any], alarmed: Sequence[Any]) -> str:
+    """The invariants, comma separated, for which a blocked call is withheld (those of the
+    violations it ``caused`` that belong to an alarm)."""
+    belongs = {id(v) for v in alarmed}
+    return ", ".join(sorted({v.invariant for v in caused if id(v) in belongs}))
+
+
+def log_line(report: Report) -> str:
+    """The node's log warning of a report: an alarm (and its rule) or a violation."""
+    v = report.violation
+    if not report.alarm:
+        return f"imrosc: violation of {v.invariant} at {v.point}: {v.text}"
+    why = f" ({report.rule})" if report.rule else ""
+    return f"imrosc: alarm{why}: {v.invariant} broken at {v.point}: {v.text}"
 
 
 def json_safe(value: Any) -> Any:
@@ -102,10 +208,14 @@ def json_safe(value: Any) -> Any:
     return value
 
 
-def violation_json(violation: Any, actions: Sequence[str] = ()) -> str:
+def violation_json(
+    violation: Any, actions: Sequence[str] = (), alarm: bool = True, rule: Optional[str] = None
+) -> str:
     """The ``/m/broken_inv`` warning: one JSON object with the invariant id, its point,
-    family and kind, its text, the observed value, what was expected, the time and the
-    actions the monitor takes for it."""
+    family and kind, its text, the observed value, what was expected, the time, whether it
+    belongs to an alarm (``alarm``), the rule of the alarm it raised (``rule``: ``persist``,
+    ``agree``, ``event``, or ``null`` when it raised none) and the actions the monitor takes
+    for it."""
     document = {
         "invariant": violation.invariant,
         "point": violation.point,
@@ -116,8 +226,15 @@ def violation_json(violation: Any, actions: Sequence[str] = ()) -> str:
         "expected": violation.expected,
         "time": json_safe(float(violation.time)),
         "actions": list(actions),
+        "alarm": bool(alarm),
+        "rule": rule,
     }
     return json.dumps(document, sort_keys=True, allow_nan=False)
+
+
+def report_json(report: Report) -> str:
+    """The ``/m/broken_inv`` warning of a report (:func:`violation_json`)."""
+    return violation_json(report.violation, report.actions, report.alarm, report.rule)
 
 
 def _frozen(found: Mapping[str, Set[str]]) -> Dict[str, FrozenSet[str]]:

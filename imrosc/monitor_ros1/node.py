@@ -3,23 +3,27 @@
 A generated monitor package runs :func:`main` with its runtime engine class and its
 generated flatteners. The node
 
+* runs the engine under the invariants file's alarm rule, overridden by the ``<monitor>``'s
+  ``alarm_*`` attributes (``spec.json``'s ``alarms``); after each call it takes the alarms
+  raised and the violations that belong to an alarm;
 * subscribes to every topic of the invariants file with the real message class, flattens
   each message and feeds it to the engine; a blocked topic's message is republished on
-  ``/m/<topic>`` only when it broke no invariant (the rewritten launch file remaps the
-  topic's subscribers there);
+  ``/m/<topic>`` unless one of its violations belongs to an alarm (the rewritten launch file
+  remaps the topic's subscribers there);
 * serves ``/m/<service>`` for every watched or blocked service, forwards the call to the real
   service and feeds the call to the engine; for a blocked service it refuses a request that
-  breaks an invariant of the request before forwarding it and withholds a response that
-  breaks one after;
+  breaks an invariant of the request in alarm before forwarding it and withholds a response
+  that breaks one after;
 * every ``~period`` seconds advances the engine's clock, polls the master
   (``getSystemState``) into ``engine.graph`` and the parameters the invariants read into
   ``engine.params`` (each only when they changed), and retries what could not be set up yet
   (a topic whose type only the master knows, a service not yet served);
-* publishes every violation as JSON on ``/m/broken_inv``, takes the actions that the
-  violation map names for the violated point (in a worker thread, so checking never waits
-  for a service), unregisters unknown publishers that broke a ``max_pubs`` invariant from
-  the master (``~unregister``), clears an invariant named on ``/m/clear_inv``, and beats on
-  ``/m/heartbeat`` for the fail-open watchdog.
+* publishes every violation as JSON on ``/m/broken_inv`` (with ``alarm``: whether it belongs
+  to an alarm, and ``rule``: the rule of the alarm it raised), and on each newly raised alarm
+  takes the actions that the violation map names for its point (in a worker thread, so
+  checking never waits for a service) and unregisters unknown publishers that broke a
+  ``max_pubs`` invariant from the master (``~unregister``); it clears an invariant named on
+  ``/m/clear_inv``, and beats on ``/m/heartbeat`` for the fail-open watchdog.
 
 Parameters: ``~invariants`` (path; default the package's ``config/invariants.json``),
 ``~period`` (seconds), ``~namespace`` (``/m``), ``~unregister`` (true), ``~watchdog`` (the
@@ -110,6 +114,7 @@ class Monitor:
         flatteners: Mapping[str, Flatten],
     ) -> None:
         self.spec = spec
+        document = logic.alarm_document(document, spec.get("alarms"))
         self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
         self.period = float(rospy.get_param("~period", spec["period"]))
         self.wall_clock = not rospy.get_param("/use_sim_time", False)
@@ -271,15 +276,16 @@ class Monitor:
             now = time.time() if self.wall_clock else rospy.get_time()
             found = self.engine.advance(now)
             caused = self.engine.message(topic, now, values) if values is not None else []
+            raised, alarmed = logic.take_alarms(self.engine, found + caused)
             precheck = self.precheck
             if precheck is not None and values is not None and topic in precheck.condition_topics:
                 precheck.message(topic, now, values)
         relay = self.relays.get(topic)
         if relay is not None:
             self.last_relayed = time.time()
-            if not caused:
+            if not logic.withheld(caused, alarmed):
                 relay.publish(message)
-        self.report(found + caused)
+        self.report(found + caused, raised, alarmed)
 
     def read(self, message: Any, topic: str, raw: Tuple[wire.Reader, Any]) -> Optional[List[Any]]:
         """The values of a message relayed as bytes; bytes the plan cannot read are decoded
@@ -297,7 +303,8 @@ class Monitor:
         return self.flatteners[topic](decoded)
 
     def handler(self, service: str, service_class: Any) -> Callable[[Any], Any]:
-        """The handler of ``/m/<service>``: check, forward, check, answer."""
+        """The handler of ``/m/<service>``: check, forward, check, answer. A request whose
+        violations are alone (no alarm) is forwarded, and the whole call reported then."""
         blocked = service in self.blocked_services
 
         def serve(request: Any) -> Any:
@@ -307,9 +314,10 @@ class Monitor:
                     refused = precheck.call(
                         service, rospy.get_time(), logic.request_values(request)
                     )
-                if refused:
-                    self.report(refused)
-                    ids = ", ".join(sorted({v.invariant for v in refused}))
+                    raised, alarmed = logic.take_alarms(precheck, refused)
+                if logic.withheld(refused, alarmed):
+                    self.report(refused, raised, alarmed)
+                    ids = logic.withheld_for(refused, alarmed)
                     raise rospy.ServiceException(f"imrosc monitor refused the request: {ids}")
             start = rospy.get_time()
             response = rospy.ServiceProxy(service, service_class)(request)
@@ -318,9 +326,10 @@ class Monitor:
                 now = rospy.get_time()
                 found = self.engine.advance(now)
                 caused = self.engine.call(service, now, values)
-            self.report(found + caused)
-            if blocked and caused:
-                ids = ", ".join(sorted({v.invariant for v in caused}))
+                raised, alarmed = logic.take_alarms(self.engine, found + caused)
+            self.report(found + caused, raised, alarmed)
+            if blocked and logic.withheld(caused, alarmed):
+                ids = logic.withheld_for(caused, alarmed)
                 raise rospy.ServiceException(f"imrosc monitor withheld the response: {ids}")
             return response
 
@@ -365,9 +374,10 @@ class Monitor:
                 found += self.engine.params(now, params)
                 if self.precheck is not None:
                     self.precheck.params(now, params)
+            raised, alarmed = logic.take_alarms(self.engine, found)
         if self.pending_topics or self.pending_services or self.pending_actions:
             self.connect()
-        self.report(found)
+        self.report(found, raised, alarmed)
 
     def keep_warm(self) -> None:
         """Between sparse messages on the blocked topics, check the latest ones again every
@@ -391,22 +401,26 @@ class Monitor:
 
     # -- what the monitor does about it -----------------------------------------------------
 
-    def report(self, violations: Sequence[Any]) -> None:
-        """Warn on ``/m/broken_inv``, queue the actions and the unregistrations."""
-        if not violations:
-            return
-        for violation in violations:
-            taken = self.violation_map.get(logic.scope_id(violation.point), ())
-            self.broken.publish(String(data=logic.violation_json(violation, taken)))
-            rospy.logwarn_throttle(
-                1.0,
-                f"imrosc: broken {violation.invariant} at {violation.point}: {violation.text}",
-            )
-        for ident in logic.select_actions(violations, self.violation_map):
+    def report(
+        self, violations: Sequence[Any], raised: Sequence[Any], alarmed: Sequence[Any]
+    ) -> None:
+        """Warn on ``/m/broken_inv`` and in the log (an alarm or a violation alone); queue
+        the actions and the unregistrations of the newly raised alarms."""
+        for report in logic.reports(violations, raised, alarmed, self.violation_map):
+            self.broken.publish(String(data=logic.report_json(report)))
+            if report.alarm:  # two call sites: alarms and violations are throttled apart
+                rospy.logwarn_throttle(1.0, logic.log_line(report))
+            else:
+                rospy.logwarn_throttle(1.0, logic.log_line(report))
+        for ident in logic.select_actions(raised, self.violation_map):
             self.work.put(("action", ident))
-        if self.unregister:
+        if self.unregister and raised:
             for node, topic in logic.to_unregister(
-                violations, self.by_id, self.state, self.own, self.topic_relays
+                [alarm.violation for alarm in raised],
+                self.by_id,
+                self.state,
+                self.own,
+                self.topic_relays,
             ):
                 self.work.put(("unregister", node, topic))
 

@@ -537,13 +537,20 @@ def note(violation: Any) -> Optional[str]:
     return None
 
 
-def warning(violation: Any, actions: Sequence[str] = ()) -> str:
+def warning(
+    violation: Any, actions: Sequence[str] = (), alarm: bool = True, rule: Optional[str] = None
+) -> str:
     """The ``/m/broken_inv`` warning: ROS 1's JSON object (``common.violation_json``), plus
     a ``note`` when ROS 2 cannot do what ROS 1 would (unregister an unknown publisher)."""
-    text = common.violation_json(violation, actions)
+    text = common.violation_json(violation, actions, alarm, rule)
     extra = note(violation)
     if extra is None:
         return text
     document = json.loads(text)
     document["note"] = extra
     return json.dumps(document, sort_keys=True, allow_nan=False)
+
+
+def report_warning(report: common.Report) -> str:
+    """The ``/m/broken_inv`` warning of a report (``common.reports``)."""
+    return warning(report.violation, report.actions, report.alarm, report.rule)

@@ -7,14 +7,15 @@ and its generated flatteners. The node
   (``get_publishers_info_by_topic``: best effort as soon as one publisher is, transient
   local when all are; a ``sensor_msgs`` topic starts as ``qos_profile_sensor_data`` until a
   publisher shows), flattens each message and feeds it to the engine; a blocked topic's
-  message is republished on ``/m/<topic>``, with the source's QoS, only when it broke no
-  invariant (the rewritten launch file remaps the topic's subscribers there);
+  message is republished on ``/m/<topic>``, with the source's QoS, unless one of its
+  violations belongs to an alarm (the rewritten launch file remaps the topic's subscribers
+  there);
 * serves ``/m/<service>`` for every watched or blocked service once the graph tells the
   service's type, forwards each call to the real service and feeds the call to the engine;
-  for a blocked service a request that breaks an invariant of the request is not forwarded
-  and a response that breaks one is withheld. ROS 2 services have no error reply (rclpy
-  sends whatever the callback returns), so the client gets the type's default response
-  (every field zero, false or empty) instead;
+  for a blocked service a request that breaks an invariant of the request in alarm is not
+  forwarded and a response that breaks one in alarm is withheld. ROS 2 services have no
+  error reply (rclpy sends whatever the callback returns), so the client gets the type's
+  default response (every field zero, false or empty) instead;
 * every ``period`` seconds (ROS time) advances the engine's clock, reads the graph
   (``get_topic_names_and_types``, ``get_publishers_info_by_topic``,
   ``get_subscriptions_info_by_topic``, ``get_service_names_and_types_by_node``) into
@@ -22,11 +23,16 @@ and its generated flatteners. The node
   on ``/<node>/get_parameters``) into ``engine.params`` (each only when it changed), adapts
   the QoS of its subscriptions and relays to publishers that appeared, and sets up what
   could not be set up yet (a topic or service whose type only the graph knows);
-* publishes every violation as JSON on ``/m/broken_inv``, takes the actions the violation
-  map names for the violated point (in a worker thread, so checking never waits for a
-  service), clears an invariant named on ``/m/clear_inv`` and beats on ``/m/heartbeat``
-  (wall time) for the fail-open watchdog. An unknown publisher that breaks a ``max_pubs``
-  invariant is only reported, with a note: ROS 2 has no master to unregister it from.
+* runs the engine under the invariants file's alarm rule, overridden by the ``<monitor>``'s
+  ``alarm_*`` attributes (``spec.json``'s ``alarms``), and after each call takes the alarms
+  raised and the violations that belong to an alarm;
+* publishes every violation as JSON on ``/m/broken_inv`` (with ``alarm``: whether it belongs
+  to an alarm, and ``rule``: the rule of the alarm it raised), takes on each newly raised
+  alarm the actions the violation map names for its point (in a worker thread, so checking
+  never waits for a service), clears an invariant named on ``/m/clear_inv`` and beats on
+  ``/m/heartbeat`` (wall time) for the fail-open watchdog. An unknown publisher that breaks
+  a ``max_pubs`` invariant is only reported, with a note: ROS 2 has no master to unregister
+  it from.
 
 Parameters: ``invariants`` (path; default the package's ``share/<pkg>/config/
 invariants.json``), ``period`` (seconds), ``namespace`` (``/m``), ``watchdog`` (the
@@ -135,6 +141,7 @@ class Monitor:
         self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
         self.flatteners = flatteners
         self.lock = threading.Lock()
+        document = common.alarm_document(document, spec.get("alarms"))
         self.engine = engine_class(document)
         self.precheck = (
             engine_class(common.request_document(document, self.blocked_services))
@@ -285,6 +292,7 @@ class Monitor:
                 now = self.now()
                 found = self.engine.advance(now)
                 caused = self.engine.message(name, now, values) if values is not None else []
+                raised, alarmed = common.take_alarms(self.engine, found + caused)
                 precheck = self.precheck
                 if (
                     precheck is not None
@@ -292,9 +300,9 @@ class Monitor:
                     and name in precheck.condition_topics
                 ):
                     precheck.message(name, now, values)
-            if topic.relay is not None and not caused:
+            if topic.relay is not None and not common.withheld(caused, alarmed):
                 topic.relay.publish(message)
-            self.report(found + caused)
+            self.report(found + caused, raised, alarmed)
 
         return on_message
 
@@ -316,9 +324,10 @@ class Monitor:
             if blocked and precheck is not None:
                 with self.lock:
                     refused = precheck.call(service, self.now(), logic.request_values(request))
-                if refused:
-                    self.report(refused)
-                    ids = ", ".join(sorted({v.invariant for v in refused}))
+                    raised, alarmed = common.take_alarms(precheck, refused)
+                if common.withheld(refused, alarmed):
+                    self.report(refused, raised, alarmed)
+                    ids = common.withheld_for(refused, alarmed)
                     self.warn(f"imrosc: refused a request to {service}: {ids}")
                     return default
             start = self.now()
@@ -328,9 +337,10 @@ class Monitor:
                 now = self.now()
                 found = self.engine.advance(now)
                 caused = self.engine.call(service, now, values)
-            self.report(found + caused)
-            if blocked and caused:
-                ids = ", ".join(sorted({v.invariant for v in caused}))
+                raised, alarmed = common.take_alarms(self.engine, found + caused)
+            self.report(found + caused, raised, alarmed)
+            if blocked and common.withheld(caused, alarmed):
+                ids = common.withheld_for(caused, alarmed)
                 self.warn(f"imrosc: withheld the response of {service}: {ids}")
                 return default
             return answer
@@ -372,10 +382,11 @@ class Monitor:
                 found += self.engine.params(now, params)
                 if self.precheck is not None:
                     self.precheck.params(now, params)
+            raised, alarmed = common.take_alarms(self.engine, found)
         if view is not None:
             self.connect(view)
             self.ask_params(view)
-        self.report(found)
+        self.report(found, raised, alarmed)
 
     def ask_params(self, view: logic.GraphView) -> None:
         """Ask each node for the parameters the invariants read (the answers are fed to the
@@ -396,19 +407,19 @@ class Monitor:
 
     # -- what the monitor does about it -----------------------------------------------------
 
-    def report(self, violations: Sequence[Any]) -> None:
+    def report(
+        self, violations: Sequence[Any], raised: Sequence[Any], alarmed: Sequence[Any]
+    ) -> None:
         """Warn on ``/m/broken_inv`` (a ``max_pubs`` violation with a note: ROS 2 cannot
-        unregister the publisher) and queue the actions."""
-        if not violations:
-            return
-        for violation in violations:
-            taken = self.violation_map.get(common.scope_id(violation.point), ())
-            self.broken.publish(String(data=logic.warning(violation, taken)))
-            self.warn(
-                f"imrosc: broken {violation.invariant} at {violation.point}: {violation.text}",
-                throttle_duration_sec=1.0,
-            )
-        for ident in common.select_actions(violations, self.violation_map):
+        unregister the publisher) and in the log (an alarm or a violation alone); queue the
+        actions of the newly raised alarms."""
+        for report in common.reports(violations, raised, alarmed, self.violation_map):
+            self.broken.publish(String(data=logic.report_warning(report)))
+            if report.alarm:  # two call sites: alarms and violations are throttled apart
+                self.warn(common.log_line(report), throttle_duration_sec=1.0)
+            else:
+                self.warn(common.log_line(report), throttle_duration_sec=1.0)
+        for ident in common.select_actions(raised, self.violation_map):
             self.work.put(ident)
 
     def worker(self) -> None:

@@ -21,6 +21,7 @@ from typing import Any
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
+from imrosc import ir
 from imrosc.backends.monitor import (
     MonitorSpec,
     SpecError,
@@ -367,6 +368,31 @@ def test_an_action_on_a_topic_of_unknown_type_is_noted_and_resolved_at_run_time(
     spec = json.loads(result.files["demo_monitor/scripts/imrosc_monitor/spec.json"])
     assert spec["actions"]["f"]["type"] is None
     assert spec["actions"]["f"]["destination"] == "/elsewhere"
+
+
+def test_the_alarm_attributes_reach_the_spec_and_only_the_given_ones(tmp_path: Path) -> None:
+    document = invariants_document({"/cmd": "std_msgs/msg/UInt8"})
+    monitor = '<monitor inv="demo.inv" alarm_persist="5" alarm_window="0.25"/>'
+    config = write_case(tmp_path, config_text(monitor=monitor), document)
+    result = build_ros1(config)
+    assert result.ok, result.diagnostics
+    spec = json.loads(result.files["demo_monitor/scripts/imrosc_monitor/spec.json"])
+    assert spec["alarms"] == {"persist": 5, "window": 0.25}
+    plain = write_case(tmp_path / "plain", config_text(), document)
+    spec = json.loads(build_ros1(plain).files["demo_monitor/scripts/imrosc_monitor/spec.json"])
+    assert spec["alarms"] == {}
+
+
+def test_the_alarm_attributes_are_lowered_and_round_trip_through_the_ir() -> None:
+    loaded, problems = load_config(EXAMPLES / "uav_landing.xml")
+    assert loaded is not None, problems
+    project = lower(loaded)
+    assert project.monitor is not None
+    overrides = project.monitor.alarms
+    assert overrides == ir.AlarmOverrides(persist=3, seconds=0.3, distinct=2, window=0.5)
+    assert overrides.given() == {"persist": 3, "seconds": 0.3, "distinct": 2, "window": 0.5}
+    assert ir.project_from_json(ir.to_json(project)) == project
+    assert ir.AlarmOverrides(distinct=0).given() == {"distinct": 0}
 
 
 def test_a_blocked_service_is_relayed_and_blocked(tmp_path: Path) -> None:

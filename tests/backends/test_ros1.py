@@ -30,7 +30,8 @@ from imrosc.backends.registry import GENERATED_MARK, Executable
 from imrosc.cli import main
 from imrosc.monitor_ros1 import logic
 from imrosc.replay import Replayer
-from imrosc.runtime import Violation
+from imrosc.runtime import Engine, Violation
+from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import Scenario, write_runs
 from tests.backends.test_monitor_spec import (
@@ -44,6 +45,7 @@ from tests.backends.test_monitor_spec import (
     write_case,
     write_package,
 )
+from tests.runtime.test_alarms import document as alarm_case
 
 PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
@@ -767,9 +769,76 @@ def test_the_warning_is_json_with_the_invariant_point_family_and_values() -> Non
         "expected": "[0, 1]",
         "time": 12.5,
         "actions": ["f"],
+        "alarm": True,
+        "rule": None,
     }
     odd = json.loads(logic.violation_json(violation(observed=(math.nan, np.float32(2.5)))))
     assert odd["observed"] == ["nan", 2.5]
+    alone = json.loads(logic.violation_json(broken, (), alarm=False))
+    assert (alone["alarm"], alone["rule"], alone["actions"]) == (False, None, [])
+
+
+def test_the_overrides_replace_fields_of_the_files_alarm_rule() -> None:
+    calibrated = {"persist": 4, "seconds": 0.5, "distinct": 3, "window": 2.0}
+    document = {**alarm_case(calibrated)}
+    assert logic.alarm_document(document, {}) is document
+    assert logic.alarm_document(document, None) is document
+    for overrides in ({"persist": 2}, {"distinct": 0, "window": 0.25}, {"seconds": 1.5}):
+        engine = Engine(logic.alarm_document(document, overrides))
+        assert engine.alarm_rule == AlarmRule.from_json(calibrated).overridden(**overrides)
+    assert document["alarms"] == calibrated  # the file's document is left as it was
+    bare = Engine(logic.alarm_document(alarm_case(None), {"persist": 3}))
+    assert bare.alarm_rule == EVERY_VIOLATION.overridden(persist=3)
+
+
+def test_reports_flag_alarms_and_act_on_newly_raised_ones_only() -> None:
+    """Under persist 3: two violations alone (relayed, no action), the third raises the
+    alarm (withheld, the point's actions once), the fourth is in the alarmed episode
+    (withheld, no action); a clean message ends it."""
+    engine = Engine(logic.alarm_document(alarm_case(None), {"persist": 3}))
+    seen: list[Any] = []
+    for k, value in enumerate([2.0, 2.0, 2.0, 2.0, 0.0, 2.0]):
+        caused = engine.message("/a/x", 0.1 * k, [value, 0.0])
+        raised, alarmed = logic.take_alarms(engine, caused)
+        reports = logic.reports(caused, raised, alarmed, {"x": ["f"]})
+        actions = logic.select_actions(raised, {"x": ["f"]})
+        withheld = logic.withheld(caused, alarmed)
+        seen.append([(r[1:], actions, withheld) for r in reports] or None)
+    alone: Any = [((False, None, []), [], False)]
+    assert seen == [
+        alone,
+        alone,
+        [((True, "persist", ["f"]), ["f"], True)],
+        [((True, None, []), [], True)],
+        None,
+        alone,
+    ]
+
+
+def test_an_event_raises_an_alarm_at_once_and_agreement_names_its_rule() -> None:
+    found = [violation("a", invariant="i1"), violation("a", invariant="i2")]
+    alarms = [SimpleNamespace(point="a", rule="agree", violation=found[1])]
+    reports = logic.reports(found, alarms, found, {"a": ["f", "g"]})
+    assert [(r.alarm, r.rule, r.actions) for r in reports] == [
+        (True, None, []),
+        (True, "agree", ["f", "g"]),
+    ]
+    assert logic.select_actions(alarms, {"a": ["f", "g"]}) == ["f", "g"]
+    assert logic.withheld_for(found, found[1:]) == "i2"
+    assert logic.withheld([], found) is False
+    event = [violation("d", family="architecture")]
+    raised = AlarmTracker().event(event)
+    assert [r.rule for r in logic.reports(event, raised, event, {})] == ["event"]
+
+
+def test_the_log_says_alarm_or_violation() -> None:
+    broken = violation()
+    alarm = logic.log_line(logic.Report(broken, True, "persist", ["f"]))
+    assert alarm == "imrosc: alarm (persist): i1 broken at a: 0 <= x <= 1"
+    assert logic.log_line(logic.Report(broken, True, None, [])).startswith("imrosc: alarm: ")
+    assert logic.log_line(logic.Report(broken, False, None, [])) == (
+        "imrosc: violation of i1 at a: 0 <= x <= 1"
+    )
 
 
 STATE = [

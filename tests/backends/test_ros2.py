@@ -1208,6 +1208,11 @@ def test_only_an_unknown_publisher_gets_a_note() -> None:
     bounds = Violation(1.0, "a", "i2", "bounds", "range", "t", 3.0, "[0, 1]")
     assert json.loads(logic.warning(arch))["note"] == logic.NO_MASTER
     assert logic.warning(bounds, ["f"]) == ros1_logic.violation_json(bounds, ["f"])
+    alone = ros1_logic.Report(arch, False, None, [])
+    warning = json.loads(logic.report_warning(alone))
+    assert (warning["alarm"], warning["rule"], warning["note"]) == (False, None, logic.NO_MASTER)
+    raised = ros1_logic.Report(bounds, True, "persist", ["f"])
+    assert logic.report_warning(raised) == ros1_logic.report_json(raised)
 
 
 def test_the_spec_and_invariants_load_or_say_why(tmp_path: Path) -> None:

@@ -337,6 +337,7 @@ def test_the_generated_node_checks_blocks_acts_and_warns_on_a_live_ros2_graph(
     assert 0 in out["relayed"], context  # action f published on the relay
     (cmd,) = [w for w in out["warnings"] if w["invariant"] == "cmd_range"]
     assert cmd["observed"] == 9.0 and cmd["actions"] == ["f"], context
+    assert (cmd["alarm"], cmd["rule"]) == (True, "persist"), context  # no rule: each alarms
     for pubs in [w for w in out["warnings"] if w["invariant"] == "cmd_pubs"]:
         assert pubs["observed"] == ["/a/rogue"] and "no master" in pubs["note"], context
     assert out["allowed"] == [True, "done"], context

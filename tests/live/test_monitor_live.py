@@ -7,6 +7,11 @@ machine hears ``/m/a/cmd_subject_ctrl_state``, the monitor's relay of the blocke
 topic). Then it injects faults into the running system, one test each, and watches
 ``/m/broken_inv``, the relay, the action and the master.
 
+The invariants file carries no alarm rule (``alarms``), so every violation is an alarm: each
+blocks and acts, as the thesis' monitor does. The last test restarts the system with the rule
+``{"persist": 3}`` in the package's copy of the file: the monitor acts, and blocks, from the
+third violating message on.
+
 The car's poses (point v) break their rate invariants now and then in nominal operation
 (window ends jitter by a few ms); every check here names the invariant it expects, and the
 command topic (point a: a constant at 5 Hz) breaks nothing nominal.
@@ -49,6 +54,8 @@ class Monitored:
     invariants: dict[str, dict[str, Any]]
     commands: Path
     watch: Listener
+    package: Path
+    launch: Path
 
     def reports(self, since: float = 0.0) -> list[dict[str, Any]]:
         """The violations published on /m/broken_inv (received after ``since``)."""
@@ -88,7 +95,9 @@ def monitored(ros: Ros, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Mo
 
     detected = run_detect(config, workers=1)
     assert detected.ok and detected.document is not None, [str(d) for d in detected.diagnostics]
-    (folder / "landing_live.inv").write_text(dumps(detected.document), encoding="utf-8")
+    # every violation an alarm here (a calibrated rule would hold back single bad messages)
+    document = {k: v for k, v in detected.document.items() if k != "alarms"}
+    (folder / "landing_live.inv").write_text(dumps(document), encoding="utf-8")
     out = folder / "build"
     built = CliRunner().invoke(
         main, ["build", str(config), "--backend", "ros1", "-o", str(out), "--graph", str(GRAPH)]
@@ -102,20 +111,30 @@ def monitored(ros: Ros, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Mo
     ros.add_package_path(out)
     commands = folder / "commands.jsonl"
     watch = ros.listen(BROKEN, POSE)
-    system = ros.start_system(launch, log=commands)
     monitor = "/" + spec["node"]
+    invariants = {i["id"]: i for i in document["invariants"]}
+    system = ros.start_system(launch, log=commands)
+    graph = Monitored(ros, system, monitor, invariants, commands, watch, package, launch)
+    wait_monitored(graph, 0.0)
+    yield graph
+
+
+def wait_monitored(monitored: Monitored, since: float) -> None:
+    """Wait until the monitor of a (re)started system watches both topics and relays the
+    commands (one relayed received after ``since``)."""
+    ros, system, monitor = monitored.ros, monitored.system, monitored.monitor
     for topic in (POSE, COMMAND):
         ros.wait_subscriber(topic, monitor, 30, (system,))
     ros.wait_subscriber(RELAY, "/a/ctrl_state_machine", 30, (system,))
-    invariants = {i["id"]: i for i in detected.document["invariants"]}
-    graph = Monitored(ros, system, monitor, invariants, commands, watch)
+    commands = monitored.commands
     wait_until(
-        lambda: commands.exists() and any(r["callerid"] == monitor for r in graph.received()),
+        lambda: (
+            commands.exists() and any(r["callerid"] == monitor for r in monitored.received(since))
+        ),
         "a command relayed by the monitor",
         20,
         (system,),
     )
-    yield graph
 
 
 def test_the_system_runs_through_the_monitor(monitored: Monitored) -> None:
@@ -146,6 +165,7 @@ def test_an_out_of_range_value_is_reported(monitored: Monitored) -> None:
     assert report["point"] == "v"
     assert report["family"] == "bounds"
     assert report["invariant"] == monitored.id_of(Z_BOUNDS)
+    assert (report["alarm"], report["rule"]) == (True, "persist")  # no rule: each alarms
     assert report["actions"] == []  # v takes no action
     time.sleep(0.3)
     z_reports = [r for r in monitored.reports() if r["text"] == Z_BOUNDS]
@@ -157,7 +177,7 @@ def test_a_bad_command_is_blocked_and_the_action_fires(monitored: Monitored) -> 
     monitored.ros.inject("/a/car_ctrl", "out_of_range:1")
     report = monitored.wait_report(COMMAND_IS_3, since)
     assert report["observed"] == 9.0
-    assert report["actions"] == ["f"]
+    assert (report["alarm"], report["rule"], report["actions"]) == (True, "persist", ["f"])
     wait_until(
         lambda: [r["data"] for r in monitored.received(report["received"])].count(3) >= 3,
         "good commands after the bad one",
@@ -188,6 +208,7 @@ def test_a_silent_publisher_breaks_its_frequency_by_timer(monitored: Monitored) 
     finally:
         monitored.ros.delete_param("/a/car/fault")
     assert report["observed"] < frequency["params"]["min"]
+    assert (report["alarm"], report["rule"]) == (True, "event")  # found by the timer
     last = max(p["t"] for p in poses if p["t"] <= report["received"])
     assert last >= since - 0.1  # the car published until it fell silent
     assert report["received"] - last >= 0.09  # two periods without a pose: no pose woke it
@@ -211,6 +232,7 @@ def test_an_extra_publisher_is_reported_and_unregistered(monitored: Monitored) -
         report = monitored.wait_report("max_pubs(/a/car_pose) = {/a/car}", since)
         assert report["observed"] == ["/a/intruder"]
         assert report["family"] == "architecture"
+        assert (report["alarm"], report["rule"]) == (True, "event")
         wait_until(lambda: ros.publishers(POSE) == {"/a/car"}, "the master to drop /a/intruder")
         assert intruder.alive  # still running and publishing, but unknown to the master
         late = ros.listen(POSE)
@@ -251,3 +273,42 @@ def test_clear_inv_stops_a_report(monitored: Monitored) -> None:
     reports = monitored.reports(since)
     assert others and Z_BOUNDS not in {r["text"] for r in reports}
     assert ident not in {r["invariant"] for r in reports}
+
+
+def test_a_persistence_rule_acts_on_the_third_violating_message(monitored: Monitored) -> None:
+    """With ``{"persist": 3}`` in the invariants file, three bad commands in a row give two
+    violations alone (``"alarm": false``, relayed, no action) and then an alarm: the third
+    is withheld and the action fires, once. Restarts the system, so it runs last."""
+    ros = monitored.ros
+    copy = monitored.package / "config" / "invariants.json"
+    document = json.loads(copy.read_text(encoding="utf-8"))
+    document["alarms"] = {"persist": 3}
+    copy.write_text(json.dumps(document), encoding="utf-8")
+    ros.stop(monitored.system)
+    restarted = time.time()
+    monitored.system = ros.start_system(monitored.launch, log=monitored.commands)
+    wait_monitored(monitored, restarted)
+
+    since = time.time()
+    ros.inject("/a/car_ctrl", "out_of_range:3")
+
+    def three() -> list[dict[str, Any]] | None:
+        found = [r for r in monitored.reports(since) if r["text"] == COMMAND_IS_3]
+        return found if len(found) >= 3 else None
+
+    reports = wait_until(three, f"three reports of {COMMAND_IS_3!r}", 10, (monitored.system,))
+    assert [(r["alarm"], r["rule"], r["actions"]) for r in reports] == [
+        (False, None, []),
+        (False, None, []),
+        (True, "persist", ["f"]),
+    ]
+    wait_until(
+        lambda: [r["data"] for r in monitored.received(reports[-1]["received"])].count(3) >= 3,
+        "good commands after the bad ones",
+    )
+    time.sleep(0.3)
+    values = [r["data"] for r in monitored.received(since)]
+    assert values.count(9) == 2  # the two violations alone were relayed, the alarm withheld
+    assert values.count(2) == 1  # the action, once
+    assert values.index(2) > max(k for k, v in enumerate(values) if v == 9)
+    assert len(three() or ()) == 3  # the good commands after them broke nothing
