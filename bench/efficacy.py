@@ -443,9 +443,13 @@ def write_config(path: Path, project: str, scope: str, bags: Sequence[Path]) -> 
     return path
 
 
+BUDGET: list[float | None] = [None]
+"""The false-alarm budget every part learns with (``--budget``; None: imrosc's default)."""
+
+
 def learn(config: Path, bags: Sequence[Path], workers: int | None) -> dict[str, Any]:
     """The invariants document ``run_detect`` gives (exits with its diagnostics if none)."""
-    result = run_detect(config, bags=list(bags), workers=workers)
+    result = run_detect(config, bags=list(bags), workers=workers, budget=BUDGET[0])
     if result.document is None:
         sys.exit(f"inference failed for {config}:\n{render_text(result.diagnostics, 1)}")
     return result.document
@@ -712,7 +716,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--folds", type=int, default=5, help="ALFA folds (default 5)")
     parser.add_argument("-j", "--workers", type=int, default=None, help="inference workers")
     parser.add_argument("--keep", type=Path, default=None, help="keep the written bags here")
+    parser.add_argument(
+        "--budget", type=float, default=None, help="false-alarm budget (default: imrosc's)"
+    )
     args = parser.parse_args(argv)
+    BUDGET[0] = args.budget
     parts = [p.strip() for p in args.only.split(",") if p.strip()]
     unknown = sorted(set(parts) - set(PARTS))
     if unknown or args.folds < 2:

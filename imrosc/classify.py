@@ -452,6 +452,25 @@ def refined(
     return out
 
 
+def refined_rule(
+    document: Mapping[str, Any], success: Sequence[Path], workers: int | None
+) -> dict[str, Any]:
+    """The alarm rule of the kept invariants, set as calibration sets it (the conformal rank
+    of the longest episode and the largest agreement, :mod:`imrosc.calibrate.rule`) on the
+    successful runs: the rule of the whole file asks more of an alarm than fewer invariants
+    can give."""
+    from imrosc.calibrate import DEFAULT_BUDGET
+    from imrosc.calibrate.rule import calibrate_rule
+    from imrosc.infer.engine import Unit
+
+    budget = float((document.get("calibration") or {}).get("budget", DEFAULT_BUDGET))
+    units = [Unit(bag, []) for bag in success]
+    found = calibrate_rule(
+        [(document, list(range(len(units))))], units, budget, workers=workers or 1
+    )
+    return found.rule.as_json()
+
+
 @dataclass
 class CheckResult:
     """What ``imrosc classify`` reports and writes."""
@@ -680,6 +699,8 @@ def run_check(
         report["runs"] += [run_entry(o, "fail") for o in runs["fail"].values()]
         report["detection"] = detection(report["runs"])
         out.refined = refined(document, scores, report)
+        if "alarms" in document and runs["success"]:
+            out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)
         out.output = output or inv_path.with_name(inv_path.stem + ".refined.inv")
         report["output"] = str(out.output)
     else:

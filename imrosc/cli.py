@@ -185,6 +185,12 @@ class _BagProgress:
     type=click.Path(dir_okay=False, path_type=Path),
     help="Invariants file [default: detect/@inv].",
 )
+@click.option(
+    "--budget",
+    type=click.FloatRange(0.0, 0.5),
+    help="Per-run false-alarm budget of calibration; 0: exact extremes, every violation an "
+    "alarm [default: detect/@budget, 0.05].",
+)
 @click.option("--force", is_flag=True, help="Overwrite an output file imrosc did not write.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
 def infer(
@@ -193,10 +199,12 @@ def infer(
     graph_files: tuple[Path, ...],
     bags: tuple[Path, ...],
     output: Path | None,
+    budget: float | None,
     force: bool,
     quiet: bool,
 ) -> None:
-    """Infer the invariants of CONFIG's <detect> bags and write the invariants file."""
+    """Infer the invariants of CONFIG's <detect> bags, calibrate them across the bags
+    (docs/calibration.md) and write the invariants file."""
     from imrosc.build import OverwriteRefusedError, write_files
     from imrosc.detect import run_detect
     from imrosc.invariants import dumps
@@ -213,6 +221,7 @@ def infer(
         graph_files=graph_files,
         bags=list(bags) or None,
         progress_factory=factory,
+        budget=budget,
     )
     for bar in progress:
         bar.close()
@@ -245,6 +254,8 @@ def infer(
     if inferred.discovered:
         shown = ", ".join(sorted({d.key for d in inferred.discovered}))
         click.echo(f"conditions found: {shown}")
+    if result.calibration is not None:
+        click.echo(result.calibration.summary())
     sys.exit(EXIT_ERRORS if has_errors(result.diagnostics) else EXIT_CLEAN)
 
 

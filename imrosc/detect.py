@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ from imrosc import ir
 from imrosc.backends.plan import render_job, render_plan
 from imrosc.backends.registry import BuildInputs, TopicType
 from imrosc.build import load_graph
+from imrosc.calibrate import Calibration, calibrate
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import (
@@ -49,6 +50,7 @@ class DetectResult:
     result: InferenceResult | None = None
     skipped_points: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    calibration: Calibration | None = None
 
     @property
     def ok(self) -> bool:
@@ -177,8 +179,10 @@ def run_detect(
     graph_files: Sequence[Path] = (),
     bags: Sequence[Path] | None = None,
     progress_factory: Callable[[int], Progress] | None = None,
+    budget: float | None = None,
 ) -> DetectResult:
-    """Run the detect stage; the invariants document is returned, not yet written."""
+    """Run the detect stage; the invariants document is returned, not yet written.
+    ``budget`` overrides the configuration's false-alarm budget (0: no calibration)."""
     started = time.monotonic()
     out = DetectResult()
     prepared, out.diagnostics = prepare(config_path, graph_files=graph_files, bags=bags)
@@ -192,6 +196,8 @@ def run_detect(
     )
     out.catalog, out.skipped_points = catalog, prepared.skipped_points
     tunables = project.detect.tunables if project.detect else ir.Tunables()
+    if budget is not None:
+        tunables = replace(tunables, budget=budget)
     progress = progress_factory(len(catalog.bags)) if progress_factory else None
     result = infer(
         catalog.bags,
@@ -201,6 +207,7 @@ def run_detect(
         tunables,
         workers=workers or default_workers(),
         progress=progress,
+        calibrate=tunables.budget > 0,
     )
     out.result = result
     for bag, reason in sorted(result.failed.items()):
@@ -227,6 +234,10 @@ def run_detect(
         points=_points(specs, result),
         invariants=result.invariants(tunables),
     )
+    if tunables.budget > 0:
+        out.calibration = calibrate(
+            out.document, result.units, tunables.budget, workers=workers or default_workers()
+        )
     inv = project.detect.inv if project.detect else f"{project.name}.inv"
     out.output = prepared.base / inv
     out.seconds = time.monotonic() - started

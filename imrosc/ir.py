@@ -36,6 +36,8 @@ class Tunables:
     drop_ratio: float = 0.9
     hull_chunk: int = 20
     discrete: int = 10
+    budget: float = 0.05
+    """Per-run false-alarm budget of calibration (``docs/calibration.md``); 0 turns it off."""
 
 
 @dataclass(frozen=True)

@@ -142,6 +142,7 @@ def _detect(config: LoadedConfig, element: etree._Element) -> ir.Detect:
         drop_ratio=_number(element, "drop_ratio", defaults.drop_ratio),
         hull_chunk=_count(element, "hull_chunk", defaults.hull_chunk),
         discrete=_count(element, "discrete", defaults.discrete),
+        budget=_number(element, "budget", defaults.budget),
     )
     return ir.Detect(
         element.get("inv", ""), _texts(element, "bag"), _span(config, element), tunables

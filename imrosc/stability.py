@@ -15,7 +15,7 @@ from typing import Any
 
 from imrosc import __version__
 from imrosc.backends.registry import GENERATED_MARK
-from imrosc.classify import CheckStageError, bags_of, load_project, violated_per_bag
+from imrosc.classify import CheckStageError, bags_of, load_project, observe_runs
 from imrosc.detect import run_detect
 from imrosc.diagnostics import Diagnostic, has_errors
 
@@ -78,8 +78,10 @@ def run_stability(
         if document is None or has_errors(detected.diagnostics):
             problems += detected.diagnostics
             return None, problems
-        violated = violated_per_bag(document, held_out, workers)
+        outcomes = observe_runs(document, held_out, workers)
+        violated = {bag: (o.violated, o.error) for bag, o in outcomes.items()}
         broken = set().union(*(ids for ids, _ in violated.values()))
+        alarmed = sorted(str(bag) for bag, o in outcomes.items() if o.alarms)
         total: dict[str, int] = {}
         hit: dict[str, int] = {}
         for inv in document["invariants"]:
@@ -96,6 +98,7 @@ def run_stability(
                 ],
                 "violated": dict(sorted(hit.items())),
                 "total": dict(sorted(total.items())),
+                "alarmed": alarmed,
             }
         )
         for family, number in total.items():
@@ -119,5 +122,7 @@ def run_stability(
         "bags": [str(b) for b in bags],
         "rounds": rounds,
         "families": families,
+        "alarmed_runs": sum(len(r["alarmed"]) for r in rounds),
+        "held_out_runs": sum(len(r["held_out"]) for r in rounds),
     }
     return report, problems

@@ -23,7 +23,7 @@ TAGS = [
 ATTRIBUTES = [
     *("project", "id", "label", "relative", "conds", "events", "inv", "launch"),
     *("threshold", "beta", "window", "confidence", "drop_ratio", "hull_chunk"),
-    *("discrete", "max_interval", "max_events", "period", "bogus"),
+    *("discrete", "budget", "max_interval", "max_events", "period", "bogus"),
     *("alarm_persist", "alarm_seconds", "alarm_distinct", "alarm_window"),
 ]
 SNIPPETS = [

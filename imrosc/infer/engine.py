@@ -13,6 +13,8 @@ conditional point per value (``a?state==4``).
 
 from __future__ import annotations
 
+import copy
+import math
 import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -179,6 +181,32 @@ def _number_text(value: Any) -> str:
     return str(int(number)) if number.is_integer() else repr(number)
 
 
+@dataclass
+class Unit:
+    """The invariants of one unit of calibration: a whole run, or a time segment of one
+    (``span``, seconds of the bag's clock) when there are too few runs."""
+
+    bag: Path
+    invariants: list[Invariant]
+    span: tuple[float, float] | None = None
+
+
+MIN_RUNS = 4
+"""With fewer bags, calibration splits each into time segments (pseudo-runs)."""
+MIN_UNITS = 6
+"""How many pseudo-runs the segments give at least."""
+
+
+def segments_for(runs: int) -> int:
+    """Segments per bag for calibration: 1 (runs are the units) with :data:`MIN_RUNS` bags
+    or more, else enough for :data:`MIN_UNITS` pseudo-runs.
+
+    >>> [segments_for(r) for r in (1, 2, 3, 4, 10)]
+    [6, 3, 2, 1, 1]
+    """
+    return 1 if runs >= MIN_RUNS else math.ceil(MIN_UNITS / max(runs, 1))
+
+
 @dataclass(frozen=True)
 class BagJob:
     """What a worker needs to translate and infer one bag."""
@@ -191,17 +219,55 @@ class BagJob:
     tunables: Tunables
     discovered: tuple[Discovered, ...] = ()
     discover: bool = True
+    units: int = 0
+    """Calibration: 0 none, 1 the bag's own invariants, n > 1 those of n time segments."""
 
 
 @dataclass
 class BagResult:
-    """A worker's answer: the states of every point for one bag, or why the bag failed."""
+    """A worker's answer: the states of every point for one bag, or why the bag failed;
+    with calibration, the invariants of the bag (or of its segments) alone."""
 
     bag: Path
     states: dict[str, PointState] = field(default_factory=dict)
     messages: int = 0
     error: str | None = None
     skipped: dict[str, int] = field(default_factory=dict)
+    units: list[Unit] = field(default_factory=list)
+
+
+class _Segments:
+    """Fresh point states per time segment of one bag, fed the rows of their segment."""
+
+    def __init__(self, count: int, make: Callable[[str], PointState]) -> None:
+        self.count = count
+        self.make = make
+        self.states: list[dict[str, PointState]] = [{} for _ in range(count)]
+        self.span = (0.0, 0.0)
+
+    def feed(self, key: str, samples: Samples) -> None:
+        start, end = self.span
+        width = (end - start) / self.count or 1.0
+        index = np.clip(((samples.time - start) / width).astype(np.int64), 0, self.count - 1)
+        for segment in np.unique(index).tolist():
+            states = self.states[segment]
+            state = states.get(key)
+            if state is None:
+                state = states[key] = self.make(key)
+            state.update(samples.select(index == segment))
+
+    def units(self, bag: Path, finalize: Callable[[PointState], list[Invariant]]) -> list[Unit]:
+        start, end = self.span
+        width = (end - start) / self.count
+        found = []
+        for segment, states in enumerate(self.states):
+            invariants: list[Invariant] = []
+            for state in states.values():
+                state.end_run()
+                invariants += finalize(state)
+            span = (start + segment * width, start + (segment + 1) * width)
+            found.append(Unit(bag, invariants, span))
+        return found
 
 
 def run_bag(job: BagJob) -> BagResult:
@@ -212,13 +278,21 @@ def run_bag(job: BagJob) -> BagResult:
     split = _conditional_states(job)
     callerids = {k: set(v) for k, v in job.callerids.items()}
     translator = BagTranslator(job.specs, job.layouts, callerids)
+    segments = _Segments(job.units, _state_maker(job)) if job.units > 1 else None
     try:
         for samples in translator.translate(job.bag, job.run):
+            if segments is not None:
+                segments.span = translator.span
             if not second_pass:
                 states[samples.point].update(samples)
+                if segments is not None:
+                    segments.feed(samples.point, samples)
             for discovered, state in split.get(samples.point, ()):
                 column = samples.column(discovered.variable)
-                state.update(samples.select(column == discovered.value))
+                chosen = samples.select(column == discovered.value)
+                state.update(chosen)
+                if segments is not None:
+                    segments.feed(discovered.key, chosen)
     except BagError as error:
         return BagResult(job.bag, error=error.message)
     for state in states.values():
@@ -227,7 +301,39 @@ def run_bag(job: BagJob) -> BagResult:
         for discovered, state in pairs:
             state.end_run()
             states[discovered.key] = state
-    return BagResult(job.bag, states, translator.messages, skipped=translator.skipped)
+    result = BagResult(job.bag, states, translator.messages, skipped=translator.skipped)
+    finalize = _finalizer(job)
+    if segments is not None:
+        result.units = segments.units(job.bag, finalize)
+    elif job.units == 1:
+        alone = [i for s in copy.deepcopy(list(states.values())) for i in finalize(s)]
+        result.units = [Unit(job.bag, alone)]
+    return result
+
+
+def _state_maker(job: BagJob) -> Callable[[str], PointState]:
+    """Fresh states of a point of the job, by key (conditional keys included)."""
+    by_key = {spec.key: spec for spec in job.specs}
+    for discovered in job.discovered:
+        by_key[discovered.key] = replace(by_key[discovered.point], key=discovered.key)
+
+    def make(key: str) -> PointState:
+        spec = by_key[key]
+        return PointState(spec, make_point_states(spec, job.tunables))
+
+    return make
+
+
+def _finalizer(job: BagJob) -> Callable[[PointState], list[Invariant]]:
+    """Finalizes a state of the job with its condition (declared or discovered)."""
+    conditions = {d.key: d.text for d in job.discovered}
+
+    def finalize(state: PointState) -> list[Invariant]:
+        spec = state.spec
+        condition = spec.condition.id if spec.condition else conditions.get(spec.key)
+        return state.finalize(job.tunables, condition)
+
+    return finalize
 
 
 def _conditional_states(job: BagJob) -> dict[str, list[tuple[Discovered, PointState]]]:
@@ -250,6 +356,8 @@ class InferenceResult:
     messages: int
     discovered: tuple[Discovered, ...] = ()
     empty: tuple[Path, ...] = ()
+    units: list[Unit] = field(default_factory=list)
+    """With calibration: the invariants of each run (or segment) alone, in bag order."""
 
     def invariants(self, tunables: Tunables) -> list[Invariant]:
         conditions = {d.key: d.text for d in self.discovered}
@@ -281,7 +389,10 @@ def _map(jobs: Sequence[BagJob], workers: int, progress: Progress | None) -> lis
 
 
 def _merge(
-    results: Iterable[BagResult], specs: Sequence[PointSpec], tunables: Tunables
+    results: Iterable[BagResult],
+    specs: Sequence[PointSpec],
+    tunables: Tunables,
+    units: list[Unit] | None = None,
 ) -> tuple[dict[str, PointState], dict[Path, str], int, tuple[Path, ...]]:
     merged: dict[str, PointState] | None = None
     failed: dict[Path, str] = {}
@@ -291,6 +402,8 @@ def _merge(
         if result.error is not None:
             failed[result.bag] = result.error
             continue
+        if units is not None:
+            units += result.units
         if not result.messages:
             empty.append(result.bag)
         messages += result.messages
@@ -313,12 +426,20 @@ def infer(
     *,
     workers: int = 1,
     progress: Progress | None = None,
+    calibrate: bool = False,
 ) -> InferenceResult:
-    """Infer over ``bags`` (sorted; one run each) with ``workers`` processes."""
+    """Infer over ``bags`` (sorted; one run each) with ``workers`` processes; with
+    ``calibrate``, also the invariants of each run alone (of time segments of the runs when
+    there are fewer than :data:`MIN_RUNS`)."""
     ordered = sorted(bags)
     frozen = {topic: frozenset(names) for topic, names in callerids.items()}
-    jobs = [BagJob(b, i, tuple(specs), layouts, frozen, tunables) for i, b in enumerate(ordered)]
-    first, failed, messages, empty = _merge(_map(jobs, workers, progress), specs, tunables)
+    units = segments_for(len(ordered)) if calibrate else 0
+    jobs = [
+        BagJob(b, i, tuple(specs), layouts, frozen, tunables, units=units)
+        for i, b in enumerate(ordered)
+    ]
+    found: list[Unit] = []
+    first, failed, messages, empty = _merge(_map(jobs, workers, progress), specs, tunables, found)
     discovered = tuple(
         Discovered(key, variable, value)
         for key, state in first.items()
@@ -326,17 +447,30 @@ def infer(
         for variable, value in state.discrete.conditions()
     )
     if not discovered:
-        return InferenceResult(first, ordered, failed, messages, empty=empty)
+        return InferenceResult(first, ordered, failed, messages, empty=empty, units=found)
     points = {d.point for d in discovered}
     second_specs = tuple(s for s in specs if s.key in points)
     good = [b for b in ordered if b not in failed]
     second = [
-        BagJob(b, ordered.index(b), second_specs, layouts, frozen, tunables, discovered, False)
+        BagJob(
+            b, ordered.index(b), second_specs, layouts, frozen, tunables, discovered, False, units
+        )
         for b in good
     ]
-    extra, _, _, _ = _merge(_map(second, workers, None), second_specs, tunables)
+    more: list[Unit] = []
+    extra, _, _, _ = _merge(_map(second, workers, None), second_specs, tunables, more)
     first.update(extra)
-    return InferenceResult(first, ordered, failed, messages, discovered, empty)
+    _join_units(found, more)
+    return InferenceResult(first, ordered, failed, messages, discovered, empty, found)
+
+
+def _join_units(units: list[Unit], more: Sequence[Unit]) -> None:
+    """Add the conditional points' invariants of the second pass to their units."""
+    at = {(u.bag, u.span): u for u in units}
+    for unit in more:
+        mine = at.get((unit.bag, unit.span))
+        if mine is not None:
+            mine.invariants += unit.invariants
 
 
 def default_workers() -> int:

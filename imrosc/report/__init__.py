@@ -62,7 +62,7 @@ def render(document: Mapping[str, Any], fmt: Format) -> str:
     ...               "runs": []}, "text"), end="")
     imrosc replay of x.inv
     <BLANKLINE>
-    0 runs, 0 with violations
+    0 runs, 0 with violations, 0 with alarms
     """
     if fmt not in FORMATS:
         raise ReportError(f"unknown report format {fmt!r}: expected one of {', '.join(FORMATS)}")

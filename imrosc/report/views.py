@@ -612,6 +612,7 @@ class Round:
     trained_on: int
     invariants: int
     errors: list[BagError]
+    alarmed: list[str] = field(default_factory=list)
 
     @property
     def label(self) -> str:
@@ -622,9 +623,10 @@ class Round:
     def summary(self) -> str:
         """``held out a.bag; 130 invariants from 6 bags``."""
         held = ", ".join(self.held_out) or "nothing"
+        alarmed = f"{len(self.alarmed)} of {len(self.held_out)} held out with an alarm"
         return (
             f"held out {held}; {plural(self.invariants, 'invariant')} "
-            f"from {plural(self.trained_on, 'bag')}"
+            f"from {plural(self.trained_on, 'bag')}; {alarmed}"
         )
 
 
@@ -640,8 +642,13 @@ class Stability:
 
     @property
     def summary(self) -> str:
-        """``4-fold cross-validation over 8 bags``."""
-        return f"{self.folds}-fold cross-validation over {plural(len(self.bags), 'bag')}"
+        """``4-fold cross-validation over 8 bags; 1 of 8 held-out runs raised an alarm``."""
+        alarmed = sum(len(r.alarmed) for r in self.rounds)
+        held = sum(len(r.held_out) for r in self.rounds)
+        return (
+            f"{self.folds}-fold cross-validation over {plural(len(self.bags), 'bag')}; "
+            f"{alarmed} of {held} held-out runs raised an alarm"
+        )
 
 
 def _mean(item: Any) -> str:
@@ -693,6 +700,7 @@ def stability(document: Mapping[str, Any]) -> Stability:
                 else BagError(bag="", error=str(e))
                 for e in r.get("errors") or []
             ],
+            alarmed=[str(b) for b in r.get("alarmed") or []],
         )
         for i, r in enumerate(rounds_data, start=1)
     ]

@@ -133,6 +133,8 @@ class BagTranslator:
         self.records = {PARAMS, SRVS, ARCH}
         self.callerids = callerids or {}
         self.messages = 0
+        self.span = (0.0, 0.0)
+        """The first and last message times of the bag being translated (seconds)."""
         self.decoders: dict[tuple[str, str], RawDecoder | None] = {}
         self.skipped: dict[str, int] = {}
         self.problems: list[str] = []
@@ -142,6 +144,7 @@ class BagTranslator:
         carry: dict[str, Rows] = {}
         with open_bag(bag) as reader:
             self._reader = reader
+            self.span = (reader.start_time / 1e9, reader.end_time / 1e9)
             self._arch = _ArchClock(reader.start_time / 1e9, reader.end_time / 1e9)
             self._param_clock = _ParamClock(reader.start_time / 1e9, reader.end_time / 1e9)
             if not any(c.topic == ARCH for c in reader.connections):

@@ -20,7 +20,7 @@ CONFIG = """<imROS project="a">
     <publish id="t">/t</publish>
     <arch id="g">pub</arch>
   </scope>
-  <detect inv="a.inv"><bag>train.bag</bag></detect>
+  <detect inv="a.inv" budget="0"><bag>train.bag</bag></detect>
 </imROS>
 """
 

@@ -49,7 +49,7 @@ CONFIG = """<imROS project="recsys">
     <param id="p">/sys/server/gain</param>
     <arch id="d"/>
   </scope>
-  <detect inv="recsys.inv" confidence="0.5"><bag>rec</bag></detect>
+  <detect inv="recsys.inv" confidence="0.5" budget="0"><bag>rec</bag></detect>
 </imROS>
 """
 

@@ -1,0 +1,129 @@
+"""Run-level calibration (``imrosc infer``): invariants that hold on the next normal run.
+
+Exact training extremes do not generalise: with ``R`` runs a new run exceeds one extreme
+with probability about ``1/(R+1)``, and a point holds hundreds. Runs (bags), not samples,
+are the unit of evidence here. Given the invariants inferred from all runs and the
+invariants of each *unit* alone (each run, or time segments of the runs when there are
+fewer than four), calibration
+
+1. widens every envelope (:mod:`.limits`) by a prediction bound over the units' extremes,
+   so that a new run breaks an invariant with probability at most the per-run false-alarm
+   budget ``alpha`` (each of its ``m`` limits at ``alpha / m``; :mod:`.tolerance`);
+2. drops the sets (one-of values, strings, architecture nodes) that more held-out units
+   break than ``alpha`` explains: no tolerance can stabilise a set;
+3. replays every unit against the envelopes learnt without it (k-fold over the units),
+   drops the invariants that more held-out units still break than ``alpha`` explains, and
+   sets the alarm rule (:mod:`imrosc.runtime.alarms`) so that no more than ``alpha`` of the
+   held-out units would have raised an alarm with the others (:mod:`.rule`).
+
+The figures, and what a user trades with the budget, are in ``docs/calibration.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from imrosc.calibrate.envelope import Envelopes, UnitView
+from imrosc.calibrate.rule import HeldOut, calibrate_rule
+from imrosc.infer.engine import Unit
+from imrosc.runtime.alarms import AlarmRule
+
+DEFAULT_BUDGET = 0.05
+"""The default per-run false-alarm budget (``<detect budget>``)."""
+
+
+@dataclass
+class Calibration:
+    """What calibration did, as the invariants file records it (``calibration``)."""
+
+    budget: float
+    units: str
+    """``runs`` or ``segments`` (pseudo-runs: too few runs)."""
+    count: int
+    widened: dict[str, int] = field(default_factory=dict)
+    dropped: dict[str, int] = field(default_factory=dict)
+    """Sets broken by held-out units (one-of values, strings, nodes), per family."""
+    unstable: dict[str, int] = field(default_factory=dict)
+    """Invariants held-out units broke even with their tolerance, per family."""
+    unsupported: dict[str, int] = field(default_factory=dict)
+    """Invariants that fewer than two units support (justified by one run alone)."""
+    rule: AlarmRule = field(default_factory=AlarmRule)
+    certified: bool = False
+    held_out: list[HeldOut] = field(default_factory=list)
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "budget": self.budget,
+            "units": self.units,
+            "count": self.count,
+            "widened": dict(sorted(self.widened.items())),
+            "dropped": dict(sorted(self.dropped.items())),
+            "unstable": dict(sorted(self.unstable.items())),
+            "unsupported": dict(sorted(self.unsupported.items())),
+            "certified": self.certified,
+            "held_out": [h.as_json() for h in self.held_out],
+        }
+
+    def summary(self) -> str:
+        """One paragraph for the command line."""
+        unit = "runs" if self.units == "runs" else "pseudo-runs (time segments of too few runs)"
+        widened = sum(self.widened.values())
+        dropped = sum(self.dropped.values()) + sum(self.unstable.values())
+        unsupported = sum(self.unsupported.values())
+        rule = self.rule
+        alarm = f"an alarm after {rule.persist} consecutive violating samples of one invariant"
+        if rule.distinct:
+            alarm += f" or {rule.distinct} invariants of a point broken within {rule.window:g} s"
+        certified = (
+            "certified"
+            if self.certified
+            else f"not certified by {self.count} {self.units} (the largest held-out value used)"
+        )
+        return (
+            f"calibrated on {self.count} {unit} at a false-alarm budget of {self.budget:g} "
+            f"per run ({certified}): {widened} invariants widened, {dropped} dropped as "
+            f"unstable, {unsupported} as seen in fewer than two {self.units}; {alarm}"
+        )
+
+
+def calibrate(
+    document: dict[str, Any],
+    units: Sequence[Unit],
+    budget: float = DEFAULT_BUDGET,
+    *,
+    folds: int = 10,
+    workers: int = 1,
+) -> Calibration:
+    """Calibrate ``document`` (an invariants document, changed in place) on ``units``."""
+    segments = any(u.span is not None for u in units)
+    report = Calibration(budget, "segments" if segments else "runs", len(units))
+    if len(units) < 2:
+        return report
+    views = [UnitView.of(u) for u in units]
+    envelopes = Envelopes(document, views, budget)
+    everyone = set(range(len(views)))
+    final = envelopes.document(everyone, final=True)
+    report.widened, report.dropped = envelopes.widened, envelopes.dropped
+    report.unsupported = envelopes.unsupported
+    k = max(2, min(folds, len(views)))
+    groups = [[u for u in range(len(views)) if u % k == f] for f in range(k)]
+    held: list[tuple[Mapping[str, Any], list[int]]] = [
+        (envelopes.document(everyone - set(group)), group) for group in groups if group
+    ]
+    found = calibrate_rule(held, units, budget, workers=workers)
+    report.rule, report.certified, report.held_out = found.rule, found.certified, found.held_out
+    kept = []
+    for invariant in final["invariants"]:
+        if invariant["id"] in found.dropped:
+            family = invariant["family"]
+            report.unstable[family] = report.unstable.get(family, 0) + 1
+        else:
+            kept.append(invariant)
+    final["invariants"] = kept
+    document.clear()
+    document.update(final)
+    document["alarms"] = found.rule.as_json()
+    document["calibration"] = report.as_json()
+    return report

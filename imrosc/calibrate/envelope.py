@@ -1,0 +1,262 @@
+"""Envelopes learnt from a subset of the units, widened by their tolerances.
+
+:class:`Envelopes` reads, once, every limit of the merged invariants and its support in
+each unit; :meth:`Envelopes.document` then gives the invariants document learnt from any
+subset of the units: the whole set for the file ``imrosc infer`` writes, all units but a
+fold's for the held-out replays that set the alarm rule.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from imrosc.calibrate.limits import (
+    SETS,
+    WIDENED,
+    Slot,
+    members,
+    merge_sets,
+    raw,
+    set_broken,
+    slots,
+    support,
+    to_scale,
+    widened,
+    with_value,
+)
+from imrosc.calibrate.text import retext
+from imrosc.calibrate.tolerance import tolerance, too_many
+from imrosc.infer.core import Invariant
+from imrosc.infer.engine import Unit
+from imrosc.invariants import invariant_id
+
+Key = tuple[Any, ...]
+
+
+def key_of(point: str, family: str, variables: Sequence[str], ident: str) -> Key:
+    """How a unit's invariant is matched with the merged one: its id for ordered pairs and
+    patterns (their variables say nothing), else point, family and variables (so a bound
+    that is only an upper bound in one unit still gives its support)."""
+    if family in ("interval", "pattern"):
+        return (ident,)
+    return (point, family, tuple(variables))
+
+
+@dataclass
+class UnitView:
+    """One unit's invariants, by :func:`key_of`, and its numeric one-of sets (a variable
+    constant in a short unit is a one-of there, not a bound)."""
+
+    params: dict[Key, Mapping[str, Any]] = field(default_factory=dict)
+    one_of: dict[tuple[str, str], list[float]] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, unit: Unit) -> UnitView:
+        view = cls()
+        for invariant in unit.invariants:
+            view.add(invariant)
+        return view
+
+    def add(self, invariant: Invariant) -> None:
+        ident = invariant_id(invariant)
+        key = key_of(invariant.point, invariant.family, invariant.variables, ident)
+        self.params[key] = invariant.params
+        if invariant.family == "one-of" and len(invariant.variables) == 1:
+            values = [v for v in invariant.params.get("values", ()) if isinstance(v, int | float)]
+            if values:
+                self.one_of[(invariant.point, invariant.variables[0])] = [float(v) for v in values]
+
+    def lookup(self, invariant: Mapping[str, Any]) -> Mapping[str, Any] | None:
+        """This unit's params of the merged ``invariant`` (``None``: it has none). A unit
+        without the polygon (too few points there to justify one) gives the corners of its
+        two variables' ranges: its points reach no further along any direction."""
+        found = self.params.get(_key(invariant))
+        if found is not None:
+            return found
+        family, point, variables = invariant["family"], invariant["point"], invariant["variables"]
+        if family in ("bounds", "array"):
+            return self.range_of(point, variables[0], family)
+        if family == "polygon" and len(variables) == 2:
+            x, y = (self.range_of(point, v, "bounds") for v in variables)
+            if x is not None and y is not None:
+                corners = [[a, b] for a in (x["min"], x["max"]) for b in (y["min"], y["max"])]
+                return {"vertices": corners}
+        return None
+
+    def range_of(self, point: str, variable: str, family: str) -> dict[str, float] | None:
+        """The unit's range of a variable: its two-sided bounds, or its one-of values."""
+        bounds = self.params.get((point, family, (variable,)))
+        if bounds is not None and "min" in bounds and "max" in bounds:
+            return {"min": float(bounds["min"]), "max": float(bounds["max"])}
+        values = self.one_of.get((point, variable))
+        return None if values is None else {"min": min(values), "max": max(values)}
+
+
+def _key(invariant: Mapping[str, Any]) -> Key:
+    return key_of(invariant["point"], invariant["family"], invariant["variables"], invariant["id"])
+
+
+@dataclass
+class _Limit:
+    slot: Slot
+    base: float | None
+    supports: list[float | None]
+
+
+class Envelopes:
+    """The limits and sets of a document's invariants, and their supports per unit."""
+
+    def __init__(
+        self, document: Mapping[str, Any], views: Sequence[UnitView], budget: float
+    ) -> None:
+        self.source = document
+        self.budget = budget
+        self.count = len(views)
+        self.limits: dict[str, list[_Limit]] = {}
+        self.drop: set[str] = set()
+        self.widened: dict[str, int] = {}
+        self.dropped: dict[str, int] = {}
+        """Sets that held-out units break, per family."""
+        self.unsupported: dict[str, int] = {}
+        """Invariants fewer than two units support, per family."""
+        for invariant in document["invariants"]:
+            family = invariant["family"]
+            if family not in WIDENED and family not in SETS:
+                continue
+            found = [view.lookup(invariant) for view in views]
+            if sum(params is not None for params in found) < 2:
+                self._drop(invariant, self.unsupported)
+            elif family in WIDENED:
+                self.limits[invariant["id"]] = [
+                    _Limit(
+                        slot,
+                        to_scale(raw(invariant["params"], slot), slot),
+                        [support(invariant["params"], unit, slot) for unit in found],
+                    )
+                    for slot in slots(invariant)
+                ]
+            elif self._unstable(invariant, found):
+                self._drop(invariant, self.dropped)
+
+    def _drop(self, invariant: Mapping[str, Any], counts: dict[str, int]) -> None:
+        self.drop.add(invariant["id"])
+        counts[invariant["family"]] = counts.get(invariant["family"], 0) + 1
+
+    def _unstable(
+        self, invariant: Mapping[str, Any], found: Sequence[Mapping[str, Any] | None]
+    ) -> bool:
+        """Whether more held-out units break the set learnt from the other units than
+        the budget explains."""
+        sets = []
+        for params in found:
+            if params is not None:
+                held = members({"family": invariant["family"], "params": params})
+                if held is not None:
+                    sets.append(held)
+        if len(sets) < 2:
+            return False
+        breaks = sum(
+            set_broken(invariant, held, merge_sets(invariant, sets[:k] + sets[k + 1 :]))
+            for k, held in enumerate(sets)
+        )
+        return too_many(breaks, len(sets), self.budget)
+
+    def document(self, units: set[int], *, final: bool = False) -> dict[str, Any]:
+        """The invariants document learnt from ``units``: the merged envelope with the
+        final tolerances (``final``), or each limit from those units' supports alone."""
+        out = copy.deepcopy(dict(self.source))
+        types, integer = _types(out)
+        kept = []
+        for invariant in out["invariants"]:
+            if invariant["id"] in self.drop:
+                continue
+            limits = self.limits.get(invariant["id"])
+            if limits:
+                moved = self._widen(invariant, limits, units, final, invariant["id"] in integer)
+                if moved:
+                    retext(invariant, types)
+                    if final:
+                        family = invariant["family"]
+                        self.widened[family] = self.widened.get(family, 0) + 1
+            kept.append(invariant)
+        out["invariants"] = kept
+        return out
+
+    def _widen(
+        self,
+        invariant: dict[str, Any],
+        limits: list[_Limit],
+        units: set[int],
+        final: bool,
+        integer: bool,
+    ) -> bool:
+        params = dict(invariant["params"])
+        moved = False
+        for limit in limits:
+            known = [s for u, s in enumerate(limit.supports) if u in units and s is not None]
+            base = limit.base
+            if not final and known and all(math.isfinite(s) for s in known):
+                base = max(known)
+            if base is None:
+                continue
+            tol = tolerance(known, base, self.budget / len(limits))
+            if tol is None:  # one unit alone reaches this limit: what it did, no more
+                tol = 0.0
+            if tol == 0 and final and limit.slot.scale != "count":
+                continue  # the envelope as inferred, to the last bit
+            value = widened(base, tol, limit.slot)
+            if value != raw(params, limit.slot):
+                if integer:  # integer variables' bounds stay integers, rounded outward
+                    value = float(math.ceil(value) if limit.slot.upper else math.floor(value))
+                with_value(params, limit.slot, value)
+                moved = True
+        if moved and invariant["family"] == "polygon":
+            params["vertices"] = vertices(params["A"], params["b"], params["vertices"])
+        invariant["params"] = params
+        return moved
+
+
+def _types(document: Mapping[str, Any]) -> tuple[dict[tuple[str, str], str], set[str]]:
+    """Each point's variables' types, and the ids of the bounds of integer variables."""
+    types = {}
+    for key, point in document["points"].items():
+        for variable in point.get("variables", ()):
+            types[(key, variable["name"])] = variable["type"]
+    integer = {
+        invariant["id"]
+        for invariant in document["invariants"]
+        if invariant["family"] == "bounds"
+        and invariant["variables"]
+        and types.get((invariant["point"], invariant["variables"][0])) in ("int", "uint")
+    }
+    return types, integer
+
+
+def vertices(
+    normals: Sequence[Sequence[float]], offsets: Sequence[float], inside: Sequence[Any]
+) -> list[list[float]]:
+    """The vertices of ``{x: A x <= b}``, counter-clockwise from the lexicographic minimum
+    (as inference gives them), a polygon that contains the points ``inside`` (the vertices
+    before widening)."""
+    from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
+
+    points = np.asarray(inside, dtype=np.float64).reshape(-1, 2)
+    a = np.asarray(normals, dtype=np.float64).reshape(-1, 2)
+    b = np.asarray(offsets, dtype=np.float64)
+    if len(points) < 3 or len(a) < 3:
+        return [list(map(float, p)) for p in points]
+    centre = points.mean(axis=0)
+    try:
+        crossing = HalfspaceIntersection(np.column_stack([a, -b]), centre).intersections
+        hull = ConvexHull(crossing)
+    except (QhullError, ValueError):
+        return [list(map(float, p)) for p in points]
+    ring = crossing[hull.vertices]  # counter-clockwise
+    first = min(range(len(ring)), key=lambda k: (ring[k][0], ring[k][1]))
+    return [[float(x), float(y)] for x, y in np.roll(ring, -first, axis=0)]

@@ -1,0 +1,185 @@
+"""Held-out replays: which invariants a new run keeps, and the alarm rule.
+
+Each fold's units are replayed (the very engine the monitor runs) against the document
+learnt from the other folds, every alarm held back but events. The engine keeps every
+violating sample with the length of its invariant's episode so far. From those:
+
+1. **Stability.** An invariant that more held-out units break, even with its tolerance,
+   than a break probability of ``alpha`` per run explains (:func:`.tolerance.too_many`) is
+   dropped: no tolerance within the budget stabilises it.
+2. **The alarm rule.** A unit would raise a persistence alarm under ``persist = K`` iff its
+   longest episode reaches ``K``, an agreement alarm under ``distinct = D`` iff its largest
+   agreement (distinct invariants of a point within the window) reaches ``D``. Each
+   threshold is one more than the conformal ``1 - alpha/2`` rank of those per-unit maxima
+   (:func:`.tolerance.conformal`), so a new nominal run raises either alarm with
+   probability at most ``alpha``. The maxima of a fold's units are taken without the
+   invariants that the *other* folds' units would drop: dropping what a unit itself broke
+   would make its figures 0 by construction, and a new run is not so kind.
+
+Event alarms (a silent topic, an ordering past its time, an unexpected node) cannot be
+held back by a rule: an invariant whose events more than ``alpha`` of the held-out units
+raise is dropped in step 1 (with fewer than ``1/alpha`` units, any).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from imrosc.calibrate.tolerance import conformal, too_many
+from imrosc.infer.engine import Unit
+from imrosc.runtime import Engine
+from imrosc.runtime.alarms import AlarmRule, agreement
+
+WINDOW = 1.0
+"""Seconds of the agreement rule's window."""
+HELD_BACK = AlarmRule(persist=1 << 30, distinct=0, window=WINDOW)
+"""The rule of the held-out replays: nothing alarms but events."""
+
+Fed = tuple[float, str, str, int]
+
+
+@dataclass
+class HeldOut:
+    """One held-out unit: what it broke, and (after :func:`calibrate_rule`) its longest
+    episode (samples), largest agreement (invariants) and event alarms without the
+    dropped invariants."""
+
+    bag: str
+    span: tuple[float, float] | None
+    fold: int
+    fed: list[Fed] = field(default_factory=list, repr=False)
+    events: list[str] = field(default_factory=list, repr=False)
+    violations: int = 0
+    persist: int = 0
+    distinct: int = 0
+    event_alarms: int = 0
+
+    @property
+    def broken(self) -> set[str]:
+        """The invariants this unit violated."""
+        return {ident for _, _, ident, _ in self.fed} | set(self.events)
+
+    def settle(self, dropped: set[str], window: float) -> None:
+        """Its figures without the ``dropped`` invariants."""
+        kept = [f for f in self.fed if f[2] not in dropped]
+        self.persist = max([n for _, _, _, n in kept], default=0)
+        self.distinct = agreement(kept, window)
+        self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "bag": self.bag,
+            "span": None if self.span is None else list(self.span),
+            "violations": self.violations,
+            "persist": self.persist,
+            "distinct": self.distinct,
+            "events": self.event_alarms,
+        }
+
+
+def _within(time: float, span: tuple[float, float] | None) -> bool:
+    return span is None or span[0] <= time <= span[1]
+
+
+Job = tuple[Mapping[str, Any], dict[Path, list[tuple[float, float] | None]], int]
+
+
+def _replay(job: Job) -> list[HeldOut]:
+    """Replay a fold's bags against its document; one :class:`HeldOut` per unit span."""
+    from imrosc.replay import Replayer
+
+    document, bags, fold = job
+    engine = Engine(document, rule=HELD_BACK)
+    engine.alarms.record = True
+    replayer = Replayer(document, engine)
+    found = []
+    for bag, spans in bags.items():
+        found += _held_out(replayer, bag, spans, fold)
+    return found
+
+
+def _held_out(
+    replayer: Any, bag: Path, spans: list[tuple[float, float] | None], fold: int
+) -> list[HeldOut]:
+    result = replayer.run(bag)
+    fed = list(replayer.engine.alarms.fed)
+    found = []
+    for span in spans:
+        found.append(
+            HeldOut(
+                str(bag),
+                span,
+                fold,
+                [f for f in fed if _within(f[0], span)],
+                [
+                    a.violation.invariant
+                    for a in result.alarms
+                    if a.rule == "event" and _within(a.time, span)
+                ],
+                sum(1 for v in result.violations if _within(v.time, span)),
+            )
+        )
+    return found
+
+
+def unstable(held_out: Sequence[HeldOut], budget: float) -> set[str]:
+    """The invariants broken by more held-out units than ``budget`` explains; for an
+    invariant whose violations are events (each an alarm at once), by more than ``budget``
+    of them: every such break is a false alarm no rule holds back."""
+    breaks: dict[str, int] = {}
+    events: dict[str, int] = {}
+    for unit in held_out:
+        for ident in unit.broken:
+            breaks[ident] = breaks.get(ident, 0) + 1
+        for ident in set(unit.events):
+            events[ident] = events.get(ident, 0) + 1
+    found = {ident for ident, n in breaks.items() if too_many(n, len(held_out), budget)}
+    return found | {ident for ident, n in events.items() if n > budget * len(held_out)}
+
+
+@dataclass
+class RuleResult:
+    """The alarm rule, whether the units certify the budget, the invariants dropped as
+    unstable, and what each held-out unit gave."""
+
+    rule: AlarmRule
+    certified: bool
+    dropped: set[str]
+    held_out: list[HeldOut]
+
+
+def calibrate_rule(
+    held: Sequence[tuple[Mapping[str, Any], list[int]]],
+    units: Sequence[Unit],
+    budget: float,
+    *,
+    workers: int = 1,
+) -> RuleResult:
+    """Replay the folds ``held`` (a document learnt without the fold's units, and their
+    indexes into ``units``) and set the rule for ``budget``."""
+    jobs: list[Job] = []
+    for fold, (document, indexes) in enumerate(held):
+        by_bag: dict[Path, list[tuple[float, float] | None]] = {}
+        for index in indexes:
+            by_bag.setdefault(units[index].bag, []).append(units[index].span)
+        jobs.append((document, by_bag, fold))
+    if workers > 1 and len(jobs) > 1:
+        with multiprocessing.get_context("fork").Pool(min(workers, len(jobs))) as pool:
+            answers = pool.map(_replay, jobs)
+    else:
+        answers = [_replay(job) for job in jobs]
+    held_out = [h for answer in answers for h in answer]
+    dropped = unstable(held_out, budget)
+    for fold in range(len(held)):
+        others = unstable([h for h in held_out if h.fold != fold], budget)
+        for unit in held_out:
+            if unit.fold == fold:
+                unit.settle(others, WINDOW)
+    persist, sure_persist = conformal([h.persist + 1 for h in held_out], budget / 2)
+    distinct, sure_distinct = conformal([h.distinct + 1 for h in held_out], budget / 2)
+    rule = AlarmRule(persist=max(1, persist), distinct=max(1, distinct), window=WINDOW)
+    return RuleResult(rule, sure_persist and sure_distinct, dropped, held_out)

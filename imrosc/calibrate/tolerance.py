@@ -1,0 +1,96 @@
+"""How far beyond the runs seen a new run may go: prediction bounds and conformal ranks.
+
+A limit's supports ``h_1..h_n`` (how far each unit went, in the limit's scale) are taken
+as draws from the distribution of a run's extreme. The next run's extreme stays below
+
+    mean(h) + t_{n-1}(1 - alpha) * sd(h) * sqrt(1 + 1/n)
+
+with probability ``1 - alpha`` when the extremes are normal (the classical prediction
+interval for one new observation with unknown mean and variance). The tolerance is how
+far that bound lies beyond the envelope; it is 0 when the envelope already reaches it.
+
+Counts that decide an alarm rule use the distribution-free conformal rank instead: with
+``n`` held-out units, the ``ceil((1 - alpha) (n + 1))``-th smallest value is exceeded by a
+new exchangeable unit with probability at most ``alpha``. With too few units for the
+budget the rank is past ``n``; the largest value is then used, and the budget is not
+certified (:func:`conformal` says so).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+
+from scipy import stats
+
+
+def prediction_bound(values: Sequence[float], alpha: float) -> float | None:
+    """The one-sided ``1 - alpha`` normal prediction bound of one more value (``None``
+    with fewer than two values).
+
+    >>> round(prediction_bound([1.0, 2.0, 3.0], 0.05), 3)
+    5.372
+    >>> prediction_bound([4.0, 4.0], 0.05)
+    4.0
+    """
+    n = len(values)
+    if n < 2:
+        return None
+    mean = math.fsum(values) / n
+    sd = math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (n - 1))
+    if sd == 0:
+        return mean
+    return mean + _t_quantile(1 - alpha, n - 1) * sd * math.sqrt(1 + 1 / n)
+
+
+@functools.lru_cache(maxsize=4096)
+def _t_quantile(level: float, freedom: int) -> float:
+    return float(stats.t.ppf(level, freedom))
+
+
+def tolerance(supports: Sequence[float], base: float, alpha: float) -> float | None:
+    """How far to move a limit at ``base`` so that a new run's extreme stays inside with
+    probability ``1 - alpha`` (``None``: too few supports to tell).
+
+    >>> tolerance([1.0, 2.0, 3.0], 3.0, 0.05) > 2
+    True
+    >>> tolerance([1.0, 1.0, 1.0], 1.0, 0.05)
+    0.0
+    """
+    finite = [v for v in supports if math.isfinite(v)]
+    if not math.isfinite(base) or len(finite) < len(supports):
+        return 0.0  # the envelope already reaches its end (a zero variance, say)
+    bound = prediction_bound(finite, alpha)
+    if bound is None:
+        return None
+    return max(0.0, bound - max(base, *finite))
+
+
+def too_many(breaks: int, units: int, alpha: float) -> bool:
+    """Whether ``breaks`` of ``units`` held-out units breaking an invariant are more than a
+    per-run break probability of ``alpha`` explains (a one-sided binomial test at level
+    ``alpha``).
+
+    >>> [too_many(b, 6, 0.05) for b in (1, 2)]
+    [False, True]
+    >>> [too_many(b, 17, 0.05) for b in (3, 4)]
+    [False, True]
+    """
+    return breaks > int(stats.binom.ppf(1 - alpha, units, alpha))
+
+
+def conformal(values: Sequence[int], alpha: float) -> tuple[int, bool]:
+    """The conformal ``1 - alpha`` rank of ``values`` and whether ``len(values)`` units are
+    enough to certify ``alpha`` (else the largest value).
+
+    >>> conformal(list(range(1, 40)), 0.05)
+    (38, True)
+    >>> conformal([3, 1, 2], 0.05)
+    (3, False)
+    """
+    ordered = sorted(values)
+    rank = math.ceil((1 - alpha) * (len(ordered) + 1))
+    if rank > len(ordered):
+        return (ordered[-1] if ordered else 0), False
+    return ordered[rank - 1], True

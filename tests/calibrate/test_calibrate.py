@@ -1,0 +1,111 @@
+"""Calibration end to end: bags in, a file whose next normal run raises no alarm."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from imrosc.detect import run_detect
+from imrosc.replay import Replayer
+from tests.translate import Msg, msg, write_bag
+
+FLOAT = "std_msgs/msg/Float64"
+RATE = 20.0
+
+
+def run(path: Path, seed: int, seconds: float = 20.0, fault_at: float | None = None) -> Path:
+    """A noisy sine on ``/a/x`` at 20 Hz; from ``fault_at`` on, shifted by 3."""
+    rng = np.random.default_rng(seed)
+    phase = rng.uniform(0, 2 * math.pi)
+    messages: list[Msg] = []
+    for k in range(int(seconds * RATE)):
+        t = 100.0 + k / RATE
+        value = math.sin(0.7 * k / RATE + phase) + rng.normal(0, 0.05)
+        if fault_at is not None and k / RATE >= fault_at:
+            value += 3.0
+        messages.append(msg("/a/x", t, FLOAT, data=value))
+    return write_bag(path, messages)
+
+
+def config(folder: Path, bags: list[Path], budget: str = "") -> Path:
+    listed = "".join(f"<bag>{b.name}</bag>" for b in bags)
+    path = folder / "c.xml"
+    path.write_text(
+        f'<imROS project="c"><scope><publish id="a">/a/x</publish></scope>'
+        f'<detect inv="c.inv"{budget}>{listed}</detect></imROS>'
+    )
+    return path
+
+
+@pytest.fixture(scope="module")
+def learnt(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
+    folder = tmp_path_factory.mktemp("calibrate")
+    bags = [run(folder / f"good_{k}.bag", k) for k in range(6)]
+    result = run_detect(config(folder, bags), workers=1)
+    assert result.document is not None and result.calibration is not None
+    return folder, result.document
+
+
+def test_the_file_records_the_rule_and_what_calibration_did(
+    learnt: tuple[Path, dict[str, Any]],
+) -> None:
+    _, document = learnt
+    calibration = document["calibration"]
+    assert calibration["units"] == "runs" and calibration["count"] == 6
+    assert calibration["budget"] == 0.05
+    assert sum(calibration["widened"].values()) > 0
+    assert len(calibration["held_out"]) == 6
+    assert set(document["alarms"]) == {"persist", "seconds", "distinct", "window"}
+
+
+def test_bounds_widen_beyond_the_training_extremes(learnt: tuple[Path, dict[str, Any]]) -> None:
+    folder, document = learnt
+    exact = run_detect(config(folder, sorted(folder.glob("good_*.bag")), ' budget="0"'))
+    assert exact.document is not None and "alarms" not in exact.document
+    (bound,) = [i for i in document["invariants"] if i["family"] == "bounds"]
+    (before,) = [i for i in exact.document["invariants"] if i["id"] == bound["id"]]
+    assert bound["params"]["max"] > before["params"]["max"]
+    assert bound["params"]["min"] < before["params"]["min"]
+    assert bound["text"].startswith(f"{bound['params']['min']!r}"[:4])
+
+
+def test_a_new_normal_run_raises_no_alarm_and_a_fault_does(
+    learnt: tuple[Path, dict[str, Any]],
+) -> None:
+    folder, document = learnt
+    replayer = Replayer(document)
+    for seed in (100, 101, 102):
+        assert replayer.run(run(folder / f"new_{seed}.bag", seed)).alarms == []
+    faulty = replayer.run(run(folder / "fault.bag", 7, fault_at=12.0))
+    assert faulty.alarms
+    assert faulty.alarms[0].time - faulty.start >= 12.0
+    assert faulty.alarms[0].time - faulty.start < 13.0
+
+
+def test_the_training_runs_replay_without_alarms(learnt: tuple[Path, dict[str, Any]]) -> None:
+    folder, document = learnt
+    replayer = Replayer(document)
+    for bag in sorted(folder.glob("good_*.bag")):
+        assert replayer.run(bag).alarms == []
+
+
+def test_one_bag_is_split_into_pseudo_runs(tmp_path: Path) -> None:
+    bag = run(tmp_path / "only.bag", 1, seconds=30.0)
+    result = run_detect(config(tmp_path, [bag]))
+    assert result.calibration is not None and result.document is not None
+    assert result.calibration.units == "segments" and result.calibration.count == 6
+    assert "pseudo-runs" in result.calibration.summary()
+    spans = [h["span"] for h in result.document["calibration"]["held_out"]]
+    assert all(span is not None for span in spans) and len(spans) == 6
+    assert Replayer(result.document).run(bag).alarms == []
+
+
+def test_workers_do_not_change_the_file(tmp_path: Path) -> None:
+    bags = [run(tmp_path / f"r{k}.bag", k, seconds=8.0) for k in range(4)]
+    path = config(tmp_path, bags)
+    one, two = run_detect(path, workers=1), run_detect(path, workers=2)
+    assert one.document == two.document
