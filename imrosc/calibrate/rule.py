@@ -32,14 +32,12 @@ from typing import Any
 from imrosc.calibrate.tolerance import conformal, too_many
 from imrosc.infer.engine import Unit
 from imrosc.runtime import Engine
-from imrosc.runtime.alarms import AlarmRule, agreement
+from imrosc.runtime.alarms import AlarmRule, Fed, agreement
 
 WINDOW = 1.0
 """Seconds of the agreement rule's window."""
 HELD_BACK = AlarmRule(persist=1 << 30, distinct=0, window=WINDOW)
 """The rule of the held-out replays: nothing alarms but events."""
-
-Fed = tuple[float, str, str, int]
 
 
 @dataclass
@@ -61,12 +59,12 @@ class HeldOut:
     @property
     def broken(self) -> set[str]:
         """The invariants this unit violated."""
-        return {ident for _, _, ident, _ in self.fed} | set(self.events)
+        return {ident for _, _, ident, _, _ in self.fed} | set(self.events)
 
     def settle(self, dropped: set[str], window: float) -> None:
         """Its figures without the ``dropped`` invariants."""
         kept = [f for f in self.fed if f[2] not in dropped]
-        self.persist = max([n for _, _, _, n in kept], default=0)
+        self.persist = max([n for _, _, _, n, _ in kept], default=0)
         self.distinct = agreement(kept, window)
         self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
 

@@ -10,7 +10,12 @@ decision that the system is in trouble. A point's violations raise an alarm when
 
 and an *event* violation (a silent topic, an ordered pair past its maximum time, an
 unexpected or missing node, an event sequence outside its pattern) raises one at once: it
-is already the outcome of a timer or of a whole sequence. An alarm is raised once per
+is already the outcome of a timer or of a whole sequence.
+
+Agreement counts evidence, not consequences: a violation of an invariant of several
+variables (a polygon, a relation) whose sample also breaks a range of one of those variables
+(bounds, array elements) is not counted, since the range's violation already says it (one
+variable out of its range breaks every polygon it is in). An alarm is raised once per
 episode: persistence again only after the invariant held on a sample of its point,
 agreement again only after fewer than ``distinct`` invariants were violated in the window.
 
@@ -33,6 +38,23 @@ from collections import deque
 from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
 from .violation import Violation, json_safe
+
+Fed = Tuple[float, str, str, int, bool]
+"""A violating sample as calibration keeps it (:attr:`AlarmTracker.fed`)."""
+RANGES = frozenset({"bounds", "array"})
+"""Families whose invariants are the range of one variable."""
+
+
+def shapes_of(invariants: Sequence[Mapping[str, Any]]) -> Dict[str, Tuple[bool, Tuple[str, ...]]]:
+    """Per invariant id: whether it is the range of one variable, and its variables."""
+    return {
+        inv["id"]: (
+            inv["family"] in RANGES and len(inv["variables"]) == 1,
+            tuple(inv["variables"]),
+        )
+        for inv in invariants
+    }
+
 
 EVENT_FAMILIES = frozenset({"architecture", "interval", "pattern"})
 """Families whose violations are events, not samples: each raises an alarm at once."""
@@ -113,8 +135,15 @@ class Alarm(NamedTuple):
 class AlarmTracker:
     """Turns a run's violations into alarms under one rule (one tracker per run)."""
 
-    def __init__(self, rule: AlarmRule = EVERY_VIOLATION, record: bool = False) -> None:
+    def __init__(
+        self,
+        rule: AlarmRule = EVERY_VIOLATION,
+        record: bool = False,
+        shapes: Optional[Mapping[str, Tuple[bool, Tuple[str, ...]]]] = None,
+    ) -> None:
         self.rule = rule
+        self.shapes = shapes or {}
+        """Per invariant id: whether it is a range of one variable, and its variables."""
         self.record = record
         """Keep, for calibration, every violating sample with its episode's length."""
         self.reset()
@@ -126,9 +155,9 @@ class AlarmTracker:
         self._recent: Dict[str, Deque[Tuple[float, str]]] = {}
         self._agreeing: Set[str] = set()
         self.raised: List[Alarm] = []
-        self.fed: List[Tuple[float, str, str, int]] = []
-        """``(time, point, invariant, samples of its episode so far)`` of every violating
-        sample (``record``)."""
+        self.fed: List[Fed] = []
+        """``(time, point, invariant, samples of its episode so far, counted by agreement)``
+        of every violating sample (``record``)."""
 
     def busy(self, point: str) -> bool:
         """Whether ``point`` has an open episode (a clean sample must then be told)."""
@@ -142,13 +171,15 @@ class AlarmTracker:
         for ident in [i for i in episodes if i not in now_broken]:
             del episodes[ident]
         raised: List[Alarm] = []
+        counted = self.evidence(found) if found else found
+        counted_ids = {id(v) for v in counted} if self.record else set()
         for v in found:
             episode = episodes.get(v.invariant)
             if episode is None:
                 episode = episodes[v.invariant] = [time, 0.0, 0.0]
             episode[1] += 1
             if self.record:
-                self.fed.append((time, point, v.invariant, int(episode[1])))
+                self.fed.append((time, point, v.invariant, int(episode[1]), id(v) in counted_ids))
             if episode[2]:
                 continue
             lasting = rule.seconds is not None and time - episode[0] >= rule.seconds
@@ -156,9 +187,27 @@ class AlarmTracker:
                 episode[2] = 1.0
                 raised.append(Alarm(time, point, "persist", (v.invariant,), v))
         if rule.distinct > 0:
-            raised += self._agree(point, time, found)
+            raised += self._agree(point, time, counted)
         self.raised += raised
         return raised
+
+    def evidence(self, found: Sequence[Violation]) -> List[Violation]:
+        """The violations of one sample that agreement counts: not those of invariants of
+        several variables one of which is out of its own range in the same sample."""
+        shapes = self.shapes
+        out: Set[str] = set()
+        for v in found:
+            single, names = shapes.get(v.invariant, (False, ()))
+            if single:
+                out.update(names)
+        if not out:
+            return list(found)
+        kept = []
+        for v in found:
+            single, names = shapes.get(v.invariant, (False, ()))
+            if single or not out.intersection(names):
+                kept.append(v)
+        return kept
 
     def _agree(self, point: str, time: float, found: Sequence[Violation]) -> List[Alarm]:
         recent = self._recent.setdefault(point, deque())
@@ -199,17 +248,21 @@ class AlarmTracker:
         return raised
 
 
-def agreement(fed: Sequence[Tuple[float, str, str, int]], window: float) -> int:
+def agreement(fed: Sequence[Fed], window: float) -> int:
     """The most distinct invariants of one point violated within ``window`` seconds, over
-    violating samples as :attr:`AlarmTracker.fed` keeps them (in time order).
+    violating samples as :attr:`AlarmTracker.fed` keeps them (in time order; those that
+    agreement does not count left out).
 
-    >>> agreement([(0.0, "p", "a", 1), (0.5, "p", "b", 1), (0.6, "q", "c", 1),
-    ...            (1.2, "p", "c", 1)], 1.0)
+    >>> agreement([(0.0, "p", "a", 1, True), (0.5, "p", "b", 1, True),
+    ...            (0.6, "q", "c", 1, True), (1.2, "p", "c", 1, True), (1.3, "p", "d", 1, False)],
+    ...           1.0)
     2
     """
     recent: Dict[str, Deque[Tuple[float, str]]] = {}
     most = 0
-    for time, point, ident, _ in fed:
+    for time, point, ident, _, counted in fed:
+        if not counted:
+            continue
         queue = recent.setdefault(point, deque())
         queue.append((time, ident))
         while queue[0][0] < time - window:

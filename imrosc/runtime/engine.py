@@ -18,7 +18,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .alarms import Alarm, AlarmRule, AlarmTracker
+from .alarms import Alarm, AlarmRule, AlarmTracker, shapes_of
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
 from .conditions import holds
@@ -237,7 +237,7 @@ class Engine:
         self.document = document
         self.trace = trace
         self.alarm_rule = rule if rule is not None else AlarmRule.from_json(document.get("alarms"))
-        self.alarms = AlarmTracker(self.alarm_rule)
+        self.alarms = AlarmTracker(self.alarm_rule, shapes=shapes_of(document["invariants"]))
         self.layouts: Dict[str, List[Mapping[str, Any]]] = {
             topic: list(info["variables"]) for topic, info in document["topics"].items()
         }

@@ -69,6 +69,17 @@ def test_violations_in_an_alarmed_episode_are_alarmed() -> None:
     assert tracker.alarmed(events, tracker.event(events)) == events
 
 
+def test_agreement_counts_no_polygon_whose_variable_left_its_range() -> None:
+    shapes = {"x_range": (True, ("x",)), "xy": (False, ("x", "y")), "yz": (False, ("y", "z"))}
+    tracker = AlarmTracker(AlarmRule(persist=50, distinct=2), record=True, shapes=shapes)
+    found = [broken("x_range", 0.0), broken("xy", 0.0)]
+    assert tracker.evidence(found) == found[:1]
+    assert tracker.sample("p", 0.0, found) == []  # one piece of evidence: x out of range
+    assert [f[4] for f in tracker.fed] == [True, False]
+    (alarm,) = tracker.sample("p", 0.1, [broken("yz", 0.1)])  # a second, independent one
+    assert alarm.invariants == ("x_range", "yz")
+
+
 def test_events_alarm_at_once_and_reset_forgets() -> None:
     tracker = AlarmTracker(AlarmRule(persist=5))
     assert [a.rule for a in tracker.event([broken("a", 1.0)])] == ["event"]
