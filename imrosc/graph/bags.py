@@ -43,17 +43,25 @@ class _BagGraph:
     problems: list[Diagnostic] = field(default_factory=list)
 
 
-def _callers(reader: AnyReader) -> list[Node]:
-    """One publisher node per ROS 1 connection, the recording node's own topics left out."""
-    nodes: list[Node] = []
+def _published(reader: AnyReader) -> list[tuple[Connection, str]]:
+    """Each ROS 1 connection with its publisher (``callerid``), the recording node's own
+    topics left out."""
+    found = []
     for connection in reader.connections:
         ext = connection.ext
         if not isinstance(ext, ConnectionExtRosbag1) or not ext.callerid:
             continue
-        if connection.topic.startswith(RECORD_PREFIX):
-            continue
-        nodes.append(Node(ext.callerid, publishes=frozenset({connection.topic})))
-    return nodes
+        if not connection.topic.startswith(RECORD_PREFIX):
+            found.append((connection, ext.callerid))
+    return found
+
+
+def _callers(reader: AnyReader) -> list[Node]:
+    """One publisher node per ROS 1 connection, the recording node's own topics left out."""
+    return [
+        Node(callerid, publishes=frozenset({connection.topic}))
+        for connection, callerid in _published(reader)
+    ]
 
 
 @dataclass(frozen=True)
@@ -79,16 +87,11 @@ def publisher_starts(reader: AnyReader) -> list[PublisherStart]:
     """Each ROS 1 connection's publisher (``callerid``) from its first message on, earliest
     first; the recording node's own topics and connections without messages left out."""
     starts: dict[tuple[str, str], int] = {}
-    for connection in reader.connections:
-        ext = connection.ext
-        if not isinstance(ext, ConnectionExtRosbag1) or not ext.callerid:
-            continue
-        if connection.topic.startswith(RECORD_PREFIX):
-            continue
+    for connection, callerid in _published(reader):
         first = _first_message(reader, connection)
         if first is None:
             continue
-        key = (connection.topic, ext.callerid)
+        key = (connection.topic, callerid)
         starts[key] = min(first, starts.get(key, first))
     found = [PublisherStart(time, topic, node) for (topic, node), time in starts.items()]
     return sorted(found, key=lambda s: (s.time, s.topic, s.node))
