@@ -1,19 +1,26 @@
 """bench/efficacy.py's pieces: the fault injectors on a small generated ROS 1 bag, the bag
-copies, the session folds of ALFA's flights and the scoring. The bench itself is not run."""
+copies, the session folds of ALFA's flights, the classifying configurations and the scoring (one
+monitor or two side by side). The bench itself is not run."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from lxml import etree
 from rosbags.rosbag1 import Reader, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from bench import efficacy as e
+from imrosc.classify import load_project
+from imrosc.diagnostics import Diagnostic, make
+from imrosc.ir import Project
 
 SECOND = 1_000_000_000
 START = 1_553_088_600 * SECOND
@@ -292,3 +299,117 @@ def test_the_scores() -> None:
 def test_figures_are_printed_without_a_negative_zero() -> None:
     assert e.fmt(-0.001) == "0.00" and e.fmt(None) == "-" and e.fmt(math.nan) == "-"
     assert e.fmt(2.345, 1) == "2.3"
+
+
+# --- classification: the configuration and two monitors side by side ------------------------
+
+
+def _classifying(config: Path, flight: Path, **onset: Any) -> Project:
+    """``config`` given a <check> of ``flight`` (success) and two copies of it (fail),
+    loaded, checked and lowered without a diagnostic."""
+    fails = [flight.with_name("fail_1.bag"), flight.with_name("fail_2.bag")]
+    for path in fails:
+        if not path.exists():
+            shutil.copyfile(flight, path)
+    e.set_check(config, "alfa.inv", e.Classification([flight], fails, **onset))
+    project, problems = load_project(config)
+    assert project is not None and not problems, [p.as_text() for p in problems]
+    check = project.check
+    assert check is not None and check.mode == "classify" and check.inv == "alfa.inv"
+    assert check.success == (str(flight.resolve()),)
+    assert check.fail == tuple(str(p.resolve()) for p in fails)
+    return project
+
+
+def test_a_classifying_config_with_an_onset_topic(flight: Path, tmp_path: Path) -> None:
+    config = e.write_config(tmp_path / "alfa.xml", "alfa", e.ALFA_SCOPE, [flight])
+    project = _classifying(config, flight, onset_topic=e.ALFA_LABEL)
+    assert project.detect is not None and project.detect.bags == (str(flight.resolve()),)
+    assert project.check is not None
+    assert [(o.topic, o.seconds) for o in project.check.onsets] == [(e.ALFA_LABEL, None)] * 2
+    assert config.read_text().endswith("</check>\n</imROS>\n")
+
+
+def test_a_classifying_config_replaces_the_check_with_onset_seconds(
+    flight: Path, tmp_path: Path
+) -> None:
+    from imrosc.demo import CONFIG, example_configs
+
+    source = next(p for p in example_configs() if p.name == CONFIG)
+    config = shutil.copyfile(source, tmp_path / CONFIG)
+    before = etree.parse(str(config)).getroot()
+    index = [c.tag for c in before].index("check")
+    project = _classifying(config, flight, onset=e.SIM_START)
+    assert project.check is not None
+    assert [(o.topic, o.seconds) for o in project.check.onsets] == [(None, e.SIM_START)] * 2
+    tree = etree.parse(str(config))
+    after = tree.getroot()
+    assert [c.tag for c in after] == [c.tag for c in before]  # in the old <check>'s place
+    assert after[index].get("inv") == "alfa.inv" and after.find("monitor") is not None
+    assert tree.getroot().getprevious() is not None  # the leading comment is kept
+
+
+def test_both_onsets_conflict(flight: Path, tmp_path: Path) -> None:
+    config = e.write_config(tmp_path / "alfa.xml", "alfa", e.ALFA_SCOPE, [flight])
+    both = e.Classification([flight], [flight], onset_topic=e.ALFA_LABEL, onset=1.0)
+    project, problems = load_project(e.set_check(config, "alfa.inv", both))
+    assert project is None and "onset-conflict" in {p.code for p in problems}
+
+
+def test_the_verdicts() -> None:
+    runs = [_run(10.0, 11.0), _run(10.0, 2.0, 11.0), _run(10.0), _run(None), _run(None, 1.0)]
+    assert [e.verdict(o) for o in runs] == [
+        "detected",
+        "false alarm",
+        "missed",
+        "quiet",
+        "false alarm",
+    ]
+    broken = dataclasses.replace(_run(10.0), error="unreadable")
+    assert e.verdict(broken) == "error: unreadable"
+
+
+def _named(name: str, group: str, onset: float | None, *alarms: float) -> e.Outcome:
+    return e.Outcome(name, group, onset, tuple(alarms))
+
+
+def test_two_monitors_side_by_side(capsys: pytest.CaptureFixture[str]) -> None:
+    inferred = [
+        _named("a", "rudder", 10.0),
+        _named("b", "engine", 10.0, 12.0),
+        _named("c", "nominal", None),
+    ]
+    classified = [
+        _named("a", "rudder", 10.0, 10.5),
+        _named("b", "engine", 10.0, 3.0),
+        _named("c", "nominal", None, 4.0),
+    ]
+    table = e.side_by_side({"inferred": inferred, "classified": classified})
+    assert list(table) == ["engine", "nominal", "rudder", "overall"]
+    assert all(list(scores) == ["inferred", "classified"] for scores in table.values())
+    one, two = table["overall"]["inferred"], table["overall"]["classified"]
+    assert (one.runs, one.faulty, one.detected, one.false_alarms, one.alarmed) == (3, 2, 1, 0, 1)
+    assert (two.runs, two.faulty, two.detected, two.false_alarms, two.alarmed) == (3, 2, 1, 2, 3)
+    assert (one.mean_delay, two.mean_delay) == (2.0, 0.5)
+    assert table["rudder"]["classified"].recall == 1.0 and table["rudder"]["inferred"].recall == 0
+    e.print_side_by_side({"inferred": inferred, "classified": classified})
+    e.print_scores(table)
+    lines = capsys.readouterr().out.splitlines()
+    assert "inferred" in lines[0] and "classified" in lines[0]
+    row = ["a", "rudder", "10.00", "|", "0", "-", "-", "missed", "|", "1", "10.50", "0.50"]
+    assert lines[2].split() == [*row, "detected"]
+    assert lines[4].split()[-4:] == ["4.00", "-", "false", "alarm"]
+    assert all(line == line.rstrip() for line in lines)
+    assert lines[-2].split()[:2] == ["overall", "inferred"]
+    assert lines[-1].split()[:5] == ["classified", "3", "2", "1", "0.50"]
+    with pytest.raises(ValueError, match="same runs"):
+        e.side_by_side({"inferred": inferred, "classified": classified[:2]})
+
+
+def test_the_warnings_of_a_classification() -> None:
+    def diagnostic(code: str) -> Diagnostic:
+        return make("c.xml", 1, 1, code, "...")
+
+    assert e.describe_warnings([]) == "none"
+    found = [diagnostic(code) for code in ("success-in-detect", *["onset-unusable"] * 2)]
+    assert e.describe_warnings(found) == "onset-unusable x2, success-in-detect (expected)"
