@@ -455,13 +455,18 @@ def refined(
 def refined_rule(
     document: Mapping[str, Any], success: Sequence[Path], workers: int | None
 ) -> dict[str, Any]:
-    """The alarm rule of the kept invariants, set as calibration sets it (the conformal rank
-    of the longest episode and the largest agreement, :mod:`imrosc.calibrate.rule`) on the
-    successful runs: the rule of the whole file asks more of an alarm than fewer invariants
-    can give."""
+    """The alarm rule of the kept invariants: the rule of the whole file asks more of an
+    alarm than fewer invariants can give. It is set as calibration sets it (the conformal
+    rank of the longest episode and the largest agreement, :mod:`imrosc.calibrate.rule`),
+    from the held-out runs of calibration when the file keeps their traces, else on the
+    successful runs (optimistic when they are <detect> runs: the warning says so)."""
     from imrosc.calibrate import DEFAULT_BUDGET
-    from imrosc.calibrate.rule import calibrate_rule
+    from imrosc.calibrate.rule import calibrate_rule, rule_for
     from imrosc.infer.engine import Unit
+
+    held = rule_for(document, {inv["id"] for inv in document["invariants"]})
+    if held is not None:
+        return held.as_json()
 
     budget = float((document.get("calibration") or {}).get("budget", DEFAULT_BUDGET))
     units = [Unit(bag, []) for bag in success]

@@ -68,6 +68,24 @@ class HeldOut:
         self.distinct = agreement(kept, window)
         self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
 
+    def trace(self, window: float) -> dict[str, Any]:
+        """What the rule of any subset of the invariants needs, compactly: per invariant its
+        point, longest episode (samples) and the times its counted violations cover, each
+        violation's time widened by ``window`` and overlapping ones merged."""
+        found: dict[str, dict[str, Any]] = {}
+        for time, point, ident, n, counted in self.fed:
+            entry = found.setdefault(ident, {"point": point, "persist": 0, "evidence": []})
+            entry["persist"] = max(entry["persist"], n)
+            if counted:
+                spans = entry["evidence"]
+                if spans and time <= spans[-1][1]:
+                    spans[-1][1] = max(spans[-1][1], time + window)
+                else:
+                    spans.append([time, time + window])
+        for ident in self.events:
+            found.setdefault(ident, {"point": "", "persist": 0, "evidence": []})["event"] = True
+        return found
+
     def as_json(self) -> dict[str, Any]:
         return {
             "bag": self.bag,
@@ -76,7 +94,54 @@ class HeldOut:
             "persist": self.persist,
             "distinct": self.distinct,
             "events": self.event_alarms,
+            "trace": self.trace(WINDOW),
         }
+
+
+def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> tuple[int, int, bool]:
+    """From one held-out unit's trace (:meth:`HeldOut.trace`), with only the ``kept``
+    invariants: its longest episode, its largest agreement (distinct invariants of a point
+    whose violations fall within one window) and whether an event alarm came.
+
+    >>> trace = {"a": {"point": "p", "persist": 3, "evidence": [[0.0, 1.0]]},
+    ...          "b": {"point": "p", "persist": 1, "evidence": [[0.5, 1.5]]},
+    ...          "c": {"point": "p", "persist": 9, "evidence": [[5.0, 6.0]], "event": True}}
+    >>> covered(trace, {"a", "b"}), covered(trace, {"a", "c"})
+    ((3, 2, False), (9, 1, True))
+    """
+    persist, event = 0, False
+    edges: dict[str, list[tuple[float, int]]] = {}
+    for ident, entry in traces.items():
+        if ident not in kept:
+            continue
+        persist = max(persist, int(entry.get("persist", 0)))
+        event = event or bool(entry.get("event"))
+        for start, end in entry.get("evidence", ()):
+            edges.setdefault(str(entry.get("point", "")), []).extend(
+                [(float(start), 1), (float(end), -1)]
+            )
+    distinct = 0
+    for found in edges.values():
+        open_ = 0
+        for _, step in sorted(found, key=lambda e: (e[0], -e[1])):
+            open_ += step
+            distinct = max(distinct, open_)
+    return persist, distinct, event
+
+
+def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
+    """The alarm rule of a subset of a calibrated file's invariants, from the held-out
+    units' traces the file keeps (``None``: the file has none), as :func:`calibrate_rule`
+    sets it."""
+    calibration = document.get("calibration") or {}
+    units = [u for u in calibration.get("held_out", ()) if "trace" in u]
+    if not units:
+        return None
+    budget = float(calibration.get("budget", 0.05))
+    figures = [covered(u["trace"], kept) for u in units]
+    persist, _ = conformal([p + 1 for p, _, _ in figures], budget / 2)
+    distinct, _ = conformal([d + 1 for _, d, _ in figures], budget / 2)
+    return AlarmRule(persist=max(1, persist), distinct=max(1, distinct), window=WINDOW)
 
 
 def _within(time: float, span: tuple[float, float] | None) -> bool:

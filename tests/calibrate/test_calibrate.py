@@ -9,8 +9,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from imrosc.calibrate.rule import rule_for
 from imrosc.detect import run_detect
 from imrosc.replay import Replayer
+from imrosc.runtime.alarms import AlarmRule
 from tests.translate import Msg, msg, write_bag
 
 FLOAT = "std_msgs/msg/Float64"
@@ -109,3 +111,15 @@ def test_workers_do_not_change_the_file(tmp_path: Path) -> None:
     path = config(tmp_path, bags)
     one, two = run_detect(path, workers=1), run_detect(path, workers=2)
     assert one.document == two.document
+
+
+def test_the_file_keeps_what_the_rule_of_a_subset_needs(
+    learnt: tuple[Path, dict[str, Any]],
+) -> None:
+    _, document = learnt
+    everything = {i["id"] for i in document["invariants"]}
+    rule = rule_for(document, everything)
+    assert rule is not None
+    assert rule.persist <= document["alarms"]["persist"] or document["calibration"]["unstable"]
+    assert rule_for(document, set()) == AlarmRule(persist=1, distinct=1, window=1.0)
+    assert rule_for({"calibration": {}}, everything) is None
