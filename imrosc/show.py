@@ -16,6 +16,16 @@ A polygon lists every vertex (its ``text`` in the file lists the first few of a 
 ===========================================================================
 a:::POINT  publish /x  (9 samples, 1 run)
 (x.u, x.v) inside [(0, 0), (1, 0), (0, 1.5)] (3 vertices)
+
+A calibrated file says first when its violations raise an alarm:
+
+>>> doc["alarms"] = {"persist": 12, "seconds": None, "distinct": 4, "window": 1.0}
+>>> doc["calibration"] = {"budget": 0.05, "units": "runs", "count": 8, "certified": False}
+>>> line = render(doc).splitlines()[0]
+>>> line.startswith("alarms: 12 consecutive violating samples of one invariant, or 4 invariants")
+True
+>>> line.endswith("within 1 s (calibrated on 8 runs, budget 0.05 per run, not certified)")
+True
 """
 
 from __future__ import annotations
@@ -35,7 +45,8 @@ def render(
     points: Sequence[str] = (),
     ids: bool = False,
 ) -> str:
-    """The listing, filtered to ``families`` and ``points`` when given."""
+    """The listing, filtered to ``families`` and ``points`` when given (the file's alarm
+    rule first when not)."""
     by_point: dict[str, list[Mapping[str, Any]]] = {}
     for invariant in doc["invariants"]:
         if families and invariant["family"] not in families:
@@ -47,7 +58,7 @@ def render(
         ):
             continue
         by_point.setdefault(invariant["point"], []).append(invariant)
-    lines: list[str] = []
+    lines: list[str] = [] if families or points else alarm_lines(doc)
     for key in sorted(by_point):
         info = doc["points"].get(key, {})
         support = info.get("support", {})
@@ -61,6 +72,29 @@ def render(
             prefix = f"[{invariant['id']}] " if ids and "id" in invariant else ""
             lines.append(prefix + text(invariant))
     return "\n".join(lines) + ("\n" if lines else "")
+
+
+def alarm_lines(doc: Mapping[str, Any]) -> list[str]:
+    """The file's alarm rule and how it was calibrated, in one line (none without a rule)."""
+    rule = doc.get("alarms")
+    if not rule:
+        return []
+    parts = [f"{rule.get('persist', 1)} consecutive violating samples of one invariant"]
+    if rule.get("seconds") is not None:
+        parts.append(f"{rule['seconds']:g} s of them")
+    if rule.get("distinct"):
+        parts.append(
+            f"{rule['distinct']} invariants of a point within {float(rule.get('window', 1.0)):g} s"
+        )
+    line = "alarms: " + ", or ".join(parts)
+    calibration = doc.get("calibration")
+    if calibration:
+        certified = "certified" if calibration.get("certified") else "not certified"
+        line += (
+            f" (calibrated on {calibration.get('count')} {calibration.get('units')}, budget "
+            f"{calibration.get('budget')} per run, {certified})"
+        )
+    return [line]
 
 
 def text(invariant: Mapping[str, Any]) -> str:
