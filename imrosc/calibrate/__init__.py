@@ -74,6 +74,8 @@ class Calibration:
         unsupported = sum(self.unsupported.values())
         rule = self.rule
         alarm = f"an alarm after {rule.persist} consecutive violating samples of one invariant"
+        if rule.seconds is not None:
+            alarm += f" or {rule.seconds:g} s of them"
         if rule.distinct:
             alarm += f" or {rule.distinct} invariants of a point broken within {rule.window:g} s"
         certified = (

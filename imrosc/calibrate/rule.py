@@ -8,11 +8,13 @@ violating sample with the length of its invariant's episode so far. From those:
    than a break probability of ``alpha`` per run explains (:func:`.tolerance.too_many`) is
    dropped: no tolerance within the budget stabilises it.
 2. **The alarm rule.** A unit would raise a persistence alarm under ``persist = K`` iff its
-   longest episode reaches ``K``, an agreement alarm under ``distinct = D`` iff its largest
-   agreement (distinct invariants of a point within the window) reaches ``D``. Each
-   threshold is one more than the conformal ``1 - alpha/2`` rank of those per-unit maxima
-   (:func:`.tolerance.conformal`), so a new nominal run raises either alarm with
-   probability at most ``alpha``. The maxima of a fold's units are taken without the
+   longest episode reaches ``K`` samples, under ``seconds = T`` iff one lasts ``T``, an
+   agreement alarm under ``distinct = D`` iff its largest agreement (distinct invariants
+   of a point within the window) reaches ``D``. Each threshold lies just past the conformal
+   ``1 - alpha/3`` rank of those per-unit maxima (:func:`.tolerance.conformal`; one more
+   sample, one more invariant, one more millisecond), so a new nominal run raises any of
+   the three alarms with probability at most ``alpha``. Samples and seconds both count:
+   points run at different rates. The maxima of a fold's units are taken without the
    invariants that the *other* folds' units would drop: dropping what a unit itself broke
    would make its figures 0 by construction, and a new run is not so kind.
 
@@ -23,6 +25,7 @@ raise is dropped in step 1 (with fewer than ``1/alpha`` units, any).
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -53,18 +56,20 @@ class HeldOut:
     events: list[str] = field(default_factory=list, repr=False)
     violations: int = 0
     persist: int = 0
+    lasting: float = 0.0
     distinct: int = 0
     event_alarms: int = 0
 
     @property
     def broken(self) -> set[str]:
         """The invariants this unit violated."""
-        return {ident for _, _, ident, _, _ in self.fed} | set(self.events)
+        return {f[2] for f in self.fed} | set(self.events)
 
     def settle(self, dropped: set[str], window: float) -> None:
         """Its figures without the ``dropped`` invariants."""
         kept = [f for f in self.fed if f[2] not in dropped]
-        self.persist = max([n for _, _, _, n, _ in kept], default=0)
+        self.persist = max([f[3] for f in kept], default=0)
+        self.lasting = max([f[5] for f in kept], default=0.0)
         self.distinct = agreement(kept, window)
         self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
 
@@ -73,9 +78,12 @@ class HeldOut:
         point, longest episode (samples) and the times its counted violations cover, each
         violation's time widened by ``window`` and overlapping ones merged."""
         found: dict[str, dict[str, Any]] = {}
-        for time, point, ident, n, counted in self.fed:
-            entry = found.setdefault(ident, {"point": point, "persist": 0, "evidence": []})
+        for time, point, ident, n, counted, lasted in self.fed:
+            entry = found.setdefault(
+                ident, {"point": point, "persist": 0, "lasting": 0.0, "evidence": []}
+            )
             entry["persist"] = max(entry["persist"], n)
+            entry["lasting"] = max(entry["lasting"], lasted)
             if counted:
                 spans = entry["evidence"]
                 if spans and time <= spans[-1][1]:
@@ -92,29 +100,38 @@ class HeldOut:
             "span": None if self.span is None else list(self.span),
             "violations": self.violations,
             "persist": self.persist,
+            "lasting": self.lasting,
             "distinct": self.distinct,
             "events": self.event_alarms,
             "trace": self.trace(WINDOW),
         }
 
 
-def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> tuple[int, int, bool]:
-    """From one held-out unit's trace (:meth:`HeldOut.trace`), with only the ``kept``
-    invariants: its longest episode, its largest agreement (distinct invariants of a point
-    whose violations fall within one window) and whether an event alarm came.
+Figures = tuple[int, float, int, bool]
+"""A held-out unit's longest episode (samples, seconds), largest agreement, and whether
+an event alarm came."""
 
-    >>> trace = {"a": {"point": "p", "persist": 3, "evidence": [[0.0, 1.0]]},
+
+def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
+    """From one held-out unit's trace (:meth:`HeldOut.trace`), with only the ``kept``
+    invariants: its longest episode (samples, seconds), its largest agreement (distinct
+    invariants of a point whose violations fall within one window) and whether an event
+    alarm came.
+
+    >>> trace = {"a": {"point": "p", "persist": 3, "lasting": 0.1, "evidence": [[0.0, 1.0]]},
     ...          "b": {"point": "p", "persist": 1, "evidence": [[0.5, 1.5]]},
-    ...          "c": {"point": "p", "persist": 9, "evidence": [[5.0, 6.0]], "event": True}}
+    ...          "c": {"point": "p", "persist": 9, "lasting": 0.4, "evidence": [[5.0, 6.0]],
+    ...                "event": True}}
     >>> covered(trace, {"a", "b"}), covered(trace, {"a", "c"})
-    ((3, 2, False), (9, 1, True))
+    ((3, 0.1, 2, False), (9, 0.4, 1, True))
     """
-    persist, event = 0, False
+    persist, lasting, event = 0, 0.0, False
     edges: dict[str, list[tuple[float, int]]] = {}
     for ident, entry in traces.items():
         if ident not in kept:
             continue
         persist = max(persist, int(entry.get("persist", 0)))
+        lasting = max(lasting, float(entry.get("lasting", 0.0)))
         event = event or bool(entry.get("event"))
         for start, end in entry.get("evidence", ()):
             edges.setdefault(str(entry.get("point", "")), []).extend(
@@ -126,7 +143,22 @@ def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> tuple[in
         for _, step in sorted(found, key=lambda e: (e[0], -e[1])):
             open_ += step
             distinct = max(distinct, open_)
-    return persist, distinct, event
+    return persist, lasting, distinct, event
+
+
+def rule_from(figures: Sequence[tuple[int, float, int]], budget: float) -> tuple[AlarmRule, bool]:
+    """The rule just past the conformal ``1 - budget/3`` rank of held-out units' longest
+    episodes (samples, seconds) and largest agreements; whether they certify it."""
+    persist, sure_persist = conformal([p + 1 for p, _, _ in figures], budget / 3)
+    lasting, sure_lasting = conformal([s for _, s, _ in figures], budget / 3)
+    distinct, sure_distinct = conformal([d + 1 for _, _, d in figures], budget / 3)
+    rule = AlarmRule(
+        persist=max(1, int(persist)),
+        seconds=(math.floor(lasting * 1000) + 1) / 1000,
+        distinct=max(1, int(distinct)),
+        window=WINDOW,
+    )
+    return rule, sure_persist and sure_lasting and sure_distinct
 
 
 def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
@@ -139,9 +171,8 @@ def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
         return None
     budget = float(calibration.get("budget", 0.05))
     figures = [covered(u["trace"], kept) for u in units]
-    persist, _ = conformal([p + 1 for p, _, _ in figures], budget / 2)
-    distinct, _ = conformal([d + 1 for _, d, _ in figures], budget / 2)
-    return AlarmRule(persist=max(1, persist), distinct=max(1, distinct), window=WINDOW)
+    rule, _ = rule_from([(p, s, d) for p, s, d, _ in figures], budget)
+    return rule
 
 
 def _within(time: float, span: tuple[float, float] | None) -> bool:
@@ -242,7 +273,5 @@ def calibrate_rule(
         for unit in held_out:
             if unit.fold == fold:
                 unit.settle(others, WINDOW)
-    persist, sure_persist = conformal([h.persist + 1 for h in held_out], budget / 2)
-    distinct, sure_distinct = conformal([h.distinct + 1 for h in held_out], budget / 2)
-    rule = AlarmRule(persist=max(1, persist), distinct=max(1, distinct), window=WINDOW)
-    return RuleResult(rule, sure_persist and sure_distinct, dropped, held_out)
+    rule, certified = rule_from([(h.persist, h.lasting, h.distinct) for h in held_out], budget)
+    return RuleResult(rule, certified, dropped, held_out)

@@ -80,7 +80,7 @@ def too_many(breaks: int, units: int, alpha: float) -> bool:
     return breaks > int(stats.binom.ppf(1 - alpha, units, alpha))
 
 
-def conformal(values: Sequence[int], alpha: float) -> tuple[int, bool]:
+def conformal(values: Sequence[float], alpha: float) -> tuple[float, bool]:
     """The conformal ``1 - alpha`` rank of ``values`` and whether ``len(values)`` units are
     enough to certify ``alpha`` (else the largest value).
 

@@ -39,7 +39,7 @@ from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequen
 
 from .violation import Violation, json_safe
 
-Fed = Tuple[float, str, str, int, bool]
+Fed = Tuple[float, str, str, int, bool, float]
 """A violating sample as calibration keeps it (:attr:`AlarmTracker.fed`)."""
 RANGES = frozenset({"bounds", "array"})
 """Families whose invariants are the range of one variable."""
@@ -156,8 +156,8 @@ class AlarmTracker:
         self._agreeing: Set[str] = set()
         self.raised: List[Alarm] = []
         self.fed: List[Fed] = []
-        """``(time, point, invariant, samples of its episode so far, counted by agreement)``
-        of every violating sample (``record``)."""
+        """``(time, point, invariant, samples of its episode so far, counted by agreement,
+        seconds since the episode began)`` of every violating sample (``record``)."""
 
     def busy(self, point: str) -> bool:
         """Whether ``point`` has an open episode (a clean sample must then be told)."""
@@ -179,7 +179,10 @@ class AlarmTracker:
                 episode = episodes[v.invariant] = [time, 0.0, 0.0]
             episode[1] += 1
             if self.record:
-                self.fed.append((time, point, v.invariant, int(episode[1]), id(v) in counted_ids))
+                lasted = time - episode[0]
+                self.fed.append(
+                    (time, point, v.invariant, int(episode[1]), id(v) in counted_ids, lasted)
+                )
             if episode[2]:
                 continue
             lasting = rule.seconds is not None and time - episode[0] >= rule.seconds
@@ -253,14 +256,14 @@ def agreement(fed: Sequence[Fed], window: float) -> int:
     violating samples as :attr:`AlarmTracker.fed` keeps them (in time order; those that
     agreement does not count left out).
 
-    >>> agreement([(0.0, "p", "a", 1, True), (0.5, "p", "b", 1, True),
-    ...            (0.6, "q", "c", 1, True), (1.2, "p", "c", 1, True), (1.3, "p", "d", 1, False)],
-    ...           1.0)
+    >>> agreement([(0.0, "p", "a", 1, True, 0.0), (0.5, "p", "b", 1, True, 0.0),
+    ...            (0.6, "q", "c", 1, True, 0.0), (1.2, "p", "c", 1, True, 0.0),
+    ...            (1.3, "p", "d", 1, False, 0.0)], 1.0)
     2
     """
     recent: Dict[str, Deque[Tuple[float, str]]] = {}
     most = 0
-    for time, point, ident, _, counted in fed:
+    for time, point, ident, _, counted, _ in fed:
         if not counted:
             continue
         queue = recent.setdefault(point, deque())
