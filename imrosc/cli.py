@@ -245,6 +245,7 @@ def infer(
     click.echo(
         f"from {good} bag{'s' * (good != 1)}, {inferred.messages:,} messages in "
         f"{result.seconds:.1f} s ({rate:,.0f} msg/s)"
+        + (f", calibrated in {result.calibration_seconds:.1f} s" if result.calibration else "")
     )
     skipped = sorted({d.path for d in result.diagnostics if d.code == "bag-error"})
     if skipped:

@@ -50,6 +50,8 @@ class DetectResult:
     result: InferenceResult | None = None
     skipped_points: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    """Seconds to infer (calibration apart)."""
+    calibration_seconds: float = 0.0
     calibration: Calibration | None = None
 
     @property
@@ -234,11 +236,12 @@ def run_detect(
         points=_points(specs, result),
         invariants=result.invariants(tunables),
     )
+    out.seconds = time.monotonic() - started
     if tunables.budget > 0:
         out.calibration = calibrate(
             out.document, result.units, tunables.budget, workers=workers or default_workers()
         )
+        out.calibration_seconds = time.monotonic() - started - out.seconds
     inv = project.detect.inv if project.detect else f"{project.name}.inv"
     out.output = prepared.base / inv
-    out.seconds = time.monotonic() - started
     return out

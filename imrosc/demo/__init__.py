@@ -176,7 +176,8 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
     )
     counts = ", ".join(f"{n} {group}" for group, n in result.counts().items())
     click.echo(f"   wrote {result.output}: {sum(result.counts().values())} invariants: {counts}")
-    click.echo(f"   ({result.seconds:.1f} s; see them all with: imrosc show {result.output})")
+    spent = result.seconds + result.calibration_seconds
+    click.echo(f"   ({spent:.1f} s; see them all with: imrosc show {result.output})")
     if result.calibration is not None:
         click.echo(f"   {result.calibration.summary()}")
     sample = render(result.document, points=["v"]).splitlines()[:12]
