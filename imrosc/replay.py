@@ -24,7 +24,7 @@ from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, open_bag
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.runtime import Engine, Violation
-from imrosc.runtime.alarms import Alarm, AlarmRule, alarms_json
+from imrosc.runtime.alarms import Alarm, alarms_json
 from imrosc.runtime.flatten import make_flattener
 from imrosc.runtime.violation import json_safe
 from imrosc.translate.catalog import flatten_json
@@ -96,14 +96,9 @@ def _topic_warnings(wanted: Iterable[str], present: Iterable[str]) -> list[str]:
 class Replayer:
     """Feeds bags to one engine built from an invariants document."""
 
-    def __init__(
-        self,
-        document: Mapping[str, Any],
-        engine: Engine | None = None,
-        rule: AlarmRule | None = None,
-    ) -> None:
+    def __init__(self, document: Mapping[str, Any], engine: Engine | None = None) -> None:
         self.document = document
-        self.engine = engine if engine is not None else Engine(document, rule=rule)
+        self.engine = engine if engine is not None else Engine(document)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
@@ -173,11 +168,9 @@ class Replayer:
             return []
 
 
-def replay(
-    document: Mapping[str, Any], bags: Iterable[Path], rule: AlarmRule | None = None
-) -> list[RunResult]:
-    """Replay each bag as one run (alarms under ``rule``, else the file's rule)."""
-    replayer = Replayer(document, rule=rule)
+def replay(document: Mapping[str, Any], bags: Iterable[Path]) -> list[RunResult]:
+    """Replay each bag as one run (alarms under the file's rule)."""
+    replayer = Replayer(document)
     return [replayer.run(bag) for bag in bags]
 
 

@@ -116,6 +116,7 @@ class Envelopes:
         self, document: Mapping[str, Any], views: Sequence[UnitView], budget: float
     ) -> None:
         self.source = document
+        self.types, self.integer = _types(document)
         self.budget = budget
         self.count = len(views)
         self.limits: dict[str, list[_Limit]] = {}
@@ -171,16 +172,15 @@ class Envelopes:
         """The invariants document learnt from ``units``: the merged envelope with the
         final tolerances (``final``), or each limit from those units' supports alone."""
         out = copy.deepcopy(dict(self.source))
-        types, integer = _types(out)
         kept = []
         for invariant in out["invariants"]:
             if invariant["id"] in self.drop:
                 continue
             limits = self.limits.get(invariant["id"])
             if limits:
-                moved = self._widen(invariant, limits, units, final, invariant["id"] in integer)
-                if moved:
-                    retext(invariant, types)
+                integer = invariant["id"] in self.integer
+                if self._widen(invariant, limits, units, final, integer):
+                    retext(invariant, self.types)
                     if final:
                         family = invariant["family"]
                         self.widened[family] = self.widened.get(family, 0) + 1

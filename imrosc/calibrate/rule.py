@@ -35,7 +35,7 @@ from typing import Any
 from imrosc.calibrate.tolerance import conformal, too_many
 from imrosc.infer.engine import Unit
 from imrosc.runtime import Engine
-from imrosc.runtime.alarms import AlarmRule, Fed, agreement
+from imrosc.runtime.alarms import AlarmRule, Fed
 
 WINDOW = 1.0
 """Seconds of the agreement rule's window."""
@@ -43,16 +43,40 @@ HELD_BACK = AlarmRule(persist=1 << 30, distinct=0, window=WINDOW)
 """The rule of the held-out replays: nothing alarms but events."""
 
 
+def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[str, Any]:
+    """What the rule of any subset of the invariants needs from a unit's violating samples
+    (:attr:`imrosc.runtime.alarms.AlarmTracker.fed`) and event alarms, compactly: per
+    invariant its point, longest episode (samples, seconds) and the times its counted
+    violations cover, each violation's time widened by ``window`` and overlapping ones
+    merged."""
+    found: dict[str, dict[str, Any]] = {}
+    for time, point, ident, n, counted, lasted in fed:
+        entry = found.setdefault(
+            ident, {"point": point, "persist": 0, "lasting": 0.0, "evidence": []}
+        )
+        entry["persist"] = max(entry["persist"], n)
+        entry["lasting"] = max(entry["lasting"], lasted)
+        if counted:
+            spans = entry["evidence"]
+            if spans and time <= spans[-1][1]:
+                spans[-1][1] = max(spans[-1][1], time + window)
+            else:
+                spans.append([time, time + window])
+    for ident in events:
+        found.setdefault(ident, {"point": "", "persist": 0, "evidence": []})["event"] = True
+    return found
+
+
 @dataclass
 class HeldOut:
-    """One held-out unit: what it broke, and (after :func:`calibrate_rule`) its longest
-    episode (samples), largest agreement (invariants) and event alarms without the
-    dropped invariants."""
+    """One held-out unit: what it broke (its :func:`trace_of`), and (after
+    :func:`calibrate_rule`) its longest episode (samples, seconds), largest agreement
+    (invariants) and event alarms without the dropped invariants."""
 
     bag: str
     span: tuple[float, float] | None
     fold: int
-    fed: list[Fed] = field(default_factory=list, repr=False)
+    trace: dict[str, Any] = field(default_factory=dict, repr=False)
     events: list[str] = field(default_factory=list, repr=False)
     violations: int = 0
     persist: int = 0
@@ -63,36 +87,12 @@ class HeldOut:
     @property
     def broken(self) -> set[str]:
         """The invariants this unit violated."""
-        return {f[2] for f in self.fed} | set(self.events)
+        return set(self.trace)
 
-    def settle(self, dropped: set[str], window: float) -> None:
+    def settle(self, dropped: set[str]) -> None:
         """Its figures without the ``dropped`` invariants."""
-        kept = [f for f in self.fed if f[2] not in dropped]
-        self.persist = max([f[3] for f in kept], default=0)
-        self.lasting = max([f[5] for f in kept], default=0.0)
-        self.distinct = agreement(kept, window)
+        self.persist, self.lasting, self.distinct, _ = covered(self.trace, self.broken - dropped)
         self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
-
-    def trace(self, window: float) -> dict[str, Any]:
-        """What the rule of any subset of the invariants needs, compactly: per invariant its
-        point, longest episode (samples) and the times its counted violations cover, each
-        violation's time widened by ``window`` and overlapping ones merged."""
-        found: dict[str, dict[str, Any]] = {}
-        for time, point, ident, n, counted, lasted in self.fed:
-            entry = found.setdefault(
-                ident, {"point": point, "persist": 0, "lasting": 0.0, "evidence": []}
-            )
-            entry["persist"] = max(entry["persist"], n)
-            entry["lasting"] = max(entry["lasting"], lasted)
-            if counted:
-                spans = entry["evidence"]
-                if spans and time <= spans[-1][1]:
-                    spans[-1][1] = max(spans[-1][1], time + window)
-                else:
-                    spans.append([time, time + window])
-        for ident in self.events:
-            found.setdefault(ident, {"point": "", "persist": 0, "evidence": []})["event"] = True
-        return found
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -103,7 +103,7 @@ class HeldOut:
             "lasting": self.lasting,
             "distinct": self.distinct,
             "events": self.event_alarms,
-            "trace": self.trace(WINDOW),
+            "trace": self.trace,
         }
 
 
@@ -113,7 +113,7 @@ an event alarm came."""
 
 
 def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
-    """From one held-out unit's trace (:meth:`HeldOut.trace`), with only the ``kept``
+    """From one held-out unit's trace (:func:`trace_of`), with only the ``kept``
     invariants: its longest episode (samples, seconds), its largest agreement (distinct
     invariants of a point whose violations fall within one window) and whether an event
     alarm came.
@@ -200,23 +200,17 @@ def _held_out(
     replayer: Any, bag: Path, spans: list[tuple[float, float] | None], fold: int
 ) -> list[HeldOut]:
     result = replayer.run(bag)
-    fed = list(replayer.engine.alarms.fed)
+    fed = replayer.engine.alarms.fed
     found = []
     for span in spans:
-        found.append(
-            HeldOut(
-                str(bag),
-                span,
-                fold,
-                [f for f in fed if _within(f[0], span)],
-                [
-                    a.violation.invariant
-                    for a in result.alarms
-                    if a.rule == "event" and _within(a.time, span)
-                ],
-                sum(1 for v in result.violations if _within(v.time, span)),
-            )
-        )
+        events = [
+            a.violation.invariant
+            for a in result.alarms
+            if a.rule == "event" and _within(a.time, span)
+        ]
+        trace = trace_of([f for f in fed if _within(f[0], span)], events, WINDOW)
+        violations = sum(1 for v in result.violations if _within(v.time, span))
+        found.append(HeldOut(str(bag), span, fold, trace, events, violations))
     return found
 
 
@@ -272,6 +266,6 @@ def calibrate_rule(
         others = unstable([h for h in held_out if h.fold != fold], budget)
         for unit in held_out:
             if unit.fold == fold:
-                unit.settle(others, WINDOW)
+                unit.settle(others)
     rule, certified = rule_from([(h.persist, h.lasting, h.distinct) for h in held_out], budget)
     return RuleResult(rule, certified, dropped, held_out)

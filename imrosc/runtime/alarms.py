@@ -56,10 +56,6 @@ def shapes_of(invariants: Sequence[Mapping[str, Any]]) -> Dict[str, Tuple[bool, 
     }
 
 
-EVENT_FAMILIES = frozenset({"architecture", "interval", "pattern"})
-"""Families whose violations are events, not samples: each raises an alarm at once."""
-
-
 class AlarmRule(NamedTuple):
     """When violations raise an alarm (see the module's docstring)."""
 
@@ -249,29 +245,6 @@ class AlarmTracker:
         """The alarms raised since the last call."""
         raised, self.raised = self.raised, []
         return raised
-
-
-def agreement(fed: Sequence[Fed], window: float) -> int:
-    """The most distinct invariants of one point violated within ``window`` seconds, over
-    violating samples as :attr:`AlarmTracker.fed` keeps them (in time order; those that
-    agreement does not count left out).
-
-    >>> agreement([(0.0, "p", "a", 1, True, 0.0), (0.5, "p", "b", 1, True, 0.0),
-    ...            (0.6, "q", "c", 1, True, 0.0), (1.2, "p", "c", 1, True, 0.0),
-    ...            (1.3, "p", "d", 1, False, 0.0)], 1.0)
-    2
-    """
-    recent: Dict[str, Deque[Tuple[float, str]]] = {}
-    most = 0
-    for time, point, ident, _, counted, _ in fed:
-        if not counted:
-            continue
-        queue = recent.setdefault(point, deque())
-        queue.append((time, ident))
-        while queue[0][0] < time - window:
-            queue.popleft()
-        most = max(most, len({i for _, i in queue}))
-    return most
 
 
 def alarms_json(alarms: Sequence[Alarm]) -> List[Dict[str, Any]]:

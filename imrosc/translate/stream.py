@@ -16,7 +16,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Generic, Literal, TypeVar
+from typing import Any, Generic, Literal, NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -421,6 +421,14 @@ def _callerid_snapshot(publishers: Mapping[str, set[str]]) -> _Snapshot:
     return _Snapshot(records.ArchSnapshot(topics, {}), callerid_only=True)
 
 
+class _Timeline(NamedTuple):
+    """A chunk's messages in time order and how far its clock samples go."""
+
+    seqs: npt.NDArray[np.int64]
+    times: npt.NDArray[np.float64]
+    horizon: float
+
+
 @dataclass
 class _Clock(ABC, Generic[State]):
     """Samples a state in force every ``ARCH_PERIOD`` seconds and at each change.
@@ -450,30 +458,40 @@ class _Clock(ABC, Generic[State]):
         final: bool,
     ) -> Rows:
         """The chunk's samples of the state, from its records (``None``: none this chunk)."""
+        timeline = self.timeline(buffer, final=final)
         changes = self.changes(records_rows) if records_rows is not None else []
-        return self.frame(self.ticks(changes, buffer, final=final))
+        changes += self.more_changes(timeline)
+        return self.frame(self.ticks(changes, timeline))
+
+    def timeline(
+        self, buffer: Mapping[str, list[tuple[int, float, Any, str]]], *, final: bool
+    ) -> _Timeline:
+        """The chunk's messages (numbers and times, in time order) and how far its samples
+        go: up to its last message (the bag's end for the ``final`` chunk)."""
+        entries = sorted((e[1], e[0]) for es in buffer.values() for e in es)
+        times = np.array([t for t, _ in entries], dtype=np.float64)
+        seqs = np.array([s for _, s in entries], dtype=np.int64)
+        horizon = self.end if final else (float(times[-1]) if len(times) else self.start)
+        return _Timeline(seqs, times, horizon)
 
     @abstractmethod
     def changes(self, records_rows: Rows) -> list[tuple[float, int, State]]:
         """``(time, seq, state)`` of each change the records carry, in time order."""
+
+    def more_changes(self, timeline: _Timeline) -> list[tuple[float, int, State]]:
+        """Changes the records do not carry, up to the timeline's horizon (none)."""
+        return []
 
     @abstractmethod
     def frame(self, out: list[tuple[int, float, State]]) -> Rows:
         """The samples as the rows a point reads."""
 
     def ticks(
-        self,
-        changes: Sequence[tuple[float, int, State]],
-        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
-        *,
-        final: bool,
+        self, changes: Sequence[tuple[float, int, State]], timeline: _Timeline
     ) -> list[tuple[int, float, State]]:
         """``(seq, time, state)`` of the chunk: its ``changes`` (time order) and the ticks
-        up to the chunk's last message (the bag's end for the ``final`` chunk)."""
-        entries = sorted((e[1], e[0]) for es in buffer.values() for e in es)
-        times = np.array([t for t, _ in entries], dtype=np.float64)
-        seqs = np.array([s for _, s in entries], dtype=np.int64)
-        horizon = self.end if final else (float(times[-1]) if len(times) else self.start)
+        up to the timeline's horizon."""
+        seqs, times, horizon = timeline
         out: list[tuple[int, float, State]] = []
         pending = 0
         while True:
@@ -506,27 +524,10 @@ class _ArchClock(_Clock[_Snapshot]):
     starts: list[PublisherStart] = field(default_factory=list)
     publishers: dict[str, set[str]] = field(default_factory=dict)
 
-    def rows(
-        self,
-        records_rows: Rows | None,
-        buffer: Mapping[str, list[tuple[int, float, Any, str]]],
-        *,
-        final: bool,
-    ) -> Rows:
-        changes = self.changes(records_rows) if records_rows is not None else []
-        changes += self._started(buffer, final=final)
-        return self.frame(self.ticks(changes, buffer, final=final))
-
-    def _started(
-        self, buffer: Mapping[str, list[tuple[int, float, Any, str]]], *, final: bool
-    ) -> list[tuple[float, int, _Snapshot]]:
-        """A change at each time a publisher first published, up to the chunk's last
-        message (the bag's end for the ``final`` chunk); its message number follows the
-        last message at or before it."""
-        entries = sorted((e[1], e[0]) for es in buffer.values() for e in es)
-        times = np.array([t for t, _ in entries], dtype=np.float64)
-        seqs = np.array([s for _, s in entries], dtype=np.int64)
-        horizon = self.end if final else (float(times[-1]) if len(times) else self.start)
+    def more_changes(self, timeline: _Timeline) -> list[tuple[float, int, _Snapshot]]:
+        """A change at each time a publisher first published, up to the timeline's horizon;
+        its message number follows the last message at or before it."""
+        seqs, times, horizon = timeline
         found: list[tuple[float, int, _Snapshot]] = []
         while self.starts and self.starts[0].time / 1e9 <= horizon:
             at = self.starts[0].time
