@@ -33,14 +33,14 @@ Parts:
      configuration whose <detect> lists the same bags and whose <check> has them as
      <success> runs and the other folds' fault flights, whole, as
      ``<fail onset_topic="/failure_status">`` runs: the inferred document refined (invariants
-     below the F-score threshold dropped, the alarm rule recalibrated on the <success> runs).
-     The <success> runs are the <detect> runs, so run_check warns ``success-in-detect``
-     (their false positives are 0 by construction; the fault flights' pre-onset parts, the
-     same messages as the copies, are too): expected here, and printed as such. It also
-     makes the recalibrated rule the loosest one (persist 1: every violation an alarm), as
-     the training runs violate nothing. ``cross_validate`` is not used: it would infer K
-     more times per fold and changes only the report's run-level entries of the <success>
-     runs, not the refined document that is replayed.
+     below the F-score threshold dropped, the alarm rule set again for the kept ones from
+     calibration's held-out traces). The <success> runs are the <detect> runs: run_check
+     scores them from what each broke when calibration held it out (cross-validated false
+     positives, blocked by recording time), not from a replay against what they taught. The
+     fault flights' pre-onset parts are in-sample (their copies trained the invariants).
+     Should a file keep no held-out replay of them, run_check warns ``success-in-detect``,
+     printed as expected. ``cross_validate`` is not used: it would infer K more times per
+     fold for what the held-out traces already say.
 
   Printed: per fold the invariants and alarm rule of both documents and the classification's
   warnings; each flight under both (alarms, first alarm, delay, verdict); then per fault
@@ -56,9 +56,9 @@ Parts:
 * **sim**: the simulated landing system (``imrosc.sim``, ``landing_sim.xml`` of ``imrosc demo``),
   in the same two stages: infer on nominal runs; classify with those nominal runs as
   <success> and one run of each fault scenario from other seeds than the replayed ones as
-  ``<fail onset="10.0">`` (``success-in-detect`` expected again); replay two held-out nominal
-  runs and one held-out run of each fault scenario (the fault from 10 s on) with both:
-  detected, delay, alarms before the fault. The verdict is the classified monitor's.
+  ``<fail onset="10.0">`` (the nominal runs scored from their held-out traces); replay two
+  held-out nominal runs and one held-out run of each fault scenario (the fault from 10 s
+  on) with both: detected, delay, alarms before the fault. The verdict is the classified monitor's.
 
 Targets (issue 17), each printed MET or NOT MET from the measured figures: ALFA k-fold recall
 >= 0.85 with false alarms on <= 10 % of flights and mean delay <= 2.5 s; Crazyflie sine_1 ->
@@ -535,7 +535,8 @@ def learn(config: Path, bags: Sequence[Path], workers: int | None) -> dict[str, 
 
 
 EXPECTED = "success-in-detect"
-"""The warning every classification here gives: its successful runs are the training runs."""
+"""The warning a classification here would give if a file kept no held-out replay of its
+successful runs (they are the training runs)."""
 
 
 def refine(

@@ -34,6 +34,7 @@ from typing import Any
 from imrosc import __version__
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
+from imrosc.calibrate.rule import HeldOutRun, held_out_runs
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import default_workers
@@ -42,6 +43,7 @@ from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.replay import Replayer
+from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.loader import load_config
 from imrosc.schema.names import resolve_name
 
@@ -571,6 +573,23 @@ def run_entry(outcome: RunOutcome, kind: str) -> dict[str, Any]:
     return entry
 
 
+def held_out_entry(
+    entry: dict[str, Any], seen: HeldOutRun, kept: set[str], rule: AlarmRule
+) -> dict[str, Any]:
+    """A successful run that trained the invariants, as its held-out replays saw it: the
+    invariants it broke when held out, and whether the refined file's rule alarms on them
+    (alarm times are not kept: ``first_alarm`` is unknown)."""
+    alarmed = seen.alarmed(kept, rule)
+    return {
+        **entry,
+        "held_out": True,
+        "violated": len(seen.broken & kept),
+        "alarms": int(alarmed),
+        "first_alarm": None,
+        "false_alarm": alarmed,
+    }
+
+
 def detection(runs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The run-level summary of the report's ``runs``: recall over failed runs (an alarm at
     or after the onset), runs with a false alarm, detection delays."""
@@ -666,24 +685,38 @@ def run_check(
                 span = where[bag].span
                 out.diagnostics.append(_diagnostic(config_path, span, "onset-unusable", message))
         overlap = success_in_detect(project, base, found["success"])
-        if overlap:
-            shown = ", ".join(str(b) for b in overlap[:3]) + (", ..." if len(overlap) > 3 else "")
-            message = (
-                f"{len(overlap)} of {len(found['success'])} <success> bags are <detect> bags "
-                f"({shown}): false positives are 0 by construction; hold successful runs "
-                f"out of <detect> or run imrosc classify --cross-validate K"
-            )
-            out.diagnostics.append(
-                _diagnostic(config_path, check.span, "success-in-detect", message)
-            )
         report["success_in_detect"] = [str(b) for b in overlap]
         success_runs = dict(runs["success"])
+        success_broken = {b: o.violated for b, o in runs["success"].items()}
+        held: dict[Path, HeldOutRun] = {}
         if cross_validate is not None:
             report["cross_validation"], replaced, problems = cross_validated(
                 config_path, project, found["success"], cross_validate, workers
             )
             out.diagnostics += problems
             success_runs.update({b: o for b, o in replaced.items() if o.error is None})
+            success_broken.update({b: o.violated for b, o in replaced.items() if o.error is None})
+        else:
+            runs_seen = held_out_runs(document, base)
+            held = {
+                b: runs_seen[b.resolve()]
+                for b in overlap
+                if b in success_broken and b.resolve() in runs_seen
+            }
+            success_broken.update({b: set(seen.broken) for b, seen in held.items()})
+            report["held_out_scored"] = [str(b) for b in held]
+        unscored = [b for b in overlap if cross_validate is None and b not in held]
+        if unscored:
+            shown = ", ".join(str(b) for b in unscored[:3]) + (", ..." if len(unscored) > 3 else "")
+            message = (
+                f"{len(unscored)} of {len(found['success'])} <success> bags are <detect> bags "
+                f"({shown}) and the invariants file keeps no held-out replay of them: false "
+                f"positives are 0 by construction; hold successful runs out of <detect>, "
+                f"infer with calibration, or run imrosc classify --cross-validate K"
+            )
+            out.diagnostics.append(
+                _diagnostic(config_path, check.span, "success-in-detect", message)
+            )
         onset_runs = {b: o for b, o in runs["fail"].items() if o.onset is not None}
         delays: dict[str, list[float]] = {}
         for outcome in onset_runs.values():
@@ -692,7 +725,7 @@ def run_check(
                 delays.setdefault(ident, []).append(at - outcome.onset)
         scores, families = classify(
             document,
-            {b: o.violated for b, o in runs["success"].items()},
+            success_broken,
             {b: o.detected for b, o in runs["fail"].items()},
             beta=check.beta,
             threshold=check.threshold,
@@ -700,12 +733,19 @@ def run_check(
             delays=delays if onset_runs else None,
         )
         report["scores"], report["families"] = scores, families
-        report["runs"] = [run_entry(o, "success") for o in success_runs.values()]
-        report["runs"] += [run_entry(o, "fail") for o in runs["fail"].values()]
-        report["detection"] = detection(report["runs"])
         out.refined = refined(document, scores, report)
         if "alarms" in document and runs["success"]:
             out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)
+        rule = AlarmRule.from_json(out.refined.get("alarms"))
+        kept = {inv["id"] for inv in out.refined["invariants"]}
+        report["runs"] = [
+            held_out_entry(run_entry(o, "success"), held[b], kept, rule)
+            if b in held
+            else run_entry(o, "success")
+            for b, o in success_runs.items()
+        ]
+        report["runs"] += [run_entry(o, "fail") for o in runs["fail"].values()]
+        report["detection"] = detection(report["runs"])
         out.output = output or inv_path.with_name(inv_path.stem + ".refined.inv")
         report["output"] = str(out.output)
     else:

@@ -90,12 +90,36 @@ class Calibration:
         )
 
 
+def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
+    """Blocked k-fold: the units (indexes) in the order they were recorded, cut into
+    ``folds`` contiguous blocks (at least 2, at most one per unit) of sizes differing by
+    at most one. Runs recorded close together (one session, one day, neighbouring
+    segments of one run) share their conditions; holding them out together keeps a
+    held-out unit from being explained by its own neighbour.
+
+    >>> from pathlib import Path
+    >>> units = [Unit(Path(name), [], start=start) for name, start in
+    ...          [("c", 30.0), ("a", 10.0), ("b", 20.0), ("d", 40.0), ("e", 50.0)]]
+    >>> blocks(units, 2), blocks(units, 3)
+    ([[1, 2, 0], [3, 4]], [[1, 2], [0, 3], [4]])
+    """
+    order = sorted(range(len(units)), key=lambda u: (units[u].start, str(units[u].bag), u))
+    k = max(2, min(folds, len(order)))
+    size, extra = divmod(len(order), k)
+    found, at = [], 0
+    for fold in range(k):
+        width = size + (fold < extra)
+        found.append(order[at : at + width])
+        at += width
+    return [group for group in found if group]
+
+
 def calibrate(
     document: dict[str, Any],
     units: Sequence[Unit],
     budget: float = DEFAULT_BUDGET,
     *,
-    folds: int = 10,
+    folds: int = 5,
     workers: int = 1,
 ) -> Calibration:
     """Calibrate ``document`` (an invariants document, changed in place) on ``units``."""
@@ -109,8 +133,7 @@ def calibrate(
     final = envelopes.document(everyone, final=True)
     report.widened, report.dropped = envelopes.widened, envelopes.dropped
     report.unsupported = envelopes.unsupported
-    k = max(2, min(folds, len(views)))
-    groups = [[u for u in range(len(views)) if u % k == f] for f in range(k)]
+    groups = blocks(units, folds)
     held: list[tuple[Mapping[str, Any], list[int]]] = [
         (envelopes.document(everyone - set(group)), group) for group in groups if group
     ]

@@ -175,6 +175,62 @@ def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
     return rule
 
 
+def alarms_under(figures: Figures, rule: AlarmRule) -> bool:
+    """Whether a held-out unit with these :func:`covered` figures raises an alarm under
+    ``rule``.
+
+    >>> rule = AlarmRule(persist=5, seconds=1.0, distinct=3)
+    >>> [alarms_under(f, rule) for f in [(4, 0.9, 2, False), (5, 0.2, 0, False),
+    ...                                  (1, 1.0, 0, False), (1, 0.0, 3, False),
+    ...                                  (0, 0.0, 0, True)]]
+    [False, True, True, True, True]
+    """
+    persist, lasting, distinct, event = figures
+    return (
+        event
+        or persist >= rule.persist
+        or (rule.seconds is not None and lasting >= rule.seconds)
+        or (rule.distinct > 0 and distinct >= rule.distinct)
+    )
+
+
+@dataclass(frozen=True)
+class HeldOutRun:
+    """A training run as calibration's held-out replays saw it: the invariants it broke
+    when it was held out, and its units' traces (one per time segment, or one)."""
+
+    broken: frozenset[str]
+    traces: tuple[Mapping[str, Any], ...]
+
+    def alarmed(self, kept: set[str], rule: AlarmRule) -> bool:
+        """Whether any of its units raises an alarm under ``rule`` with ``kept`` only."""
+        return any(alarms_under(covered(trace, kept), rule) for trace in self.traces)
+
+
+def held_out_runs(document: Mapping[str, Any], base: Path) -> dict[Path, HeldOutRun]:
+    """Per training bag (resolved path) of a calibrated file, what its held-out replays
+    saw. A unit's bag is read as written and, when relative, also from ``base`` (the
+    folder of the configuration it was inferred from)."""
+    calibration = document.get("calibration") or {}
+    found: dict[Path, tuple[set[str], list[Mapping[str, Any]]]] = {}
+    for unit in calibration.get("held_out", ()):
+        trace = unit.get("trace")
+        if not isinstance(trace, Mapping) or not isinstance(unit.get("bag"), str):
+            continue
+        written = Path(unit["bag"])
+        places = {written.resolve()}
+        if not written.is_absolute():
+            places.add((base / written).resolve())
+        for place in places:
+            broken, traces = found.setdefault(place, (set(), []))
+            broken.update(trace)
+            traces.append(trace)
+    return {
+        place: HeldOutRun(frozenset(broken), tuple(traces))
+        for place, (broken, traces) in found.items()
+    }
+
+
 def _within(time: float, span: tuple[float, float] | None) -> bool:
     return span is None or span[0] <= time <= span[1]
 

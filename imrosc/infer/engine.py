@@ -189,6 +189,8 @@ class Unit:
     bag: Path
     invariants: list[Invariant]
     span: tuple[float, float] | None = None
+    start: float = 0.0
+    """When its recording began (bag clock, s): calibration holds out neighbours together."""
 
 
 MIN_RUNS = 4
@@ -266,7 +268,7 @@ class _Segments:
                 state.end_run()
                 invariants += finalize(state)
             span = (start + segment * width, start + (segment + 1) * width)
-            found.append(Unit(bag, invariants, span))
+            found.append(Unit(bag, invariants, span, span[0]))
         return found
 
 
@@ -307,7 +309,7 @@ def run_bag(job: BagJob) -> BagResult:
         result.units = segments.units(job.bag, finalize)
     elif job.units == 1:
         alone = [i for s in copy.deepcopy(list(states.values())) for i in finalize(s)]
-        result.units = [Unit(job.bag, alone)]
+        result.units = [Unit(job.bag, alone, start=translator.span[0])]
     return result
 
 

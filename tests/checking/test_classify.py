@@ -302,6 +302,27 @@ def test_a_bad_onsets_file_is_one_line(
     assert message in done.output and "onsets.json" in done.output
 
 
+def test_success_runs_that_trained_the_invariants_are_scored_as_held_out(tmp_path: Path) -> None:
+    config = onsets.project(tmp_path, '<fail onset="12">bags/bad</fail>', success="bags/train")
+    document = json.loads((tmp_path / "p.inv").read_text())
+    broken: dict[str, set[str]] = {}
+    for unit in document["calibration"]["held_out"]:
+        broken.setdefault(str(Path(unit["bag"]).resolve()), set()).update(unit["trace"])
+    assert any(broken.values())  # the calibration's held-out units broke something
+    done = run_check(config, workers=1)
+    assert [d.code for d in done.diagnostics] == []  # no success-in-detect: not in-sample
+    report = done.report
+    assert sorted(report["held_out_scored"]) == sorted(report["success"])
+    for score in report["scores"]:
+        assert score["fp"] - score["fp_before_onset"] == sum(
+            score["id"] in ids for ids in broken.values()
+        )
+    success = [r for r in report["runs"] if r["kind"] == "success"]
+    assert len(success) == 3 and all(r["held_out"] for r in success)
+    assert all(r["first_alarm"] is None for r in success)
+    assert report["detection"]["success_runs"] == 3
+
+
 def test_success_runs_that_trained_the_invariants_are_cross_validated(
     prepared: Path, tmp_path: Path
 ) -> None:
