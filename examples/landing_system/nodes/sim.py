@@ -1,0 +1,117 @@
+#!/usr/bin/python3
+"""``/vicon``: the world of the landing system and its motion capture, on simulated time.
+
+Steps :class:`landing_core.World` at 100 Hz of simulated time, ``~speed`` times faster than
+real time, and publishes ``/clock``, the platform's pose on ``/vicon/car`` and the UAV's on
+``/vicon/uav`` (``geometry_msgs/TransformStamped``, 100 Hz, 1 mm of noise; no ``/vicon/car``
+in the false-airport scenario: there is no vehicle). It takes the UAV's command from
+``/a/cmd_attitude`` (``geometry_msgs/Twist``: angular.x roll, angular.y pitch, linear.z
+thrust in m/s^2, linear.x > 0.5 motors on) and the platform's drive from ``/a/car_drive``
+(``std_msgs/UInt8``, a task id: 3 stops it). When the run is over (Table 5.1's criteria) it
+writes the outcome as JSON to ``~outcome`` (a file), publishes it on ``/landing/outcome``
+(latched) and exits, which ends the launch (the node is ``required``).
+"""
+
+from __future__ import annotations
+
+import json
+import random
+import time
+
+import landing_core as core
+import landing_node as node
+import rospy  # type: ignore[import-not-found]
+from geometry_msgs.msg import TransformStamped, Twist  # type: ignore[import-not-found]
+from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
+from std_msgs.msg import String, UInt8  # type: ignore[import-not-found]
+
+NOISE = 0.001
+
+
+def main() -> None:
+    rospy.init_node("vicon")
+    name, trial = node.scenario(), node.seed()
+    speed = float(rospy.get_param("~speed", 4.0))
+    outcome_file = str(rospy.get_param("~outcome", ""))
+    world = core.World(name, trial, timeout=float(rospy.get_param("/landing/timeout", 120.0)))
+    noise = random.Random(trial + 1_000_003)
+    clock = rospy.Publisher("/clock", Clock, queue_size=10)
+    car = rospy.Publisher("/vicon/car", TransformStamped, queue_size=10)
+    uav = rospy.Publisher("/vicon/uav", TransformStamped, queue_size=10)
+    result = rospy.Publisher("/landing/outcome", String, queue_size=1, latch=True)
+
+    def on_command(msg: Twist) -> None:
+        world.command = core.Command(msg.angular.x, msg.angular.y, msg.linear.z, msg.linear.x > 0.5)
+
+    def on_drive(msg: UInt8) -> None:
+        if msg.data == core.TASK_STOP:
+            world.stop_platform()
+
+    rospy.Subscriber("/a/cmd_attitude", Twist, on_command, queue_size=1)
+    rospy.Subscriber("/a/car_drive", UInt8, on_drive, queue_size=10)
+    time.sleep(1.0)  # let the other nodes subscribe to /clock before time starts
+    start = time.monotonic()
+    step = 0
+    outcome = None
+    while not rospy.is_shutdown() and outcome is None:
+        step += 1
+        outcome = world.step()
+        stamp = rospy.Time.from_sec(world.t)
+        clock.publish(Clock(clock=stamp))
+        p, u = world.platform, world.uav
+        if p.present:
+            car.publish(
+                node.transform(
+                    "world",
+                    "car",
+                    stamp,
+                    (
+                        p.x + noise.gauss(0, NOISE),
+                        p.y + noise.gauss(0, NOISE),
+                        core.PLATFORM_TOP,
+                        p.roll,
+                        p.pitch,
+                        p.heading,
+                    ),
+                )
+            )
+        uav.publish(
+            node.transform(
+                "world",
+                "uav",
+                stamp,
+                (
+                    u.x + noise.gauss(0, NOISE),
+                    u.y + noise.gauss(0, NOISE),
+                    u.z + noise.gauss(0, NOISE),
+                    u.roll,
+                    u.pitch,
+                    0.0,
+                ),
+            )
+        )
+        ahead = start + step * core.DT / speed - time.monotonic()
+        if ahead > 0:
+            time.sleep(ahead)
+    referee = world.referee
+    report = {
+        "scenario": name,
+        "seed": trial,
+        "outcome": referee.outcome,
+        "success": referee.success,
+        "detail": referee.detail,
+        "time": round(world.t, 2),
+        "reinitiated": referee.landings,
+        "wall": round(time.monotonic() - start, 2),
+    }
+    text = json.dumps(report)
+    result.publish(String(text))
+    if outcome_file:
+        with open(outcome_file, "w", encoding="utf-8") as out:
+            out.write(text + "\n")
+    rospy.loginfo("landing outcome: %s", text)
+    time.sleep(0.5)
+
+
+if __name__ == "__main__":
+    main()

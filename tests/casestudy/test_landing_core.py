@@ -1,0 +1,78 @@
+"""The landing system's physics, controller and referee, without ROS (offline trials)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+
+from tests.casestudy.core import landing_core
+
+L: Any = landing_core
+
+
+def test_a_normal_run_takes_off_pursues_and_lands_on_the_platform() -> None:
+    referee = L.offline_trial("normal", 0)
+    assert referee.outcome == "landed" and referee.success
+    assert referee.detail == "motors off on the platform for 5 s"
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_an_occupied_platform_is_landed_on_without_a_monitor(seed: int) -> None:
+    referee = L.offline_trial("occupied", seed)
+    assert not referee.success  # success is not landing
+    assert referee.outcome in ("landed_elsewhere", "crashed")
+
+
+def test_a_false_airport_lands_the_uav_on_the_floor() -> None:
+    referee = L.offline_trial("false_airport", 0)
+    assert referee.outcome == "landed_elsewhere" and "floor" in referee.detail
+    assert not referee.success
+
+
+def test_a_fragile_platform_tips_when_landed_off_its_safe_quadrant() -> None:
+    outcomes = [L.offline_trial("fragile", seed) for seed in range(6)]
+    assert any(r.outcome == "crashed" and "tipping platform" in r.detail for r in outcomes)
+    assert any(r.outcome == "landed" for r in outcomes)  # its safe quadrant holds
+
+
+def test_the_platform_turns_in_place_at_the_walls() -> None:
+    import random
+
+    platform = L.Platform(random.Random(1), x=L.PLATFORM_LIMIT - 0.001, y=0.0, heading=0.0)
+    platform.until_turn = 1e9
+    platform.step(L.DT)
+    assert platform.target is not None  # at the wall: it turns, it does not drive on
+    assert abs(L.wrap(platform.target - math.atan2(0.0, -platform.x))) <= 1.0 + 1e-9
+    x = platform.x
+    for _ in range(400):
+        platform.step(L.DT)
+    assert abs(platform.x) <= L.PLATFORM_LIMIT and platform.x < x
+
+
+def test_touching_down_fast_or_sliding_is_a_crash() -> None:
+    import random
+
+    platform = L.Platform(random.Random(0), x=3.0, y=3.0, present=False)
+    fast = L.Uav(x=0.0, y=0.0, z=0.3, vz=-2.0, resting=None)
+    fast.step(L.DT, L.Command(), (0.0, 0.0), platform, False)
+    for _ in range(50):
+        fast.step(L.DT, L.Command(), (0.0, 0.0), platform, False)
+    assert fast.broken is not None and "crashed onto the floor" in fast.broken
+    sliding = L.Uav(x=0.0, y=0.0, z=L.UAV_REST + 0.001, vx=0.6, vz=-0.1, resting=None)
+    sliding.step(L.DT, L.Command(), (0.0, 0.0), platform, False)
+    assert sliding.broken is not None and "sliding" in sliding.broken
+
+
+def test_the_referee_scores_avoid_landing_scenarios_by_not_landing() -> None:
+    referee = L.Referee("occupied", timeout=10.0)
+    referee.outcome = "timeout"
+    assert referee.success
+    referee.outcome = "landed"
+    assert not referee.success
+
+
+def test_an_unknown_scenario_is_refused() -> None:
+    with pytest.raises(ValueError, match="unknown scenario 'storm'"):
+        L.World("storm", 0)

@@ -1,0 +1,105 @@
+"""Trials of the closed-loop landing system (``examples/landing_system``) on a live graph.
+
+:func:`prepare` makes a :class:`~tests.live.harness.Ros` able to start it: the package's
+service types generated with genpy (Debian's ``/usr/lib/genpy/gensrv_py.py``) into a folder
+on ``PYTHONPATH``, and ``examples/`` on ``ROS_PACKAGE_PATH``. :func:`trial` runs one
+scenario and seed through a launch file (the system's own, or the copy ``imrosc build``
+rewrote to put the monitor in) and returns the outcome ``/vicon`` wrote.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from tests.live.harness import ROS_PYTHON, Ros
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "examples"
+PACKAGE = EXAMPLES / "landing_system"
+LAUNCH = EXAMPLES / "launch" / "landing.launch"
+GENSRV = Path("/usr/lib/genpy/gensrv_py.py")
+
+
+def generate_services(out: Path) -> Path:
+    """The package's service types as Python (``out/landing_system/srv``); returns ``out``."""
+    target = out / "landing_system" / "srv"
+    target.mkdir(parents=True, exist_ok=True)
+    for srv in sorted((PACKAGE / "srv").glob("*.srv")):
+        command = [str(ROS_PYTHON), str(GENSRV), "-p", "landing_system", "-o", str(target)]
+        subprocess.run([*command, str(srv)], check=True, capture_output=True)
+    command = [str(ROS_PYTHON), str(GENSRV), "--initpy", "-p", "landing_system"]
+    subprocess.run([*command, "-o", str(target)], check=True, capture_output=True)
+    (target.parent / "__init__.py").write_text("")
+    return out
+
+
+def prepare(ros: Ros) -> None:
+    """Let ``ros`` start the landing system (before its first process that needs it)."""
+    generated = generate_services(ros.home / "generated")
+    ros.env["PYTHONPATH"] = str(generated)
+    ros.add_package_path(EXAMPLES)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a trial ended, as ``/vicon`` decided it (``sim.py``), and its wall time."""
+
+    scenario: str
+    seed: int
+    outcome: str
+    success: bool
+    detail: str
+    time: float
+    reinitiated: int
+    wall: float
+
+    @classmethod
+    def of(cls, data: dict[str, Any], wall: float) -> Outcome:
+        return cls(
+            str(data["scenario"]),
+            int(data["seed"]),
+            str(data["outcome"]),
+            bool(data["success"]),
+            str(data["detail"]),
+            float(data["time"]),
+            int(data["reinitiated"]),
+            wall,
+        )
+
+
+def trial(
+    ros: Ros,
+    scenario: str,
+    seed: int,
+    *,
+    launch: Path = LAUNCH,
+    speed: float = 3.0,
+    timeout: float = 90.0,
+    **args: str,
+) -> Outcome:
+    """Run one trial to its end; raises ``RuntimeError`` (with the launch's log) when the
+    system ends without an outcome or overruns its simulated ``timeout`` by far."""
+    out = ros.home / f"outcome-{scenario}-{seed}-{time.monotonic_ns()}.json"
+    started = time.monotonic()
+    proc = ros.launch(
+        launch,
+        scenario=scenario,
+        seed=str(seed),
+        speed=str(speed),
+        timeout=str(timeout),
+        outcome=str(out),
+        **args,
+    )
+    limit = started + 30.0 + 3.0 * timeout / speed
+    while proc.alive and time.monotonic() < limit:
+        time.sleep(0.2)
+    if proc.alive:
+        ros.stop(proc)
+    if not out.exists():
+        raise RuntimeError(f"the {scenario} trial (seed {seed}) gave no outcome:\n{proc.tail()}")
+    return Outcome.of(json.loads(out.read_text()), round(time.monotonic() - started, 2))
