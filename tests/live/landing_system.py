@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tests.casestudy.core import landing_core
 from tests.live.harness import ROS_PYTHON, Ros
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -23,6 +24,8 @@ EXAMPLES = ROOT / "examples"
 PACKAGE = EXAMPLES / "landing_system"
 LAUNCH = EXAMPLES / "launch" / "landing.launch"
 GENSRV = Path("/usr/lib/genpy/gensrv_py.py")
+SCENARIOS: tuple[str, ...] = landing_core.SCENARIOS  # type: ignore[attr-defined]
+"""Table 5.1's scenarios, s1 to s7."""
 
 
 def generate_services(out: Path) -> Path:

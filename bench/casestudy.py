@@ -1,0 +1,325 @@
+"""The thesis' case study 1 in closed loop (Table 5.2): the landing system with and without
+its generated monitor.
+
+    python bench/casestudy.py [--trials 10] [--scenarios normal,wind,...] [--nominal 20]
+                              [--speed 3] [--timeout 120] [--keep DIR]
+
+The pipeline, as a user runs it, on the live ROS 1 system of ``examples/landing_system``
+(real roscore on a free port, rospy nodes on simulated time, ``--speed`` times faster than
+real time; ``tests/live/landing_system.py`` starts it):
+
+1. ``imrosc record`` of ``--nominal`` runs of the normal scenario (seeds 1000, 1001, ...),
+   each through the ``--launch`` copy it writes (the servers remapped so it can relay their
+   calls). Runs that landed are kept as training runs (``bags/nominal``) but for every
+   fifth, kept out as ``<success>`` runs (``bags/success``); runs that failed are
+   ``<fail>`` runs (``bags/fail``, scored whole), as are those of ``--fail-runs`` recorded
+   runs of each fault scenario (seeds 2000, ...) that failed;
+2. ``imrosc infer``, then ``imrosc classify`` (which writes ``landing.refined.inv``) on a
+   copy of ``examples/uav_landing.xml`` whose ``<check>`` lists those folders and whose
+   ``<monitor>`` checks the refined file (scope, detect and monitor otherwise unchanged);
+3. ``imrosc build --backend ros1`` with ``examples/uav_landing.graph.yaml``;
+4. per scenario, ``--trials`` trials (seeds 0, 1, ...) through the system's launch file
+   (without the monitor) and through the ``system_monitored.launch`` the build rewrote
+   (with it: blocking, and commanding the task state when an invariant breaks).
+
+Printed: Table 5.2's layout per scenario (success %, average time to land of the successes,
+landings re-initiated, and the invariants whose alarms the monitor raised most often over
+its trials), then the overall success with and without, and the last line
+``overall success: with monitor X %, without Y %``. Targets (issue 19): with >= 90 %,
+without <= 30 %, normal with >= normal without, every scenario with >= the thesis' row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tests.live.harness import Ros, ros_missing  # noqa: E402
+from tests.live.landing_system import (  # noqa: E402
+    EXAMPLES,
+    LAUNCH,
+    SCENARIOS,
+    Outcome,
+    prepare,
+    trial,
+)
+
+CONFIG = EXAMPLES / "uav_landing.xml"
+GRAPH = EXAMPLES / "uav_landing.graph.yaml"
+THESIS = {
+    "normal": (35, 95),
+    "wind": (0, 100),
+    "occupied": (0, 100),
+    "fragile": (20, 80),
+    "slowed": (20, 80),
+    "stealing": (20, 80),
+    "false_airport": (0, 100),
+}
+"""Table 5.2: success % without and with the monitor."""
+NOMINAL_SEED, FAIL_SEED = 1000, 2000
+ALARM = re.compile(r"imrosc: alarm[^:]*: (\S+) broken at ([^:]+): (.*)$")
+
+
+def imrosc(*args: str, cwd: Path, env: dict[str, str] | None = None) -> str:
+    """Run an imrosc command as a user does; exit with its output when it fails."""
+    done = subprocess.run(
+        [sys.executable, "-m", "imrosc", *args],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if done.returncode not in (0, 3):  # 3: replay-style findings, not an error
+        sys.exit(f"imrosc {' '.join(args)} failed ({done.returncode}):\n{done.stdout}{done.stderr}")
+    return done.stdout + done.stderr
+
+
+def configuration(work: Path) -> Path:
+    """``uav_landing.xml`` with its ``<check>`` on the bench's folders and its monitor on the
+    refined invariants; the launch file and graph beside it."""
+    text = CONFIG.read_text(encoding="utf-8")
+    check = re.search(r"  <check .*?</check>\n", text, re.S)
+    assert check is not None, "uav_landing.xml has no <check>"
+    text = text.replace(
+        check.group(0),
+        '  <check inv="landing.inv" threshold="0.6" beta="0.5">\n'
+        "    <success>bags/success</success>\n"
+        "    <fail>bags/fail</fail>\n"
+        "  </check>\n",
+    )
+    text = text.replace(
+        '<monitor launch="launch/landing.launch" inv="landing.inv"',
+        '<monitor launch="launch/landing.launch" inv="landing.refined.inv"',
+    )
+    config = work / "uav_landing.xml"
+    config.write_text(text, encoding="utf-8")
+    shutil.copy(GRAPH, work / GRAPH.name)
+    (work / "launch").mkdir(exist_ok=True)
+    shutil.copy(LAUNCH, work / "launch" / LAUNCH.name)
+    return config
+
+
+def record(
+    ros: Ros,
+    work: Path,
+    config: Path,
+    scenario: str,
+    seed: int,
+    folder: str,
+    speed: float,
+    timeout: float,
+) -> Outcome:
+    """One recorded run: ``imrosc record`` started, the system launched through its
+    ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over."""
+    env = {**os.environ, **ros.env}
+    name = f"{scenario}_{seed}"
+    command = [
+        sys.executable,
+        "-m",
+        "imrosc",
+        "record",
+        config.name,
+        "-o",
+        "bags/recording",
+        "--name",
+        name,
+        "--graph",
+        GRAPH.name,
+        "--launch",
+        "launch/landing.launch",
+        "--force",
+        "--period",
+        "0.5",
+    ]
+    log = work / "logs" / f"record_{name}.log"
+    log.parent.mkdir(exist_ok=True)
+    with log.open("w") as out:
+        recorder = subprocess.Popen(
+            command, cwd=work, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
+        )
+    try:
+        deadline = time.monotonic() + 60
+        while not (work / "launch" / "landing.record.launch").exists():
+            if recorder.poll() is not None or time.monotonic() > deadline:
+                sys.exit(f"imrosc record did not start:\n{log.read_text()}")
+            time.sleep(0.2)
+        time.sleep(3.0)  # rosbag subscribes, the recording node relays
+        outcome = trial(
+            ros,
+            scenario,
+            seed,
+            launch=work / "launch" / "landing.record.launch",
+            speed=speed,
+            timeout=timeout,
+        )
+    finally:
+        recorder.send_signal(signal.SIGINT)
+        recorder.wait(120)
+    bag = work / "bags" / "recording" / f"{name}.bag"
+    target = work / "bags" / folder
+    target.mkdir(parents=True, exist_ok=True)
+    shutil.move(str(bag), target / bag.name)
+    return outcome
+
+
+@dataclass
+class Row:
+    """A scenario's trials under one system."""
+
+    outcomes: list[Outcome]
+
+    @property
+    def success(self) -> float:
+        return 100.0 * sum(o.success for o in self.outcomes) / max(len(self.outcomes), 1)
+
+    @property
+    def time_to_land(self) -> float | None:
+        landed = [o.time for o in self.outcomes if o.success and o.outcome == "landed"]
+        return sum(landed) / len(landed) if landed else None
+
+    @property
+    def reinitiated(self) -> float:
+        return sum(o.reinitiated for o in self.outcomes) / max(len(self.outcomes), 1)
+
+
+def alarms(ros: Ros) -> collections.Counter[str]:
+    """The invariants the monitor alarmed on, from its log (``rosout``), by text."""
+    found: collections.Counter[str] = collections.Counter()
+    for log in (ros.home / "ros_log").rglob("*monitor*.log"):
+        for line in log.read_text(errors="replace").splitlines():
+            match = ALARM.search(line)
+            if match:
+                found[f"{match.group(2)}: {match.group(3)[:90]}"] += 1
+    return found
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--trials", type=int, default=10)
+    parser.add_argument("--scenarios", default=",".join(SCENARIOS))
+    parser.add_argument("--nominal", type=int, default=20, help="recorded normal runs")
+    parser.add_argument("--fail-runs", type=int, default=1, help="recorded runs per fault")
+    parser.add_argument("--speed", type=float, default=3.0, help="times real time")
+    parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
+    parser.add_argument("--keep", type=Path, help="work in this folder and keep it")
+    args = parser.parse_args(argv)
+    scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()]
+    unknown = [s for s in scenarios if s not in SCENARIOS]
+    if unknown:
+        parser.error(f"unknown scenario(s) {', '.join(unknown)}; from {', '.join(SCENARIOS)}")
+    missing = ros_missing()
+    if missing:
+        sys.exit(f"the case study needs ROS 1 here: {missing}")
+    work = args.keep or Path(tempfile.mkdtemp(prefix="imrosc-casestudy-"))
+    work.mkdir(parents=True, exist_ok=True)
+    started = time.monotonic()
+    config = configuration(work)
+    ros = Ros(work / "ros")
+    prepare(ros)
+    ros.start()
+    try:
+        print(
+            f"== recording {args.nominal} normal runs and {args.fail_runs} of each fault "
+            f"(speed {args.speed:g}x) ==",
+            flush=True,
+        )
+        for k in range(args.nominal):
+            seed = NOMINAL_SEED + k
+            outcome = record(ros, work, config, "normal", seed, "pending", args.speed, args.timeout)
+            folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
+            bag = work / "bags" / "pending" / f"normal_{seed}.bag"
+            (work / "bags" / folder).mkdir(parents=True, exist_ok=True)
+            shutil.move(str(bag), work / "bags" / folder / bag.name)
+            print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
+        for scenario in SCENARIOS[1:]:
+            for k in range(args.fail_runs):
+                seed = FAIL_SEED + k
+                outcome = record(
+                    ros, work, config, scenario, seed, "pending", args.speed, args.timeout
+                )
+                bag = work / "bags" / "pending" / f"{scenario}_{seed}.bag"
+                if outcome.success:  # the fault did no harm: neither nominal nor failed
+                    bag.unlink()
+                    print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
+                    continue
+                (work / "bags" / "fail").mkdir(parents=True, exist_ok=True)
+                shutil.move(str(bag), work / "bags" / "fail" / bag.name)
+                print(f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail", flush=True)
+        print("== imrosc infer, classify, build ==", flush=True)
+        print(imrosc("infer", config.name, "-j", "2", cwd=work).strip(), flush=True)
+        print(imrosc("classify", config.name, "-j", "2", cwd=work).strip()[-1500:], flush=True)
+        imrosc("build", config.name, "--backend", "ros1", "--graph", GRAPH.name, cwd=work)
+        build = next((work / "build").glob("*-ros1"))
+        monitored = next(build.glob("*/launch/system_monitored.launch"))
+        ros.add_package_path(build)
+        rows: dict[tuple[str, bool], Row] = {}
+        print(f"== {args.trials} trials per scenario, without and with the monitor ==", flush=True)
+        for scenario in scenarios:
+            for monitor in (False, True):
+                outcomes = []
+                for seed in range(args.trials):
+                    launch = monitored if monitor else work / "launch" / LAUNCH.name
+                    outcome = trial(
+                        ros, scenario, seed, launch=launch, speed=args.speed, timeout=args.timeout
+                    )
+                    outcomes.append(outcome)
+                    print(
+                        f"  {scenario:13s} {'with' if monitor else 'without':7s} seed {seed}: "
+                        f"{outcome.outcome} ({outcome.detail}), {outcome.time:.1f} s",
+                        flush=True,
+                    )
+                rows[(scenario, monitor)] = Row(outcomes)
+        report(rows, scenarios, alarms(ros))
+    finally:
+        ros.shutdown()
+        if args.keep is None:
+            shutil.rmtree(work, ignore_errors=True)
+    print(f"({time.monotonic() - started:.0f} s)")
+
+
+def report(
+    rows: dict[tuple[str, bool], Row], scenarios: Sequence[str], broken: collections.Counter[str]
+) -> None:
+    def cell(value: float | None, digits: int = 1) -> str:
+        return "-" if value is None else f"{value:.{digits}f}"
+
+    print("\nTable 5.2 (thesis figures in brackets)")
+    print(
+        f"  {'scenario':14s} {'without %':>14s} {'time s':>7s} | {'with %':>12s} "
+        f"{'time s':>7s} {'re-init':>7s}"
+    )
+    for scenario in scenarios:
+        off, on = rows[(scenario, False)], rows[(scenario, True)]
+        was_off, was_on = THESIS[scenario]
+        print(
+            f"  {scenario:14s} {off.success:6.0f} [{was_off:3d}]  {cell(off.time_to_land):>7s}"
+            f" | {on.success:4.0f} [{was_on:3d}] {cell(on.time_to_land):>7s} "
+            f"{on.reinitiated:7.1f}"
+        )
+    print("invariants the monitor alarmed on most often:")
+    for text, count in broken.most_common(8):
+        print(f"  {count:5d}x {text}")
+    total_off = [o for s in scenarios for o in rows[(s, False)].outcomes]
+    total_on = [o for s in scenarios for o in rows[(s, True)].outcomes]
+    with_ = 100.0 * sum(o.success for o in total_on) / max(len(total_on), 1)
+    without = 100.0 * sum(o.success for o in total_off) / max(len(total_off), 1)
+    print(f"overall success: with monitor {with_:.1f} %, without {without:.1f} %")
+
+
+if __name__ == "__main__":
+    main()
