@@ -1,0 +1,51 @@
+"""bench/casestudy.py's own parts: the configuration it derives from the example, and the
+table it prints (the trials themselves need the live graph: ``tests/live``)."""
+
+from __future__ import annotations
+
+import collections
+from pathlib import Path
+
+import pytest
+
+from bench import casestudy as c
+from imrosc.classify import load_project
+from tests.live.landing_system import LAUNCH, Outcome
+
+
+def test_the_configuration_is_the_example_with_the_benchs_folders(tmp_path: Path) -> None:
+    config = c.configuration(tmp_path)
+    project, problems = load_project(config)
+    assert project is not None and not [p for p in problems if p.severity.value == "error"]
+    assert project.check is not None
+    assert (project.check.success, project.check.fail) == (("bags/success",), ("bags/fail",))
+    assert project.check.onsets[0].seconds is None  # scored whole
+    assert project.monitor is not None and project.monitor.inv == "landing.refined.inv"
+
+    def outside_check(text: str) -> str:
+        return text[: text.index("  <check ")] + text[text.index("</check>") :]
+
+    derived = config.read_text().replace('inv="landing.refined.inv"', 'inv="landing.inv"')
+    assert outside_check(derived) == outside_check(c.CONFIG.read_text())  # scope, detect, monitor
+    assert (tmp_path / "launch" / "landing.launch").read_text() == LAUNCH.read_text()
+
+
+def _outcome(scenario: str, outcome: str, success: bool, time: float = 30.0) -> Outcome:
+    return Outcome(scenario, 0, outcome, success, "", time, 1, 10.0)
+
+
+def test_the_table_ends_with_the_overall_line(capsys: pytest.CaptureFixture[str]) -> None:
+    rows = {
+        ("normal", False): c.Row(
+            [_outcome("normal", "landed", True), _outcome("normal", "crashed", False)]
+        ),
+        ("normal", True): c.Row([_outcome("normal", "landed", True)] * 2),
+        ("occupied", False): c.Row([_outcome("occupied", "landed_elsewhere", False)] * 2),
+        ("occupied", True): c.Row([_outcome("occupied", "timeout", True, 120.0)] * 2),
+    }
+    c.report(rows, ["normal", "occupied"], collections.Counter({"a?1: z <= 1": 3}))
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[-1] == "overall success: with monitor 100.0 %, without 25.0 %"
+    normal = next(line for line in lines if line.strip().startswith("normal"))
+    assert "50 [ 35]" in normal and "100 [ 95]" in normal and "30.0" in normal
+    assert any("3x a?1: z <= 1" in line for line in lines)
