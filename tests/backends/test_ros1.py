@@ -1054,3 +1054,20 @@ def test_the_adapter_keeps_python_3_8_syntax() -> None:
         timeout=120,
     )
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_guard_stops_checking_at_the_first_exception_and_reports_it() -> None:
+    from imrosc.monitor_ros1 import logic
+
+    stopped: list[tuple[str, str]] = []
+    guard = logic.Guard(lambda where, error: stopped.append((where, repr(error))))
+    assert guard.run("message on /a", lambda x: x + 1, 1) == 2
+    node: dict[str, str] = {}
+    assert guard.run("message on /a", lambda: node["op"]) is None
+    assert guard.run("the timer", lambda: 1) is None  # stopped: nothing runs any more
+    assert stopped == [("message on /a", "KeyError('op')")]
+    assert guard.failure == "message on /a: KeyError: 'op'"
+    report = json.loads(logic.failure_json("message on /a", KeyError("op"), 12.5))
+    assert report["kind"] == "failure" and report["alarm"] and report["rule"] == "failure"
+    assert report["error"] == {"where": "message on /a", "type": "KeyError", "message": "'op'"}
+    assert "stops checking" in logic.failure_text("tick", ValueError("x"))
