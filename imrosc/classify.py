@@ -31,8 +31,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from imrosc import __version__
-from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
@@ -41,6 +39,7 @@ from imrosc.infer.registry import group_of
 from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
+from imrosc.outputs import INVARIANTS, REPORT, mark
 from imrosc.replay import Replayer
 from imrosc.schema.loader import load_config
 from imrosc.schema.names import resolve_name
@@ -434,7 +433,7 @@ def refined(
     by_id = {s["id"]: s for s in scores}
     out = dict(document)
     out["$comment"] = (
-        f"{GENERATED_MARK} {__version__} (imrosc classify) from {report['config']}, "
+        f"{mark(INVARIANTS)} (imrosc classify) from {report['config']}, "
         f"refining {report['invariants']}"
     )
     out["invariants"] = [
@@ -484,6 +483,8 @@ class CheckResult:
     refined: dict[str, Any] | None = None
     output: Path | None = None
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    inputs: list[Path] = field(default_factory=list)
+    """The files the stage read: the invariants file and the bags (no output may be one)."""
 
 
 def group_counts(document: Mapping[str, Any]) -> dict[str, int]:
@@ -622,7 +623,7 @@ def run_check(
     inv_path = inv or base / check.inv
     document = read_invariants(inv_path)
     report: dict[str, Any] = {
-        "$comment": f"{GENERATED_MARK} {__version__} (imrosc classify)",
+        "$comment": f"{mark(REPORT)} (imrosc classify)",
         "format": "imrosc-classify",
         "version": 1,
         "config": str(config_path),
@@ -651,6 +652,7 @@ def run_check(
         fail_onsets(config_path, check, per_entry) if check.mode == "classify" else ({}, {})
     )
     everything = [b for bags in found.values() for b in bags]
+    out.inputs = [inv_path, *everything]
     observed = observe_runs(document, everything, workers, specs)
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
