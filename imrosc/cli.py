@@ -18,7 +18,7 @@ from imrosc import __version__
 from imrosc.check import check_files
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
-from imrosc.outputs import REPORT, OutputRefusedError, mark
+from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 """0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
@@ -111,6 +111,12 @@ def check(configs: tuple[Path, ...], output_format: str, strict: bool) -> None:
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
 
 
+def _stopped(diagnostics: list[Diagnostic]) -> int:
+    """The exit status of a command its inputs stopped: 2 when a file could not be read
+    (an input error, as ``check`` says), else 1 (errors in the configuration)."""
+    return EXIT_USAGE if any(d.code == "io-error" for d in diagnostics) else EXIT_ERRORS
+
+
 def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
     """Diagnostics of a stage other than check go to stderr, in the chosen format."""
     if diagnostics:
@@ -174,7 +180,9 @@ def build(
         return
     out = output or Path("build") / f"{folder_name(result.project.name)}-{backend}"
     try:
-        written = write_files(out, result.files, force=force, inputs=(config, *graph_files))
+        written = write_files(
+            out, result.files, force=force, kind=BUILD, inputs=(config, *graph_files, *bags)
+        )
     except OutputRefusedError as refused:
         fail("build", str(refused), EXIT_USAGE)
     for path in written:
@@ -276,7 +284,7 @@ def infer(
         bar.close()
     _report(result.diagnostics, "text")
     if result.document is None or result.output is None:
-        sys.exit(EXIT_ERRORS)
+        sys.exit(_stopped(result.diagnostics))
     written = output or result.output
     try:
         write_files(
@@ -330,7 +338,7 @@ def export_daikon(
     prepared, diagnostics = prepare(config, graph_files=graph_files, bags=list(bags) or None)
     _report(diagnostics, "text")
     if prepared is None:
-        sys.exit(EXIT_ERRORS)
+        sys.exit(_stopped(diagnostics))
     catalog = prepared.catalog
     try:
         paths = targets(output, catalog.bags, force=force, inputs=(config, *catalog.bags))
@@ -546,7 +554,7 @@ def classify(
         fail("classify", str(error), EXIT_USAGE)
     _report(result.diagnostics, "text")
     if not result.report:
-        sys.exit(EXIT_ERRORS)
+        sys.exit(_stopped(result.diagnostics))
     inputs = (config, *result.inputs)
     refined_path = result.output if result.refined is not None else None
     same = refined_path is not None and report_path is not None
@@ -605,7 +613,7 @@ def stability(
         fail("stability", str(error), EXIT_USAGE)
     _report(problems, "text")
     if report is None:
-        sys.exit(EXIT_ERRORS)
+        sys.exit(_stopped(problems))
     _emit("stability", report, output_format, report_path, force, (config, *bags))
     sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)
 

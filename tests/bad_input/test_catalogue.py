@@ -480,3 +480,38 @@ def test_a_failed_write_leaves_no_temporary_file(tmp_path: Path) -> None:
     with pytest.raises(OSError, match=r"x\.inv"):
         outputs.write_atomic(target, broken)
     assert target.read_bytes() == b"old" and os.listdir(tmp_path) == ["x.inv"]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("check",),
+        ("build",),
+        ("infer", "-q"),
+        ("export-daikon", "-o", "out"),
+        ("classify",),
+        ("stability",),
+    ],
+    ids=lambda args: args[0],
+)
+def test_a_missing_configuration_is_an_input_error_everywhere(
+    args: tuple[str, ...], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, [args[0], str(tmp_path / "missing.xml"), *args[1:]])
+    assert result.exit_code == USAGE, result.output
+    assert "missing.xml:1:1: error: cannot read file" in result.output
+    assert "Traceback" not in result.output and not list(tmp_path.iterdir())
+
+
+def test_build_refuses_to_overwrite_another_kind_of_imrosc_file(project: Path) -> None:
+    out = project / "build"
+    out.mkdir()
+    shutil.copyfile(project / "p.inv", out / "plan.json")
+    before = snapshot(project)
+    result = CliRunner().invoke(main, ["build", str(project / "p.xml"), "-o", str(out)])
+    assert result.exit_code == USAGE
+    assert "plan.json: is an imrosc invariants file, not a build file; use --force" in (
+        result.stderr
+    )
+    assert snapshot(project) == before
