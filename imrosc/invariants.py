@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from imrosc.backends.families import DAIKON, TIME
 from imrosc.infer.core import Invariant, Variable
 from imrosc.outputs import INVARIANTS, mark
 
@@ -198,6 +199,9 @@ def _walk(value: Any, where: str, depth: int) -> str | None:
     return None
 
 
+KNOWN_FAMILIES = frozenset((*DAIKON, *TIME, "polygon", "architecture", "interval", "pattern"))
+"""Every family inference writes and the runtime engine checks."""
+
 _TOP = {"topics": dict, "points": dict, "invariants": list}
 _POINT = {"kind": str, "variables": list}
 _INVARIANT = {
@@ -253,6 +257,8 @@ def validate(data: Any, path: Path) -> None:
         problem = _fields(invariant, _INVARIANT, where)
         if not problem and invariant["point"] not in data["points"]:
             problem = f"{where}.point: no point {invariant['point']!r} in 'points'"
+        if not problem and invariant["family"] not in KNOWN_FAMILIES:
+            problem = f"{where}.family: unknown family {invariant['family']!r}"
         if problem:
             break
     if problem:

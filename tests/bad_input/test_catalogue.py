@@ -154,6 +154,10 @@ def _unknown_point(document: dict[str, Any]) -> None:
     _first(document)["point"] = "zz"
 
 
+def _unknown_family(document: dict[str, Any]) -> None:
+    _first(document)["family"] = "boundz"
+
+
 def _bad_variables(document: dict[str, Any]) -> None:
     document["points"]["a"]["variables"] = "out.data"
 
@@ -381,6 +385,7 @@ MALFORMED: dict[str, tuple[Callable[[Path], None], str]] = {
         "$.points.a.variables: not an array",
     ),
     "an unknown point": (edited_inv("bad.inv", _unknown_point), "no point 'zz' in 'points'"),
+    "an unknown family": (edited_inv("bad.inv", _unknown_family), "unknown family 'boundz'"),
     "a huge number": (edited_inv("bad.inv", _huge_bound), ".params.min: number too large"),
     "a huge integer literal": (raw_inv("bad.inv", _huge_int), "not JSON: Exceeds the limit"),
     "deeply nested JSON": (raw_inv("bad.inv", _nested), "nested too deeply"),
