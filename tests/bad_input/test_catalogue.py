@@ -185,14 +185,6 @@ def _no_space(monkeypatch: pytest.MonkeyPatch) -> None:
             return getattr(self.stream, name)
 
     monkeypatch.setattr(os, "fdopen", lambda *a, **k: Full(real(*a, **k)))
-    real_write_text = Path.write_text
-
-    def write_text(self: Path, *args: Any, **kwargs: Any) -> int:
-        if self.name == "MADE_BY_IMROSC_DEMO" or "demo" in str(self):
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(self))
-        return real_write_text(self, *args, **kwargs)
-
-    monkeypatch.setattr(Path, "write_text", write_text)
 
 
 def _denied(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -335,7 +327,11 @@ CASES: dict[str, Case] = {
         ("daikon/imrosc.decls",),
     ),
     "demo on a full disk": Case(
-        ("demo", "-o", "{d}/demo"), ENVIRONMENT, "No space left on device", None, _no_space
+        ("demo", "-o", "{d}/demo"),
+        ENVIRONMENT,
+        ".imrosc-demo: No space left on device",
+        None,
+        _no_space,
     ),
     # -- permission denied ----------------------------------------------------------------
     "infer where writing is denied": Case(INFER, ENVIRONMENT, ": Permission denied", None, _denied),

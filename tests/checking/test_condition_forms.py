@@ -6,10 +6,15 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
+from xml.sax.saxutils import escape
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
+from imrosc.check import check_file
 from imrosc.detect import run_detect
+from imrosc.diagnostics import has_errors
 from imrosc.replay import replay
 from tests.translate import Msg, msg, write_bag
 
@@ -67,3 +72,35 @@ def test_a_topic_operand_condition_catches_a_fault_while_it_holds(tmp_path: Path
     (result,) = replay(document, [tmp_path / "faulty.bag"])
     points = {v.point for v in result.violations}
     assert "a?1" in points, points  # the conditional point, checked while state is 4
+
+
+# -- every condition check accepts goes through infer and replay ------------------------------
+
+_OPERANDS = st.sampled_from(["state", "data", "/a/state", "1", "0.5", "true", '"x"', "-2"])
+
+
+def _expressions(children: st.SearchStrategy[str]) -> st.SearchStrategy[str]:
+    binary = st.tuples(
+        children,
+        st.sampled_from(["+", "-", "*", "/", "%", "==", "!=", "<", ">=", "and", "or"]),
+        children,
+    ).map(lambda t: f"({t[0]} {t[1]} {t[2]})")
+    unary = st.tuples(st.sampled_from(["not ", "-"]), children).map("".join)
+    return st.one_of(binary, unary)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.recursive(_OPERANDS, _expressions, max_leaves=5))
+def test_a_condition_check_accepts_never_crashes_infer_or_replay(
+    tmp_path_factory: pytest.TempPathFactory, value: str
+) -> None:
+    folder = tmp_path_factory.mktemp("fuzz")
+    write_bag(folder / "train.bag", run(5.0))
+    config = folder / "c.xml"
+    config.write_text(CONFIG.replace("VALUE", escape(value)))
+    if has_errors(check_file(config)):
+        return  # check refuses it: nothing later sees it
+    result = run_detect(config, workers=1)
+    assert result.document is not None, [d.as_text() for d in result.diagnostics]
+    (replayed,) = replay(result.document, [folder / "train.bag"])
+    assert replayed.error is None
