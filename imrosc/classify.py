@@ -26,7 +26,7 @@ from __future__ import annotations
 import json
 import math
 import multiprocessing
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -602,8 +602,13 @@ def run_check(
     output: Path | None = None,
     workers: int | None = None,
     cross_validate: int | None = None,
+    before_work: Callable[[Path | None, Path], None] | None = None,
 ) -> CheckResult:
     """The check stage of ``config_path``: classification or comparison.
+
+    ``before_work`` is called with the refined invariants file the stage will write (``None``
+    when it compares data sets) and the invariants file it reads, before any bag is read (the
+    command line refuses an output there, before minutes of work).
 
     ``cross_validate`` K: the successful runs that are also ``<detect>`` runs are scored at
     the run level against invariants inferred from the other K-1 folds of the detect bags.
@@ -622,6 +627,9 @@ def run_check(
     base = config_path.parent
     inv_path = inv or base / check.inv
     document = read_invariants(inv_path)
+    refined_path = output or inv_path.with_name(inv_path.stem + ".refined.inv")
+    if before_work is not None:
+        before_work(refined_path if check.mode == "classify" else None, inv_path)
     report: dict[str, Any] = {
         "$comment": f"{mark(REPORT)} (imrosc classify)",
         "format": "imrosc-classify",
@@ -708,7 +716,7 @@ def run_check(
         out.refined = refined(document, scores, report)
         if "alarms" in document and runs["success"]:
             out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)
-        out.output = output or inv_path.with_name(inv_path.stem + ".refined.inv")
+        out.output = refined_path
         report["output"] = str(out.output)
     else:
         report["scores"], report["families"] = compare(

@@ -546,12 +546,33 @@ def classify(
             target(refined, INVARIANTS, inputs=inputs, force=force)
         except OutputRefusedError as refused:
             fail("classify", str(refused), EXIT_USAGE)
+
+    def before_work(refined_path: Path | None, read: Path) -> None:
+        """Refuse the outputs before any bag is read: the refined file, then the report."""
+        every = (*inputs, read)
+        if refined_path is not None:
+            target(refined_path, INVARIANTS, inputs=every, force=force)
+        if report_path is None:
+            return
+        if refined_path is not None and os.path.abspath(refined_path) == os.path.abspath(
+            report_path
+        ):
+            raise OutputRefusedError(report_path, "is also the refined invariants file")
+        target(report_path, REPORT, inputs=(*every, *filter(None, [refined_path])), force=force)
+
     try:
         result = run_check(
-            config, inv=inv, output=refined, workers=jobs, cross_validate=cross_validate
+            config,
+            inv=inv,
+            output=refined,
+            workers=jobs,
+            cross_validate=cross_validate,
+            before_work=before_work,
         )
     except CheckStageError as error:
         fail("classify", str(error), EXIT_USAGE)
+    except OutputRefusedError as refused:
+        fail("classify", str(refused), EXIT_USAGE)
     _report(result.diagnostics, "text")
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
