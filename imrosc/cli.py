@@ -8,7 +8,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # BLAS threads stall a loade
 
 import errno
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -260,11 +260,9 @@ def infer(
     from imrosc.invariants import dumps
     from imrosc.outputs import INVARIANTS, target
 
-    if output is not None:  # before hours of work: a refused output refuses at once
-        try:
-            target(output, INVARIANTS, inputs=(config, *graph_files), force=force)
-        except OutputRefusedError as refused:
-            fail("infer", str(refused), EXIT_USAGE)
+    def before_work(default: Path, read: Sequence[Path]) -> None:
+        """Refuse the invariants file once the bags are known, before any is read."""
+        target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
     progress: list[_BagProgress] = []
 
@@ -272,14 +270,18 @@ def infer(
         progress.append(_BagProgress(total, not quiet and sys.stderr.isatty()))
         return progress[-1]
 
-    result = run_detect(
-        config,
-        workers=jobs,
-        graph_files=graph_files,
-        bags=list(bags) or None,
-        progress_factory=factory,
-        budget=budget,
-    )
+    try:
+        result = run_detect(
+            config,
+            workers=jobs,
+            graph_files=graph_files,
+            bags=list(bags) or None,
+            progress_factory=factory,
+            budget=budget,
+            before_work=before_work,
+        )
+    except OutputRefusedError as refused:
+        fail("infer", str(refused), EXIT_USAGE)
     for bar in progress:
         bar.close()
     _report(result.diagnostics, "text")
