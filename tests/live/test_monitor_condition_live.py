@@ -107,9 +107,14 @@ def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
     the watchdog relays the blocked topic: nothing runs unchecked behind a live heartbeat."""
     runtime = built.package / "scripts" / "imrosc_runtime" / "conditions.py"
     source = runtime.read_text(encoding="utf-8")
+    # the check raises once the trigger file exists: after the listener is connected, so
+    # that the report cannot be published before anyone hears it
+    trigger = built.package.parent / "raise-now"
+    trigger.unlink(missing_ok=True)
     broken = source.replace(
         '    """Whether ``expression`` holds',
-        '    raise RuntimeError("injected")\n    """Whether ``expression`` holds',
+        f"    if __import__('os').path.exists({str(trigger)!r}):\n"
+        '        raise RuntimeError("injected")\n    """Whether ``expression`` holds',
     )
     assert broken != source
     runtime.write_text(broken, encoding="utf-8")
@@ -118,6 +123,15 @@ def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
         since = time.time()
         launch = built.package / "launch" / "system_monitored.launch"
         system = ros.start_system(launch, imrosc_fail_open="true")
+        ros.wait_subscriber(POSE, built.monitor, 30, (system,))
+        wait_until(
+            lambda: built.monitor in ros.publishers(BROKEN) and ros.subscribers(BROKEN),
+            "the listener on /m/broken_inv",
+            30,
+            (system,),
+        )
+        time.sleep(1.0)  # the listener's connection to the monitor's publisher
+        trigger.write_text("")
         (failure,) = wait_until(
             lambda: [r for r in reports(watch, since) if r["kind"] == "failure"],
             "the monitor's failure report",
@@ -142,3 +156,4 @@ def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
         ros.stop(system, watch.proc)
     finally:
         runtime.write_text(source, encoding="utf-8")
+        trigger.unlink(missing_ok=True)
