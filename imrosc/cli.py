@@ -28,7 +28,7 @@ EXIT_VIOLATIONS = 3
 """``imrosc replay``: violations that raised no alarm."""
 EXIT_ENVIRONMENT = 4
 """The system refused: an output cannot be written (permission denied, disk full, a path
-through a regular file, a read-only file system). docs/cli.md has the table."""
+through a regular file, a read-only file system). The README has the table."""
 
 
 def fail(command: str, message: str, status: int) -> NoReturn:
