@@ -2,7 +2,7 @@
 
 Each row runs one command as a user would, in a fresh copy of a small project (a
 configuration, training, successful and failed bags, the invariants learnt from them), and
-asserts the exit status of its class (docs/cli.md: 2 usage and input errors, refused
+asserts the exit status of its class (README, "Exit status": 2 usage and input errors, refused
 outputs included; 4 the system refused a write), the one line on stderr naming the file and
 the problem, no traceback, and that no file that was there before changed.
 
