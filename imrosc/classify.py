@@ -26,13 +26,11 @@ from __future__ import annotations
 import json
 import math
 import multiprocessing
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from imrosc import __version__
-from imrosc.backends.registry import GENERATED_MARK
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, held_out_runs
 from imrosc.check import check_loaded
@@ -42,6 +40,7 @@ from imrosc.infer.registry import group_of
 from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
+from imrosc.outputs import INVARIANTS, REPORT, mark
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.loader import load_config
@@ -436,7 +435,7 @@ def refined(
     by_id = {s["id"]: s for s in scores}
     out = dict(document)
     out["$comment"] = (
-        f"{GENERATED_MARK} {__version__} (imrosc classify) from {report['config']}, "
+        f"{mark(INVARIANTS)} (imrosc classify) from {report['config']}, "
         f"refining {report['invariants']}"
     )
     out["invariants"] = [
@@ -486,6 +485,8 @@ class CheckResult:
     refined: dict[str, Any] | None = None
     output: Path | None = None
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    inputs: list[Path] = field(default_factory=list)
+    """The files the stage read: the invariants file and the bags (no output may be one)."""
 
 
 def group_counts(document: Mapping[str, Any]) -> dict[str, int]:
@@ -620,8 +621,13 @@ def run_check(
     output: Path | None = None,
     workers: int | None = None,
     cross_validate: int | None = None,
+    before_work: Callable[[Path | None, Path], None] | None = None,
 ) -> CheckResult:
     """The check stage of ``config_path``: classification or comparison.
+
+    ``before_work`` is called with the refined invariants file the stage will write (``None``
+    when it compares data sets) and the invariants file it reads, before any bag is read (the
+    command line refuses an output there, before minutes of work).
 
     ``cross_validate`` K: the successful runs that are also ``<detect>`` runs are scored at
     the run level against invariants inferred from the other K-1 folds of the detect bags.
@@ -640,8 +646,11 @@ def run_check(
     base = config_path.parent
     inv_path = inv or base / check.inv
     document = read_invariants(inv_path)
+    refined_path = output or inv_path.with_name(inv_path.stem + ".refined.inv")
+    if before_work is not None:
+        before_work(refined_path if check.mode == "classify" else None, inv_path)
     report: dict[str, Any] = {
-        "$comment": f"{GENERATED_MARK} {__version__} (imrosc classify)",
+        "$comment": f"{mark(REPORT)} (imrosc classify)",
         "format": "imrosc-classify",
         "version": 1,
         "config": str(config_path),
@@ -670,6 +679,7 @@ def run_check(
         fail_onsets(config_path, check, per_entry) if check.mode == "classify" else ({}, {})
     )
     everything = [b for bags in found.values() for b in bags]
+    out.inputs = [inv_path, *everything]
     observed = observe_runs(document, everything, workers, specs)
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
@@ -746,7 +756,7 @@ def run_check(
         ]
         report["runs"] += [run_entry(o, "fail") for o in runs["fail"].values()]
         report["detection"] = detection(report["runs"])
-        out.output = output or inv_path.with_name(inv_path.stem + ".refined.inv")
+        out.output = refined_path
         report["output"] = str(out.output)
     else:
         report["scores"], report["families"] = compare(

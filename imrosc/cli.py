@@ -6,20 +6,66 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # BLAS threads stall a loaded 2-core machine
 
+import errno
 import sys
+from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any, NoReturn
 
 import click
 
 from imrosc import __version__
-from imrosc.backends.registry import GENERATED_MARK
 from imrosc.check import check_files
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
+from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
+"""0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
+be read among others); 2: usage and input errors (the command line, an input file missing or
+malformed, an output refused because writing it would destroy a file)."""
 EXIT_VIOLATIONS = 3
 """``imrosc replay``: violations that raised no alarm."""
+EXIT_ENVIRONMENT = 4
+"""The system refused: an output cannot be written (permission denied, disk full, a path
+through a regular file, a read-only file system). The README has the table."""
+
+
+def fail(command: str, message: str, status: int) -> NoReturn:
+    """One line on stderr, ``imrosc COMMAND: message``, and exit with ``status``."""
+    click.echo(f"imrosc {command}: {message}", err=True)
+    sys.exit(status)
+
+
+def os_problem(error: OSError) -> str:
+    """An OS error in one line: the file, then what went wrong."""
+    what = error.strerror or str(error)
+    return f"{error.filename}: {what}" if error.filename is not None else what
+
+
+def folder_name(project: str) -> str:
+    """A project name as one folder name: letters, digits, ``_`` and ``-`` (``../../x``, as
+    it is, would put ``build/../../x-plan`` outside ``build/``; it gives ``x``)."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_-]+", "_", project).strip("_") or "project"
+
+
+class _Main(click.Group):
+    """The command group: an OS error a command did not handle (a folder it cannot create, a
+    disk that filled up) ends it with one line on stderr and :data:`EXIT_ENVIRONMENT`, never
+    a traceback."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except OSError as error:
+            if error.errno == errno.EPIPE:  # click's own handling of a closed stdout
+                raise
+            fail(ctx.invoked_subcommand or "", os_problem(error), EXIT_ENVIRONMENT)
+        except RecursionError:
+            fail(ctx.invoked_subcommand or "", "input nested too deeply", EXIT_USAGE)
+
 
 graph_option = click.option(
     "--graph",
@@ -36,7 +82,7 @@ bags_option = click.option(
 )
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=_Main, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="imrosc")
 def main() -> None:
     """Infer invariants of a ROS robot from bags and synthesize a monitor that checks them."""
@@ -63,6 +109,12 @@ def check(configs: tuple[Path, ...], output_format: str, strict: bool) -> None:
     if any(d.code == "io-error" for d in diagnostics):
         sys.exit(EXIT_USAGE)
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
+
+
+def _stopped(diagnostics: list[Diagnostic]) -> int:
+    """The exit status of a command its inputs stopped: 2 when a file could not be read
+    (an input error, as ``check`` says), else 1 (errors in the configuration)."""
+    return EXIT_USAGE if any(d.code == "io-error" for d in diagnostics) else EXIT_ERRORS
 
 
 def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
@@ -112,8 +164,8 @@ def build(
 
     from imrosc import ir
     from imrosc.backends.registry import available
-    from imrosc.build import OverwriteRefusedError, write_files
     from imrosc.build import build as run_build
+    from imrosc.build import write_files
 
     if backend not in available():
         raise click.UsageError(f"backend {backend!r} is not available yet")
@@ -126,15 +178,13 @@ def build(
     if emit_ir:
         click.echo(json.dumps(ir.to_json(result.project), indent=2))
         return
-    out = output or Path("build") / f"{result.project.name}-{backend}"
+    out = output or Path("build") / f"{folder_name(result.project.name)}-{backend}"
     try:
-        written = write_files(out, result.files, force=force)
-    except OverwriteRefusedError as refused:
-        click.echo(f"imrosc build: {refused}", err=True)
-        sys.exit(EXIT_ERRORS)
-    except OSError as error:
-        click.echo(f"imrosc build: {out}: {error.strerror}", err=True)
-        sys.exit(EXIT_USAGE)
+        written = write_files(
+            out, result.files, force=force, kind=BUILD, inputs=(config, *graph_files, *bags)
+        )
+    except OutputRefusedError as refused:
+        fail("build", str(refused), EXIT_USAGE)
     for path in written:
         click.echo(f"wrote {path}")
     if backend in ("ros1", "ros2") and result.files:
@@ -205,9 +255,14 @@ def infer(
 ) -> None:
     """Infer the invariants of CONFIG's <detect> bags, calibrate them across the bags
     (docs/calibration.md) and write the invariants file."""
-    from imrosc.build import OverwriteRefusedError, write_files
+    from imrosc.build import write_files
     from imrosc.detect import run_detect
     from imrosc.invariants import dumps
+    from imrosc.outputs import INVARIANTS, target
+
+    def before_work(default: Path, read: Sequence[Path]) -> None:
+        """Refuse the invariants file once the bags are known, before any is read."""
+        target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
     progress: list[_BagProgress] = []
 
@@ -215,25 +270,34 @@ def infer(
         progress.append(_BagProgress(total, not quiet and sys.stderr.isatty()))
         return progress[-1]
 
-    result = run_detect(
-        config,
-        workers=jobs,
-        graph_files=graph_files,
-        bags=list(bags) or None,
-        progress_factory=factory,
-        budget=budget,
-    )
+    try:
+        result = run_detect(
+            config,
+            workers=jobs,
+            graph_files=graph_files,
+            bags=list(bags) or None,
+            progress_factory=factory,
+            budget=budget,
+            before_work=before_work,
+        )
+    except OutputRefusedError as refused:
+        fail("infer", str(refused), EXIT_USAGE)
     for bar in progress:
         bar.close()
     _report(result.diagnostics, "text")
     if result.document is None or result.output is None:
-        sys.exit(EXIT_ERRORS)
-    target = output or result.output
+        sys.exit(_stopped(result.diagnostics))
+    written = output or result.output
     try:
-        write_files(target.parent, {target.name: dumps(result.document).encode()}, force=force)
-    except OverwriteRefusedError as refused:
-        click.echo(f"imrosc infer: {refused}", err=True)
-        sys.exit(EXIT_ERRORS)
+        write_files(
+            written.parent,
+            {written.name: dumps(result.document).encode()},
+            force=force,
+            kind=INVARIANTS,
+            inputs=(config, *graph_files, *(result.catalog.bags if result.catalog else ())),
+        )
+    except OutputRefusedError as refused:
+        fail("infer", str(refused), EXIT_USAGE)
     catalog, inferred = result.catalog, result.result
     assert catalog is not None and inferred is not None
     counts = result.counts()
@@ -241,7 +305,7 @@ def infer(
     summary = ", ".join(f"{n} {group}" for group, n in counts.items())
     good = len(catalog.bags) - len(inferred.failed)
     rate = inferred.messages / max(result.seconds, 1e-9)
-    click.echo(f"wrote {target}: {total} invariants: {summary}")
+    click.echo(f"wrote {written}: {total} invariants: {summary}")
     click.echo(
         f"from {good} bag{'s' * (good != 1)}, {inferred.messages:,} messages in "
         f"{result.seconds:.1f} s ({rate:,.0f} msg/s)"
@@ -265,19 +329,24 @@ def infer(
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path))
 @graph_option
 @bags_option
+@click.option("--force", is_flag=True, help="Overwrite .decls/.dtrace files imrosc did not write.")
 def export_daikon(
-    config: Path, output: Path, graph_files: tuple[Path, ...], bags: tuple[Path, ...]
+    config: Path, output: Path, graph_files: tuple[Path, ...], bags: tuple[Path, ...], force: bool
 ) -> None:
     """Write the program points of CONFIG's bags as Daikon .decls/.dtrace files."""
     from imrosc.detect import prepare
-    from imrosc.export_daikon import export
+    from imrosc.export_daikon import export, targets
 
     prepared, diagnostics = prepare(config, graph_files=graph_files, bags=list(bags) or None)
     _report(diagnostics, "text")
     if prepared is None:
-        sys.exit(EXIT_ERRORS)
+        sys.exit(_stopped(diagnostics))
     catalog = prepared.catalog
-    for path in export(prepared.specs, prepared.layouts, catalog.callerids, catalog.bags, output):
+    try:
+        paths = targets(output, catalog.bags, force=force, inputs=(config, *catalog.bags))
+    except OutputRefusedError as refused:
+        fail("export-daikon", str(refused), EXIT_USAGE)
+    for path in export(prepared.specs, prepared.layouts, catalog.callerids, catalog.bags, paths):
         click.echo(f"wrote {path}")
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
 
@@ -295,9 +364,12 @@ def show(inv: Path, families: tuple[str, ...], points: tuple[str, ...], ids: boo
     try:
         doc = load(inv)
     except InvariantsFileError as error:
-        click.echo(f"imrosc show: {error}", err=True)
-        sys.exit(EXIT_ERRORS)
-    click.echo(render(doc, families=families, points=points, ids=ids), nl=False)
+        fail("show", str(error), EXIT_USAGE)
+    try:
+        text = render(doc, families=families, points=points, ids=ids)
+    except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
+        fail("show", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)
+    click.echo(text, nl=False)
 
 
 @main.command()
@@ -335,9 +407,29 @@ report_option = click.option(
 )
 
 
-def _emit(document: dict[str, object], output_format: str, path: Path | None, force: bool) -> None:
-    """Render a result document and print it or write it (never over a foreign file)."""
-    from imrosc.build import OverwriteRefusedError, write_files
+def _report_target(command: str, path: Path | None, force: bool, inputs: Iterable[Path]) -> None:
+    """Refuse a report path at once (before any work or other output) if writing it would
+    destroy a file (:mod:`imrosc.outputs`)."""
+    from imrosc.outputs import target
+
+    if path is not None:
+        try:
+            target(path, REPORT, inputs=inputs, force=force)
+        except OutputRefusedError as refused:
+            fail(command, str(refused), EXIT_USAGE)
+
+
+def _emit(
+    command: str,
+    document: dict[str, object],
+    output_format: str,
+    path: Path | None,
+    force: bool,
+    inputs: Iterable[Path] = (),
+) -> None:
+    """Render a result document and print it or write it (never over a foreign file, another
+    kind of imrosc file or an input; atomically)."""
+    from imrosc.build import write_files
     from imrosc.report import render
 
     text = render(document, output_format)  # type: ignore[arg-type]
@@ -345,12 +437,13 @@ def _emit(document: dict[str, object], output_format: str, path: Path | None, fo
         click.echo(text, nl=False)
         return
     if output_format == "text":  # so that the next run may overwrite it
-        text = f"# {GENERATED_MARK} {__version__}\n{text}"
+        text = f"# {mark(REPORT)}\n{text}"
     try:
-        write_files(path.parent, {path.name: text.encode()}, force=force)
-    except OverwriteRefusedError as refused:
-        click.echo(f"imrosc: {refused}", err=True)
-        sys.exit(EXIT_ERRORS)
+        write_files(
+            path.parent, {path.name: text.encode()}, force=force, kind=REPORT, inputs=inputs
+        )
+    except OutputRefusedError as refused:
+        fail(command, str(refused), EXIT_USAGE)
     click.echo(f"wrote {path}", err=True)
 
 
@@ -380,11 +473,11 @@ def replay(
     from imrosc.invariants import InvariantsFileError, load
     from imrosc.replay import replay_document
 
+    _report_target("replay", report_path, force, (inv, *bags))
     try:
         document = load(inv)
     except InvariantsFileError as error:
-        click.echo(f"imrosc replay: {error}", err=True)
-        sys.exit(EXIT_ERRORS)
+        fail("replay", str(error), EXIT_USAGE)
     found: list[Path] = []
     problems: list[Diagnostic] = []
     for path in bags:
@@ -392,13 +485,16 @@ def replay(
         found += more
         problems += bad
     _report(problems, "text")
-    report, results = replay_document(inv, document, found, plots=not no_plots)
+    try:
+        report, results = replay_document(inv, document, found, plots=not no_plots)
+    except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
+        fail("replay", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)
     shown = "json" if as_json else output_format
     if shown != "text" or report_path is not None:  # the text report on stdout says it
         for result in results:
             for warning in result.warnings:
                 click.echo(f"imrosc replay: {result.bag}: warning: {warning}", err=True)
-    _emit(report, shown, report_path, force)
+    _emit("replay", report, shown, report_path, force, (inv, *bags, *found))
     broken = any(r.alarms or r.error for r in results) or has_errors(problems)
     violated = any(r.violations for r in results)
     sys.exit(EXIT_ERRORS if broken else EXIT_VIOLATIONS if violated else EXIT_CLEAN)
@@ -440,30 +536,69 @@ def classify(
 ) -> None:
     """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
     useful ones; with fault onsets, score the alarms and their delays too."""
-    from imrosc.build import OverwriteRefusedError, write_files
+    from imrosc.build import write_files
     from imrosc.classify import CheckStageError, run_check
     from imrosc.invariants import dumps
+    from imrosc.outputs import INVARIANTS, target
+
+    inputs = (config, *((inv,) if inv is not None else ()))
+    _report_target("classify", report_path, force, inputs)
+    if refined is not None:
+        try:
+            target(refined, INVARIANTS, inputs=inputs, force=force)
+        except OutputRefusedError as refused:
+            fail("classify", str(refused), EXIT_USAGE)
+
+    def before_work(refined_path: Path | None, read: Path) -> None:
+        """Refuse the outputs before any bag is read: the refined file, then the report."""
+        every = (*inputs, read)
+        if refined_path is not None:
+            target(refined_path, INVARIANTS, inputs=every, force=force)
+        if report_path is None:
+            return
+        if refined_path is not None and os.path.abspath(refined_path) == os.path.abspath(
+            report_path
+        ):
+            raise OutputRefusedError(report_path, "is also the refined invariants file")
+        target(report_path, REPORT, inputs=(*every, *filter(None, [refined_path])), force=force)
 
     try:
         result = run_check(
-            config, inv=inv, output=refined, workers=jobs, cross_validate=cross_validate
+            config,
+            inv=inv,
+            output=refined,
+            workers=jobs,
+            cross_validate=cross_validate,
+            before_work=before_work,
         )
     except CheckStageError as error:
-        click.echo(f"imrosc classify: {error}", err=True)
-        sys.exit(EXIT_ERRORS)
+        fail("classify", str(error), EXIT_USAGE)
+    except OutputRefusedError as refused:
+        fail("classify", str(refused), EXIT_USAGE)
     _report(result.diagnostics, "text")
     if not result.report:
-        sys.exit(EXIT_ERRORS)
-    if result.refined is not None and result.output is not None:
-        target = result.output
+        sys.exit(_stopped(result.diagnostics))
+    inputs = (config, *result.inputs)
+    refined_path = result.output if result.refined is not None else None
+    same = refined_path is not None and report_path is not None
+    if same and os.path.abspath(str(refined_path)) == os.path.abspath(str(report_path)):
+        fail("classify", f"{report_path}: is also the refined invariants file", EXIT_USAGE)
+    # both outputs are checked before either is written
+    _report_target("classify", report_path, force, (*inputs, *filter(None, [refined_path])))
+    if result.refined is not None and refined_path is not None:
         try:
-            write_files(target.parent, {target.name: dumps(result.refined).encode()}, force=force)
-        except OverwriteRefusedError as refused:
-            click.echo(f"imrosc classify: {refused}", err=True)
-            sys.exit(EXIT_ERRORS)
+            write_files(
+                refined_path.parent,
+                {refined_path.name: dumps(result.refined).encode()},
+                force=force,
+                kind=INVARIANTS,
+                inputs=inputs,
+            )
+        except OutputRefusedError as refused:
+            fail("classify", str(refused), EXIT_USAGE)
         kept = len(result.refined["invariants"])
-        click.echo(f"wrote {target}: kept {kept} of {len(result.report['scores'])}", err=True)
-    _emit(result.report, output_format, report_path, force)
+        click.echo(f"wrote {refined_path}: kept {kept} of {len(result.report['scores'])}", err=True)
+    _emit("classify", result.report, output_format, report_path, force, inputs)
     errors = has_errors(result.diagnostics) or bool(result.report.get("errors"))
     sys.exit(EXIT_ERRORS if errors else EXIT_CLEAN)
 
@@ -494,15 +629,15 @@ def stability(
     from imrosc.classify import CheckStageError
     from imrosc.stability import run_stability
 
+    _report_target("stability", report_path, force, (config, *bags))
     try:
         report, problems = run_stability(config, folds=folds, workers=jobs, bags=list(bags) or None)
     except CheckStageError as error:
-        click.echo(f"imrosc stability: {error}", err=True)
-        sys.exit(EXIT_ERRORS)
+        fail("stability", str(error), EXIT_USAGE)
     _report(problems, "text")
     if report is None:
-        sys.exit(EXIT_ERRORS)
-    _emit(report, output_format, report_path, force)
+        sys.exit(_stopped(problems))
+    _emit("stability", report, output_format, report_path, force, (config, *bags))
     sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)
 
 

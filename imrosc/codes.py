@@ -99,6 +99,24 @@ CODES: tuple[Code, ...] = (
         "A pattern has more placeholders than its <temporal> has events to bind them to.",
     ),
     Code("bad-expression", _E, "semantic", "A condition <value> is not a valid expression."),
+    Code(
+        "constant-condition",
+        _E,
+        "semantic",
+        "A condition <value> reads no field or topic: it holds always or never.",
+    ),
+    Code(
+        "foreign-topic-operand",
+        _E,
+        "semantic",
+        "A condition <value> names another topic than the condition's <topic> as an operand.",
+    ),
+    Code(
+        "window-below-resolution",
+        _E,
+        "semantic",
+        "The <detect> window is shorter than the resolution of the bags' timestamps (1 us).",
+    ),
     Code("bad-action-value", _E, "semantic", "An action <value> is not a YAML flow mapping."),
     Code("bad-arch-kind", _E, "semantic", "An <arch> kind is not one of pub, sub, srv."),
     Code(

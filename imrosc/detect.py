@@ -182,9 +182,13 @@ def run_detect(
     bags: Sequence[Path] | None = None,
     progress_factory: Callable[[int], Progress] | None = None,
     budget: float | None = None,
+    before_work: Callable[[Path, Sequence[Path]], None] | None = None,
 ) -> DetectResult:
     """Run the detect stage; the invariants document is returned, not yet written.
-    ``budget`` overrides the configuration's false-alarm budget (0: no calibration)."""
+    ``budget`` overrides the configuration's false-alarm budget (0: no calibration).
+    ``before_work`` is called with the default invariants file (``<detect inv>``) and the
+    bags, once the configuration is checked and before any bag is read (the command line
+    refuses an output there, not after minutes of work)."""
     started = time.monotonic()
     out = DetectResult()
     prepared, out.diagnostics = prepare(config_path, graph_files=graph_files, bags=bags)
@@ -197,6 +201,9 @@ def run_detect(
         prepared.layouts,
     )
     out.catalog, out.skipped_points = catalog, prepared.skipped_points
+    inv = project.detect.inv if project.detect else f"{project.name}.inv"
+    if before_work is not None:
+        before_work(prepared.base / inv, catalog.bags)
     tunables = project.detect.tunables if project.detect else ir.Tunables()
     if budget is not None:
         tunables = replace(tunables, budget=budget)
@@ -242,6 +249,5 @@ def run_detect(
             out.document, result.units, tunables.budget, workers=workers or default_workers()
         )
         out.calibration_seconds = time.monotonic() - started - out.seconds
-    inv = project.detect.inv if project.detect else f"{project.name}.inv"
     out.output = prepared.base / inv
     return out

@@ -3,18 +3,22 @@
 One Daikon program point per imrosc program point (``<key>:::POINT``), one ``.dtrace`` per
 bag, as the thesis' translator produced for Daikon (section 3.3). Numbers are ``double``,
 strings and architecture sets ``java.lang.String``; a missing value is written as
-``nonsensical`` with modified flag 2, as Daikon's format asks.
+``nonsensical`` with modified flag 2, as Daikon's format asks. Each file carries imrosc's
+generated-file mark as a ``//`` comment line (Daikon skips them); files without it are
+overwritten only with ``--force``.
 """
 
 from __future__ import annotations
 
+import io
 import math
 import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, BinaryIO, TextIO
 
 from imrosc.infer.core import Samples, Variable
+from imrosc.outputs import DAIKON, mark, target, write_atomic
 from imrosc.translate.points import PointSpec
 from imrosc.translate.stream import BagTranslator
 
@@ -34,9 +38,10 @@ def _rep_type(variable: Variable) -> str:
     return "double" if variable.numeric else "java.lang.String"
 
 
-def write_decls(stream: TextIO, specs: Iterable[PointSpec]) -> None:
-    """The declarations of every point (Daikon's decl-version 2.0)."""
-    stream.write("decl-version 2.0\nvar-comparability none\n\n")
+def write_decls(stream: TextIO, specs: Iterable[PointSpec], banner: str = "") -> None:
+    """The declarations of every point (Daikon's decl-version 2.0; ``banner``: comment lines
+    after the header)."""
+    stream.write(f"decl-version 2.0\nvar-comparability none\n{banner}\n")
     for spec in specs:
         stream.write(f"ppt {ppt_name(spec.key)}\nppt-type point\n")
         for variable in (Variable("time", "float"), *spec.variables):
@@ -77,23 +82,48 @@ def write_samples(stream: TextIO, samples: Samples) -> None:
         stream.write("\n")
 
 
+DECLS = "imrosc.decls"
+
+
+def targets(
+    out: Path, bags: Sequence[Path], *, force: bool = False, inputs: Iterable[Path] = ()
+) -> list[Path]:
+    """``<out>/imrosc.decls`` and one ``<out>/<NNN>-<bag>.dtrace`` per bag (sorted), each
+    checked before anything is written (:func:`imrosc.outputs.target`: the user's own files
+    are overwritten only with ``force``)."""
+    inputs = tuple(inputs)
+    names = [DECLS] + [f"{run:03d}-{bag.name}.dtrace" for run, bag in enumerate(sorted(bags))]
+    return [target(out / name, DAIKON, inputs=inputs, force=force) for name in names]
+
+
 def export(
     specs: Sequence[PointSpec],
     layouts: Any,
     callerids: Any,
     bags: Sequence[Path],
-    out: Path,
+    paths: Sequence[Path],
 ) -> list[Path]:
-    """Write ``<out>/imrosc.decls`` and one ``<bag>.dtrace`` per bag; return the files."""
-    out.mkdir(parents=True, exist_ok=True)
-    written = [out / "imrosc.decls"]
-    with open(written[0], "w", encoding="utf-8") as stream:
-        write_decls(stream, specs)
-    for run, bag in enumerate(sorted(bags)):
-        target = out / f"{run:03d}-{bag.name}.dtrace"
-        translator = BagTranslator(specs, layouts, callerids)
-        with open(target, "w", encoding="utf-8") as stream:
+    """Write the declarations to ``paths[0]`` and each bag's samples (bags sorted) to the
+    next paths (:func:`targets`), each atomically; return the files."""
+    banner = f"// {mark(DAIKON)} (imrosc export-daikon)\n"
+
+    def decls(binary: BinaryIO) -> None:
+        stream = io.TextIOWrapper(binary, encoding="utf-8")
+        write_decls(stream, specs, banner)
+        stream.flush()
+        stream.detach()  # the binary stream stays open for write_atomic
+
+    write_atomic(paths[0], decls)
+    for run, (bag, path) in enumerate(zip(sorted(bags), paths[1:], strict=True)):
+
+        def trace(binary: BinaryIO, bag: Path = bag, run: int = run) -> None:
+            translator = BagTranslator(specs, layouts, callerids)
+            stream = io.TextIOWrapper(binary, encoding="utf-8")
+            stream.write(banner + "\n")
             for samples in translator.translate(bag, run):
                 write_samples(stream, samples)
-        written.append(target)
-    return written
+            stream.flush()
+            stream.detach()
+
+        write_atomic(path, trace)
+    return list(paths)

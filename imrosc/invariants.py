@@ -17,9 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from imrosc import __version__
-from imrosc.backends.registry import GENERATED_MARK
+from imrosc.backends.families import DAIKON, TIME
 from imrosc.infer.core import Invariant, Variable
+from imrosc.outputs import INVARIANTS, mark
 
 FORMAT = "imrosc-invariants"
 VERSION = 1
@@ -99,7 +99,7 @@ def document(
     """The JSON document of an invariants file."""
     ordered = sorted(invariants, key=lambda i: (i.point, i.family, i.kind, i.variables))
     return {
-        "$comment": f"{GENERATED_MARK} {__version__} (imrosc infer) from {source}",
+        "$comment": f"{mark(INVARIANTS)} (imrosc infer) from {source}",
         "format": FORMAT,
         "version": VERSION,
         "project": project,
@@ -141,8 +141,16 @@ def dumps(doc: Mapping[str, Any]) -> str:
     return json.dumps(doc, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
 
 
+MAX_DEPTH = 64
+"""The deepest nesting of arrays and objects an invariants file may have (it has about 8)."""
+MAX_NUMBER = 2.0**1000
+"""The largest magnitude of a number in an invariants file (a float64 goes to about 2**1024;
+a larger number, or a longer integer, is no measurement)."""
+
+
 def load(path: Path) -> dict[str, Any]:
-    """Read and check an invariants file; raise :class:`InvariantsFileError` with the reason."""
+    """Read and check an invariants file (:func:`validate`); raise
+    :class:`InvariantsFileError` with the reason, one line naming the file."""
     try:
         size = path.stat().st_size
         if size > MAX_BYTES:
@@ -156,6 +164,77 @@ def load(path: Path) -> dict[str, Any]:
         raise InvariantsFileError(
             f"{path}:{error.lineno}:{error.colno}: not JSON: {error.msg}"
         ) from None
+    except RecursionError:
+        raise InvariantsFileError(f"{path}: not an invariants file: nested too deeply") from None
+    except ValueError as error:  # an integer of more than 4300 digits
+        raise InvariantsFileError(f"{path}: not JSON: {error}") from None
+    validate(data, path)
+    return data  # type: ignore[no-any-return]
+
+
+def _walk(value: Any, where: str, depth: int) -> str | None:
+    """The first problem of a JSON value's shape: too deep, or a number out of range."""
+    if depth > MAX_DEPTH:
+        return f"{where}: nested deeper than {MAX_DEPTH} levels"
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int | float):
+        if isinstance(value, int) and abs(value) > MAX_NUMBER:
+            return f"{where}: number too large"
+        if isinstance(value, float) and math.isfinite(value) and abs(value) > MAX_NUMBER:
+            return f"{where}: number too large"
+        if isinstance(value, float) and not math.isfinite(value):
+            return f"{where}: number too large"
+        return None
+    if isinstance(value, dict):
+        for key, item in value.items():
+            found = _walk(item, f"{where}.{key}", depth + 1)
+            if found:
+                return found
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            found = _walk(item, f"{where}[{index}]", depth + 1)
+            if found:
+                return found
+    return None
+
+
+KNOWN_FAMILIES = frozenset((*DAIKON, *TIME, "polygon", "architecture", "interval", "pattern"))
+"""Every family inference writes and the runtime engine checks."""
+
+_TOP = {"topics": dict, "points": dict, "invariants": list}
+_POINT = {"kind": str, "variables": list}
+_INVARIANT = {
+    "id": str,
+    "family": str,
+    "kind": str,
+    "point": str,
+    "variables": list,
+    "params": dict,
+    "text": str,
+}
+
+
+def _fields(item: Any, shape: Mapping[str, type], where: str) -> str | None:
+    if not isinstance(item, dict):
+        return f"{where}: not an object"
+    for key, kind in shape.items():
+        if key not in item:
+            return f"{where}: missing '{key}'"
+        if not isinstance(item[key], kind) or isinstance(item[key], bool):
+            name = _JSON[kind]
+            return f"{where}.{key}: not {'an' if name[0] in 'aeiou' else 'a'} {name}"
+    return None
+
+
+_JSON = {str: "string", dict: "object", list: "array", int: "integer"}
+
+
+def validate(data: Any, path: Path) -> None:
+    """Check an invariants document's shape (what the runtime engine reads, and numbers that
+    fit a float); raise :class:`InvariantsFileError` naming the file and the first problem.
+    The engine that checks the invariants is then built once, so that nothing it reads is
+    missing or of a wrong type."""
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise InvariantsFileError(f"{path}: not an imrosc invariants file")
     if data.get("version") != VERSION:
@@ -165,4 +244,31 @@ def load(path: Path) -> dict[str, Any]:
     for key in ("points", "invariants", "topics"):
         if key not in data:
             raise InvariantsFileError(f"{path}: missing '{key}'")
-    return data
+    problem = _walk(data, "$", 0) or _fields(data, _TOP, "$")
+    for key, point in data.get("points", {}).items() if not problem else ():
+        problem = _fields(point, _POINT, f"$.points.{key}")
+        for index, variable in enumerate(point["variables"]) if not problem else ():
+            where = f"$.points.{key}.variables[{index}]"
+            problem = problem or _fields(variable, {"name": str, "type": str}, where)
+        if problem:
+            break
+    for index, invariant in enumerate(data.get("invariants", [])) if not problem else ():
+        where = f"$.invariants[{index}]"
+        problem = _fields(invariant, _INVARIANT, where)
+        if not problem and invariant["point"] not in data["points"]:
+            problem = f"{where}.point: no point {invariant['point']!r} in 'points'"
+        if not problem and invariant["family"] not in KNOWN_FAMILIES:
+            problem = f"{where}.family: unknown family {invariant['family']!r}"
+        if problem:
+            break
+    if problem:
+        raise InvariantsFileError(f"{path}: malformed: {problem}")
+    from imrosc.runtime import Engine
+
+    try:
+        Engine(data)
+    except (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError) as error:
+        what = f"missing {error}" if isinstance(error, KeyError) else str(error)
+        raise InvariantsFileError(
+            f"{path}: malformed: {type(error).__name__}: {what}".splitlines()[0]
+        ) from None

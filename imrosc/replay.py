@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from imrosc import __version__, records
-from imrosc.backends.registry import GENERATED_MARK
+from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag
 from imrosc.graph.bags import PublisherStart, publisher_starts
+from imrosc.outputs import REPORT, mark
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, alarms_json
 from imrosc.runtime.flatten import make_flattener
@@ -319,7 +319,7 @@ def replay_document(
             }
         )
     out = {
-        "$comment": f"{GENERATED_MARK} {__version__} (imrosc replay)",
+        "$comment": f"{mark(REPORT)} (imrosc replay)",
         "format": "imrosc-replay",
         "version": 1,
         "invariants": str(inv),

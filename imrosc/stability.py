@@ -13,11 +13,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from imrosc import __version__
-from imrosc.backends.registry import GENERATED_MARK
 from imrosc.classify import CheckStageError, bags_of, load_project, observe_runs
 from imrosc.detect import run_detect
 from imrosc.diagnostics import Diagnostic, has_errors
+from imrosc.outputs import REPORT, mark
 
 
 def folds_of(bags: Sequence[Path], folds: int) -> list[list[Path]]:
@@ -114,7 +113,7 @@ def run_stability(
             "violated_ratio": round(mean_violated / mean_total, 4) if mean_total else 0.0,
         }
     report = {
-        "$comment": f"{GENERATED_MARK} {__version__} (imrosc stability)",
+        "$comment": f"{mark(REPORT)} (imrosc stability)",
         "format": "imrosc-stability",
         "version": 1,
         "config": str(config_path),

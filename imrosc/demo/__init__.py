@@ -20,6 +20,7 @@ from imrosc.detect import run_detect
 from imrosc.diagnostics import has_errors, render_text
 from imrosc.infer.engine import default_workers
 from imrosc.invariants import dumps
+from imrosc.outputs import write_atomic
 from imrosc.show import render
 from imrosc.sim import ScenarioKind
 
@@ -46,7 +47,7 @@ def _prepare(out: Path) -> bool:
         for child in ("bags", "build"):
             shutil.rmtree(out / child, ignore_errors=True)
     out.mkdir(parents=True, exist_ok=True)
-    (out / MARKER).write_text("made by imrosc demo; it may delete bags/ and build/ here\n")
+    write_atomic(out / MARKER, b"made by imrosc demo; it may delete bags/ and build/ here\n")
     return True
 
 

@@ -232,6 +232,73 @@ def violation_json(
     return json.dumps(document, sort_keys=True, allow_nan=False)
 
 
+class Guard:
+    """The fail policy of the node's checking: the first callback that raises stops it.
+
+    A monitor that keeps running after its checks raised would check nothing while its
+    heartbeat says it is alive (and a fail-open watchdog would never take over). So each
+    callback that checks runs through :meth:`run`: the first exception is handed to
+    ``stop`` (which reports it on ``/m/broken_inv`` and in the log, then shuts the node
+    down: fail closed, or open through the watchdog once the heartbeat stops), and every
+    callback from then on does nothing and returns ``None`` (a blocked message is not
+    relayed, a relayed call is refused).
+
+    >>> stopped = []
+    >>> guard = Guard(lambda where, error: stopped.append((where, str(error))))
+    >>> guard.run("message /a", lambda: 1 // 0), guard.failure
+    (None, 'message /a: ZeroDivisionError: integer division or modulo by zero')
+    >>> guard.run("tick", lambda: 1), stopped
+    (None, [('message /a', 'integer division or modulo by zero')])
+    """
+
+    def __init__(self, stop: Callable[[str, BaseException], None]) -> None:
+        self.stop = stop
+        self.failure: Optional[str] = None
+        """What failed first (``None`` while the checks run)."""
+
+    def run(self, where: str, function: Callable[..., Any], *args: Any) -> Any:
+        """``function(*args)``, or ``None`` once the checking stopped."""
+        if self.failure is not None:
+            return None
+        try:
+            return function(*args)
+        except Exception as error:
+            first = self.failure is None
+            if first:
+                self.failure = f"{where}: {type(error).__name__}: {error}"
+                self.stop(where, error)
+            return None
+
+
+def failure_json(where: str, error: BaseException, time: float) -> str:
+    """The ``/m/broken_inv`` report of a check that raised (the node stops checking): the
+    keys of :func:`violation_json`, ``family`` ``"monitor"``, ``kind`` ``"failure"``, an alarm
+    with the rule ``"failure"``, and ``error`` the exception's type and message."""
+    document = {
+        "invariant": None,
+        "point": None,
+        "family": "monitor",
+        "kind": "failure",
+        "text": failure_text(where, error),
+        "observed": None,
+        "expected": None,
+        "time": json_safe(float(time)),
+        "actions": [],
+        "alarm": True,
+        "rule": "failure",
+        "error": {"where": where, "type": type(error).__name__, "message": str(error)},
+    }
+    return json.dumps(document, sort_keys=True, allow_nan=False)
+
+
+def failure_text(where: str, error: BaseException) -> str:
+    """The log line of a check that raised."""
+    return (
+        f"imrosc: checking failed ({where}: {type(error).__name__}: {error}); the monitor "
+        f"stops checking and shuts down"
+    )
+
+
 def report_json(report: Report) -> str:
     """The ``/m/broken_inv`` warning of a report (:func:`violation_json`)."""
     return violation_json(report.violation, report.actions, report.alarm, report.rule)

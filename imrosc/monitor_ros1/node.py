@@ -42,6 +42,7 @@ import struct
 import sys
 import threading
 import time
+import traceback
 import xmlrpc.client
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple
 
@@ -144,6 +145,8 @@ class Monitor:
         self.readers: Dict[str, Tuple[wire.Reader, Any]] = {}
         """Blocked topics relayed as bytes: their reader and their decoded class."""
         self.lock = threading.Lock()
+        self.guard = logic.Guard(self.stop)
+        """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
         self.engine = engine_class(document)
         self.precheck = (
             engine_class(logic.request_document(document, self.blocked_services))
@@ -174,6 +177,19 @@ class Monitor:
         self.connect()
         self.tick(None)
         self.timer = rospy.Timer(rospy.Duration(self.period), self.tick)
+
+    def stop(self, where: str, error: BaseException) -> None:
+        """A check raised: report it on ``/m/broken_inv`` and in the log, stop the heartbeat
+        and shut the node down (the guard already keeps every callback from checking or
+        relaying)."""
+        text = logic.failure_text(where, error)
+        rospy.logfatal(f"{text}\n{traceback.format_exc()}")
+        try:
+            self.broken.publish(String(data=logic.failure_json(where, error, time.time())))
+        except Exception as failed:  # the report is best effort; the shutdown is not
+            rospy.logerr(f"imrosc: cannot publish the failure: {failed}")
+        # let the report reach its subscribers before the node's connections close
+        threading.Timer(0.5, rospy.signal_shutdown, args=(text,)).start()
 
     # -- setting up -------------------------------------------------------------------------
 
@@ -264,6 +280,10 @@ class Monitor:
 
     def on_message(self, message: Any, topic: str) -> None:
         """A message on a watched or blocked topic: check it, relay it if blocked and clean."""
+        self.guard.run(f"message on {topic}", self.check_message, message, topic)
+
+    def check_message(self, message: Any, topic: str) -> None:
+        """:meth:`on_message` under the guard."""
         raw = self.readers.get(topic)
         if raw is not None:
             values = self.read(message, topic, raw)
@@ -308,6 +328,12 @@ class Monitor:
         blocked = service in self.blocked_services
 
         def serve(request: Any) -> Any:
+            response = self.guard.run(f"call of {service}", checked, request)
+            if response is None:
+                raise rospy.ServiceException(f"imrosc monitor stopped: {self.guard.failure}")
+            return response
+
+        def checked(request: Any) -> Any:
             precheck = self.precheck
             if blocked and precheck is not None:
                 with self.lock:
@@ -337,6 +363,10 @@ class Monitor:
 
     def on_clear(self, message: Any) -> None:
         """``/m/clear_inv``: stop checking the invariant named by the message."""
+        self.guard.run("/clear_inv", self.clear, message)
+
+    def clear(self, message: Any) -> None:
+        """:meth:`on_clear` under the guard."""
         ident = str(message.data).strip()
         with self.lock:
             known = self.engine.clear(ident)
@@ -350,6 +380,10 @@ class Monitor:
     def tick(self, event: Any) -> None:
         """The timer: the clock, the graph and the parameters; retry the setup."""
         del event
+        self.guard.run("the timer", self.poll)
+
+    def poll(self) -> None:
+        """:meth:`tick` under the guard."""
         try:
             state = self.master.getSystemState()
         except Exception:
@@ -390,12 +424,16 @@ class Monitor:
             time.sleep(self.warm)
             idle = time.time() - self.last_relayed
             if self.warm <= idle <= IDLE:
-                with self.lock:
-                    self.engine.rehearse(relayed)
+                self.guard.run("rehearsal", self.rehearse, relayed)
+
+    def rehearse(self, relayed: Sequence[str]) -> None:
+        """One rehearsal of the latest blocked messages."""
+        with self.lock:
+            self.engine.rehearse(relayed)
 
     def heartbeat(self) -> None:
         """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and self.guard.failure is None:
             self.beat.publish(TimeMsg(data=rospy.Time.now()))
             time.sleep(self.period)
 
@@ -496,9 +534,11 @@ def main(
     except (OSError, ValueError) as error:
         rospy.logfatal(f"imrosc monitor: {error}")
         sys.exit(1)
-    Monitor(spec, document, engine_class, flatteners)
+    monitor = Monitor(spec, document, engine_class, flatteners)
     rospy.loginfo(
         f"imrosc monitor {rospy.get_name()}: checking {len(document['invariants'])} "
         f"invariants from {path}"
     )
     rospy.spin()
+    if monitor.guard.failure is not None:
+        sys.exit(1)  # roslaunch reports the exit (and a required="true" node ends the launch)

@@ -50,6 +50,7 @@ import queue
 import sys
 import threading
 import time
+import traceback
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple
 
 import numpy as np
@@ -141,6 +142,11 @@ class Monitor:
         self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
         self.flatteners = flatteners
         self.lock = threading.Lock()
+        self.guard = common.Guard(self.stop)
+        """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
+        self.broken = node.create_publisher(
+            String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
+        )
         document = common.alarm_document(document, spec.get("alarms"))
         self.engine = engine_class(document)
         self.precheck = (
@@ -164,23 +170,42 @@ class Monitor:
         self.action_clients: Dict[str, Tuple[Any, Any]] = {}
         self.pending_actions = set(self.actions)
         self.work = queue.Queue()  # type: queue.Queue[str]
-        self.broken = node.create_publisher(
-            String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
-        )
         self.beat = node.create_publisher(TimeMsg, ns + "/heartbeat", 1)
         node.create_subscription(
             String,
             ns + "/clear_inv",
-            plumbing.guarded(self.log, "clear", self.on_clear),
+            self.checked("/clear_inv", self.on_clear),
             QUEUE,
             callback_group=self.checks,
         )
         threading.Thread(target=self.worker, name="imrosc-actions", daemon=True).start()
         threading.Thread(target=self.heartbeat, name="imrosc-heartbeat", daemon=True).start()
-        self.tick()
+        self.guard.run("the timer", self.tick)
         self.timer = node.create_timer(
-            self.period, plumbing.guarded(self.log, "poll", self.tick), callback_group=self.checks
+            self.period, self.checked("the timer", self.tick), callback_group=self.checks
         )
+
+    def checked(self, where: str, callback: Callable[..., Any]) -> Callable[..., Any]:
+        """``callback`` under the guard: the first exception stops the node (:meth:`stop`)."""
+
+        def run(*args: Any) -> Any:
+            return self.guard.run(where, callback, *args)
+
+        return run
+
+    def stop(self, where: str, error: BaseException) -> None:
+        """A check raised: report it on ``/m/broken_inv`` and in the log, stop the heartbeat
+        and shut ROS down, which ends the node's spin (the guard already keeps every callback
+        from checking or relaying)."""
+        text = common.failure_text(where, error)
+        self.log.fatal(f"{text}\n{traceback.format_exc()}")
+        try:
+            self.broken.publish(String(data=common.failure_json(where, error, time.time())))
+        except Exception as failed:  # the report is best effort; the shutdown is not
+            self.log.error(f"imrosc: cannot publish the failure: {failed}")
+        shutdown = getattr(rclpy, "try_shutdown", None) or rclpy.shutdown
+        # let the report reach its subscribers before the node's endpoints close
+        threading.Timer(0.5, shutdown).start()
 
     def now(self) -> float:
         """ROS time in seconds (simulated time with ``use_sim_time``)."""
@@ -232,7 +257,7 @@ class Monitor:
             topic.subscription = self.node.create_subscription(
                 topic.message_class,
                 topic.name,
-                plumbing.guarded(self.log, f"message on {topic.name}", self.on_message_of(topic)),
+                self.checked(f"message on {topic.name}", self.on_message_of(topic)),
                 plumbing.profile(wanted),
                 callback_group=self.checks,
             )
@@ -313,18 +338,31 @@ class Monitor:
         blocked = service in self.blocked_services
 
         def serve(request: Any, response: Any) -> Any:
+            if self.guard.failure is not None:  # stopped: a default answer, nothing forwarded
+                return response
             try:
                 return forward(request, response)
             except Exception as error:
                 self.log.error(f"imrosc: relaying {service} failed: {error}")
                 return response
 
+        def check(engine: Any, values: Any) -> Any:
+            """The call's violations, and the alarms they raise, under the guard."""
+            with self.lock:
+                now = self.now()
+                found = engine.advance(now) if engine is self.engine else []
+                caused = engine.call(service, now, values)
+                raised, alarmed = common.take_alarms(engine, found + caused)
+            return found, caused, raised, alarmed
+
         def forward(request: Any, default: Any) -> Any:
             precheck = self.precheck
             if blocked and precheck is not None:
-                with self.lock:
-                    refused = precheck.call(service, self.now(), logic.request_values(request))
-                    raised, alarmed = common.take_alarms(precheck, refused)
+                values = logic.request_values(request)
+                done = self.guard.run(f"call of {service}", check, precheck, values)
+                if done is None:
+                    return default
+                _, refused, raised, alarmed = done
                 if common.withheld(refused, alarmed):
                     self.report(refused, raised, alarmed)
                     ids = common.withheld_for(refused, alarmed)
@@ -333,11 +371,10 @@ class Monitor:
             start = self.now()
             answer = plumbing.call(client, request, self.timeout)
             values = logic.message_values(request, answer, self.now() - start)
-            with self.lock:
-                now = self.now()
-                found = self.engine.advance(now)
-                caused = self.engine.call(service, now, values)
-                raised, alarmed = common.take_alarms(self.engine, found + caused)
+            done = self.guard.run(f"call of {service}", check, self.engine, values)
+            if done is None:
+                return default
+            found, caused, raised, alarmed = done
             self.report(found + caused, raised, alarmed)
             if blocked and common.withheld(caused, alarmed):
                 ids = common.withheld_for(caused, alarmed)
@@ -398,7 +435,7 @@ class Monitor:
 
     def heartbeat(self) -> None:
         """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""
-        while rclpy.ok():
+        while rclpy.ok() and self.guard.failure is None:
             try:
                 self.beat.publish(self.node.get_clock().now().to_msg())
             except Exception:  # shutting down
@@ -477,7 +514,7 @@ def main(
     except (OSError, ValueError) as error:
         node.get_logger().fatal(f"imrosc monitor: {error}")
         sys.exit(1)
-    Monitor(node, spec, document, engine_class, flatteners)
+    monitor = Monitor(node, spec, document, engine_class, flatteners)
     node.get_logger().info(
         f"imrosc monitor {logic.node_name(node.get_namespace(), node.get_name())}: checking "
         f"{len(document['invariants'])} invariants from {path}"
@@ -493,3 +530,5 @@ def main(
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
+    if monitor.guard.failure is not None:
+        sys.exit(1)  # the launch reports the exit

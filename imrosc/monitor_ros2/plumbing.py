@@ -5,7 +5,8 @@ Interface classes by name (:func:`message_class`, :func:`service_class`), QoS pr
 node parameters with defaults that work from Foxy on (:func:`get_param`), other nodes'
 parameters (:class:`ParameterAsker`, also the recorder's), a service call that waits with a
 timeout (:func:`call`) and a callback that logs instead of killing the executor
-(:func:`guarded`). Python 3.8 syntax.
+(:func:`guarded`, used by the recorder: the monitor stops instead, see ``node.py``). Python
+3.8 syntax.
 """
 
 from __future__ import annotations

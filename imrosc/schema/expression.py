@@ -785,6 +785,10 @@ def evaluate(
     deciding operand, as in Python. Arithmetic takes numbers (and ``+`` also two strings);
     a type error, a division by zero or an overflow raises :class:`ExpressionError`.
     Exceptions raised by ``lookup`` and ``topic`` themselves pass through unchanged.
+
+    This is not how conditions are checked: inference and the monitor share the semantics of
+    ``imrosc.runtime.conditions`` (every operand evaluated, integers as floats, a condition
+    that cannot be evaluated does not hold; docs/config.md).
     """
     if isinstance(expr, (Number, String, Bool)):
         return expr.value

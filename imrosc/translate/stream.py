@@ -338,7 +338,9 @@ class BagTranslator:
                     if name in rows.columns
                 }
                 try:
-                    valid &= evaluate_mask(spec.condition.expression, spec.condition.fields, paired)
+                    valid &= evaluate_mask(
+                        spec.condition.expression, spec.condition.fields, paired, len(trigger)
+                    )
                 except (ConditionError, KeyError):
                     valid &= False
         rows_kept = int(valid.sum())

@@ -330,7 +330,7 @@ def test_no_monitor_is_a_diagnostic(tmp_path: Path) -> None:
         (
             '{"format": "imrosc-invariants", "version": 1, "topics": {},'
             ' "points": {"a": {"kind": "publish"}}, "invariants": []}',
-            "the runtime engine cannot load it",
+            "malformed: $.points.a: missing 'variables'",
         ),
     ],
 )

@@ -458,3 +458,115 @@ def test_the_watchdog_fails_open_while_the_monitor_is_silent(tmp_path: Path) -> 
     assert out["answer"] is True and out["served"] == [True], context
     assert out["stopped"], context  # the heartbeat is back: the watchdog stops
     assert watchdog.returncode is not None
+
+
+FAILURE_DRIVER = r"""
+import json, os, threading, time
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64, String, UInt8
+
+rclpy.init()
+executor = MultiThreadedExecutor(num_threads=2)
+driver = Node("driver", namespace="/a")
+executor.add_node(driver)
+threading.Thread(target=executor.spin, daemon=True).start()
+out = {"warnings": [], "relayed": []}
+driver.create_subscription(String, "/m/broken_inv", lambda m: out["warnings"].append(
+    json.loads(m.data)), 100)
+driver.create_subscription(UInt8, "/m/a/cmd", lambda m: out["relayed"].append(m.data), 10)
+level = driver.create_publisher(
+    Float64, "/a/level", QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+)
+cmd = driver.create_publisher(UInt8, "/a/cmd", 10)
+
+def wait(what, timeout=30.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if what():
+            return True
+        time.sleep(0.05)
+    return False
+
+def listens():
+    return any(i.node_name == MONITOR for i in driver.get_subscriptions_info_by_topic("/a/level"))
+
+out["ready"] = wait(listens) and wait(lambda: driver.count_publishers("/m/broken_inv") > 0)
+time.sleep(1.0)
+failures = lambda: [w for w in out["warnings"] if w["kind"] == "failure"]
+for _ in range(40):  # until the monitor hears one (best effort)
+    level.publish(Float64(data=20.0))
+    if wait(failures, 0.25):
+        break
+out["failures"] = failures()
+cmd.publish(UInt8(data=1))  # the monitor stopped: nothing is relayed unchecked
+time.sleep(1.0)
+print(json.dumps(out), flush=True)
+os._exit(0)
+"""
+
+
+def test_a_check_that_raises_stops_the_ros2_monitor(tmp_path: Path) -> None:
+    """A check that raises is published on /m/broken_inv (kind ``failure``), the node relays
+    nothing from then on and exits with status 1 (issue 18: it used to log the exception
+    and go on, unchecked)."""
+    assert ROS2_PYTHON is not None
+    config = write_case(tmp_path, config_text(scope=SCOPE, monitor=MONITOR), demo_document())
+    result = build_ros2(config)
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    package = write_package(result.files, tmp_path / "out")
+    engine = package / "demo_monitor" / "imrosc" / "runtime" / "engine.py"
+    source = engine.read_text(encoding="utf-8")
+    needle = "        found = self.advance(time) if self._timed else []\n        split ="
+    assert source.count(needle) == 1
+    injected = '        if topic == "/a/level":\n            raise RuntimeError("injected")\n'
+    engine.write_text(source.replace(needle, injected + needle), encoding="utf-8")
+    environment = {
+        **os.environ,
+        "ROS_DOMAIN_ID": str(random.randrange(200, 230)),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+        "PYTHONPATH": str(package),
+        "PYTHONUNBUFFERED": "1",
+    }
+    monitor = subprocess.Popen(
+        [
+            ROS2_PYTHON,
+            "-c",
+            "from demo_monitor import main; main.monitor()",
+            *("--ros-args", "-p", f"invariants:={package / 'config' / 'invariants.json'}"),
+        ],
+        env=environment,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        driver = subprocess.run(
+            [ROS2_PYTHON, "-c", FAILURE_DRIVER.replace("MONITOR", repr("demo_monitor"))],
+            env=environment,
+            capture_output=True,
+            text=True,
+            check=False,
+            timeout=120,
+        )
+        status = monitor.wait(timeout=20)
+    finally:
+        if monitor.poll() is None:
+            monitor.kill()
+        log, _ = monitor.communicate()
+    assert driver.returncode == 0, driver.stdout + driver.stderr + log
+    out = json.loads(driver.stdout.strip().splitlines()[-1])
+    context = json.dumps(out, indent=1) + "\n" + log
+    assert out["ready"], context
+    (failure,) = out["failures"]
+    assert failure["error"] == {
+        "where": "message on /a/level",
+        "type": "RuntimeError",
+        "message": "injected",
+    }, context
+    assert (failure["alarm"], failure["rule"]) == (True, "failure"), context
+    assert out["relayed"] == [], context
+    assert status == 1, context
+    assert "checking failed" in log, context

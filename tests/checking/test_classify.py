@@ -118,7 +118,7 @@ def test_classify_refuses_to_overwrite_a_foreign_file(landing: Path) -> None:
     done = runner.invoke(
         main, ["classify", str(landing / "landing_sim.xml"), "--refined", str(target)]
     )
-    assert done.exit_code == 1
+    assert done.exit_code == 2  # refused before any work
     assert "mine.inv" in done.output and target.read_text() == "my notes\n"
 
 
@@ -127,12 +127,12 @@ def test_classify_without_check_or_with_a_bad_inv(tmp_path: Path, landing: Path)
     config.write_text('<imROS project="p"><scope><publish id="a">/a</publish></scope></imROS>\n')
     runner = CliRunner()
     done = runner.invoke(main, ["classify", str(config)])
-    assert done.exit_code == 1 and "has no <check>" in done.output
+    assert done.exit_code == 2 and "has no <check>" in done.output
     assert "Traceback" not in done.output
     broken = tmp_path / "broken.inv"
     broken.write_text("{not json")
     done = runner.invoke(main, ["classify", str(landing / "landing_sim.xml"), "--inv", str(broken)])
-    assert done.exit_code == 1 and "broken.inv:1:2: not JSON" in done.output
+    assert done.exit_code == 2 and "broken.inv:1:2: not JSON" in done.output
 
 
 # -- onset-aware classification ---------------------------------------------------------------
@@ -298,7 +298,7 @@ def test_a_bad_onsets_file_is_one_line(
         (folder / "onsets.json").write_text(content)
     config = onsets.project(folder, '<fail onsets="onsets.json">bags/bad</fail>')
     done = CliRunner().invoke(main, ["classify", str(config)])
-    assert done.exit_code == 1 and "Traceback" not in done.output
+    assert done.exit_code == 2 and "Traceback" not in done.output
     assert message in done.output and "onsets.json" in done.output
 
 
@@ -345,7 +345,7 @@ def test_success_runs_that_trained_the_invariants_are_cross_validated(
         assert [s["bag"] for s in fold["success"]] == fold["held_out"]
     assert report["detection"]["success_runs"] == 3
     done = CliRunner().invoke(main, ["classify", str(config), "--cross-validate", "4"])
-    assert done.exit_code == 1 and "needs 2 <= K <= the 3 <detect> bag(s)" in done.output
+    assert done.exit_code == 2 and "needs 2 <= K <= the 3 <detect> bag(s)" in done.output
     assert "Traceback" not in done.output
 
 

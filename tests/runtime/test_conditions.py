@@ -7,9 +7,28 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from imrosc.runtime.conditions import holds
-from imrosc.translate.condition import evaluate_mask
+from imrosc.schema.expression import (
+    ARITHMETIC_OPS,
+    COMPARISON_OPS,
+    UNARY_OPS,
+    Binary,
+    Bool,
+    Expr,
+    Field,
+    Logical,
+    Number,
+    String,
+    Topic,
+    Unary,
+    parse_expression,
+    to_json,
+    to_text,
+)
+from imrosc.translate.condition import ConditionError, evaluate_mask, resolve_fields
 
 
 def field(*path: Any) -> dict[str, Any]:
@@ -90,9 +109,18 @@ def test_what_cannot_be_evaluated_does_not_hold(expression: dict[str, Any]) -> N
     assert holds(expression, FIELDS) is False
 
 
-def test_short_circuit_skips_what_is_not_needed() -> None:
+def test_every_operand_is_evaluated_as_in_the_translators_columns() -> None:
     assert holds(op("and", value(0), field("missing")), FIELDS) is False
-    assert holds(op("or", value(1), field("missing")), FIELDS) is True
+    assert holds(op("or", value(1), field("missing")), FIELDS) is False
+    assert holds(op("or", STATE, op("-", FRAME)), FIELDS) is False  # a type error anywhere
+
+
+def test_a_topic_operand_is_the_value_at_its_path() -> None:
+    topic = {"topic": "/a/subject_ctrl_state"}
+    fields = {("/a/subject_ctrl_state",): 4.0}
+    assert holds(op("==", topic, value(4)), fields) is True
+    assert holds(op("==", topic, value(3)), fields) is False
+    assert holds(op("==", topic, value(4)), {}) is False
 
 
 def test_a_nan_field_value_is_a_missing_number() -> None:
@@ -128,3 +156,69 @@ def test_agrees_with_the_translators_condition_columns(expression: dict[str, Any
     for k in range(200):
         fields = {("state",): float(state[k]), ("twist", "linear", "x"): float(speed[k])}
         assert holds(expression, fields) == bool(mask[k])
+
+
+# -- one semantics: the runtime evaluator against the translator's masks, on random trees ----
+
+_NUMBERS = [0.0, 1.0, -1.0, 2.5, 4.0, math.nan, math.inf, -math.inf, -0.0]
+_TOPIC = "/a/state"
+_NAMES = {("state",): "s.state", ("speed",): "s.speed", ("frame",): "s.frame", (_TOPIC,): "s.state"}
+_LEAVES = st.one_of(
+    st.sampled_from([Field(("state",)), Field(("speed",)), Field(("frame",)), Topic(_TOPIC)]),
+    st.one_of(st.integers(-5, 5), st.sampled_from([0.5, 2.5, 1e300, 10**30, 2**63, 10**400])).map(
+        Number
+    ),
+    st.booleans().map(Bool),
+    st.sampled_from(["map", ""]).map(String),
+)
+
+
+def _grow(children: st.SearchStrategy[Expr]) -> st.SearchStrategy[Expr]:
+    unary = st.builds(Unary, st.sampled_from(sorted(UNARY_OPS)), children)
+    ops = sorted(ARITHMETIC_OPS | COMPARISON_OPS)
+    binary = st.builds(Binary, st.sampled_from(ops), children, children)
+    logical = st.builds(
+        Logical,
+        st.sampled_from(["and", "or"]),
+        st.lists(children, min_size=2, max_size=3).map(tuple),
+    )
+    return st.one_of(unary, binary, logical)
+
+
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.recursive(_LEAVES, _grow, max_leaves=8), st.integers(0, 2**32 - 1))
+def test_the_runtime_evaluator_and_the_translators_masks_agree(expr: Expr, seed: int) -> None:
+    expression = to_json(expr)
+    rng = np.random.default_rng(seed)
+    rows = 16
+    state, speed = rng.choice(_NUMBERS, rows), rng.choice(_NUMBERS, rows)
+    frame = np.array(rng.choice(["map", "odom", ""], rows).tolist(), dtype=object)
+    columns = {"s.state": state, "s.speed": speed, "s.frame": frame}
+    try:
+        with np.errstate(all="ignore"):
+            mask = evaluate_mask(expression, _NAMES, columns, rows)
+    except ConditionError:  # the translator keeps no row of a condition it cannot evaluate
+        mask = np.zeros(rows, dtype=bool)
+    for k in range(rows):
+        fields = {
+            ("state",): float(state[k]),
+            ("speed",): float(speed[k]),
+            ("frame",): frame[k],
+            (_TOPIC,): float(state[k]),
+        }
+        assert holds(expression, fields) is bool(mask[k]), (to_text(expr), fields)
+
+
+def test_a_constant_condition_gives_a_mask_of_every_row() -> None:
+    assert evaluate_mask(to_json(Bool(True)), {}, {}, 3).tolist() == [True] * 3
+    one_is_one = Binary("==", Number(1), Number(1))
+    assert evaluate_mask(to_json(one_is_one), {}, {}, 2).tolist() == [True] * 2
+
+
+def test_a_topic_operand_resolves_to_the_conditions_own_topic_only() -> None:
+    expression = to_json(parse_expression("/a/subject_ctrl_state == 4"))
+    variables = ["subject_ctrl_state.data"]
+    names = resolve_fields(expression, "/a/subject_ctrl_state", "subject_ctrl_state", variables)
+    assert names == {("/a/subject_ctrl_state",): "subject_ctrl_state.data"}
+    with pytest.raises(ConditionError, match="not the condition's topic"):
+        resolve_fields(expression, "/a/other", "other", ["other.data"])
