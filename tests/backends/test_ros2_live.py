@@ -377,11 +377,13 @@ os._exit(0)  # the driver's own teardown is not under test
 """
 
 
+@pytest.mark.parametrize("late", [False, True], ids=["served", "served-late"])
 def test_the_watchdog_fails_open_while_the_monitor_is_silent(
-    tmp_path: Path, ros2_python: str
+    tmp_path: Path, ros2_python: str, late: bool
 ) -> None:
     """The watchdog relays the blocked topic and service unchecked while the monitor is
-    silent and stops when its heartbeat comes."""
+    silent and stops when its heartbeat comes; ``served-late``: the system's publisher and
+    service appear only after the watchdog failed open (and found neither)."""
     config = write_case(tmp_path, config_text(scope=SCOPE, monitor=MONITOR), demo_document())
     result = build_ros2(config)
     assert result.ok, [d.as_text() for d in result.diagnostics]
@@ -394,7 +396,9 @@ def test_the_watchdog_fails_open_while_the_monitor_is_silent(
         return started[-1]
 
     try:
-        start("from demo_monitor import main; main.watchdog()")
+        watchdog = start("from demo_monitor import main; main.watchdog()")
+        if late:
+            watchdog.wait_for("cannot relay /a/reset")  # failed open before it was served
         driver = start(WATCHDOG_DRIVER.replace("WATCHDOG", repr("demo_monitor_watchdog")))
         driver.wait_for("@@monitor", 90)
         start(
@@ -413,3 +417,5 @@ def test_the_watchdog_fails_open_while_the_monitor_is_silent(
     assert 9 in out["relayed"], context  # relayed unchecked
     assert out["answer"] is True and out["served"] == [True], context
     assert out["stopped"], context  # the heartbeat is back: the watchdog stops
+    if late:
+        assert "relaying /a/reset now" in watchdog.output, context
