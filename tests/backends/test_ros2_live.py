@@ -302,7 +302,12 @@ def test_the_generated_node_checks_blocks_acts_and_warns_on_a_live_ros2_graph(
             monitor.kill()
             log, _ = monitor.communicate()
     assert driver.returncode == 0, driver.stdout + driver.stderr + log
-    out = json.loads(driver.stdout.strip().splitlines()[-1])
+    assert_monitored(driver.stdout, log)
+
+
+def assert_monitored(stdout: str, log: str) -> None:
+    """What ``DRIVER`` saw (the last line of its output) is what the monitor must do."""
+    out = json.loads(stdout.strip().splitlines()[-1])
     context = json.dumps(out, indent=1) + "\n" + log
     assert out["ready"] and out["relay_publishers"], context
     assert out["level_best_effort"], context
