@@ -96,7 +96,7 @@ class ListNodes:
 EOF
 
 "$venv/bin/python" -c 'import rclpy, numpy, std_srvs.srv, sensor_msgs.msg, geometry_msgs.msg
-import rcl_interfaces.srv, lifecycle_msgs.msg, launch, launch_ros, launch_xml, ros2launch
+import rcl_interfaces.srv, service_msgs.msg, lifecycle_msgs.msg, launch, launch_ros, launch_xml, ros2launch
 import colcon_core, colcon_ros' >>"$log" 2>&1 || fail "the import check"
 [ -x "$venv/bin/ros2" ] && [ -x "$venv/bin/colcon" ] || fail "the ros2 and colcon commands"
 echo "$stamp" >"$marker"

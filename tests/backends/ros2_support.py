@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-RCLPY_IMPORTS = "import rclpy, numpy, std_srvs.srv, rcl_interfaces.srv"
+RCLPY_IMPORTS = "import rclpy, numpy, std_srvs.srv, rcl_interfaces.srv, service_msgs.msg"
 LAUNCH_IMPORTS = "import launch_ros, ros2launch, colcon_core"
 
 
