@@ -142,7 +142,7 @@ def demo_document() -> dict[str, Any]:
 
 
 DRIVER = r"""
-import json, sys, threading, time
+import json, os, sys, threading, time
 import rclpy
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
@@ -258,8 +258,9 @@ out["level_after_clear"] = len(warned("level_max")) - before
 with lock:
     print(json.dumps(out))
 sys.stdout.flush()
-executor.shutdown()
-rclpy.shutdown()
+# the driver's own teardown is not under test: rclpy's shutdown with the executor still
+# spinning in its thread aborts now and then ("terminate called without an active exception")
+os._exit(0)
 """
 
 
