@@ -151,12 +151,18 @@ class Reader:
         self.popen.stdin.write(line + "\n")
         self.popen.stdin.flush()
 
-    def stop(self, signal_number: int = signal.SIGINT, timeout: float = 20.0) -> int:
-        """Send ``signal_number`` to the process; kill its process group after ``timeout``
-        seconds. The return code (negative: a signal ended it)."""
+    def stop(
+        self, signal_number: int = signal.SIGINT, timeout: float = 20.0, group: bool = False
+    ) -> int:
+        """Send ``signal_number`` to the process (``group``: to its process group, as Ctrl-C
+        in a terminal does); kill the group after ``timeout`` seconds. The return code
+        (negative: a signal ended it)."""
         if self.popen.poll() is None:
             with contextlib.suppress(ProcessLookupError):
-                self.popen.send_signal(signal_number)
+                if group:
+                    os.killpg(self.popen.pid, signal_number)
+                else:
+                    self.popen.send_signal(signal_number)
             try:
                 self.popen.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
