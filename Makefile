@@ -62,10 +62,10 @@ lint:
 typecheck:
 	$(PYTHON) -m mypy
 
-# ROS 2 logs go to a temporary folder, removed afterwards
+# ROS 2 logs go to a temporary folder, removed afterwards. PYTEST_ARGS: e.g. "-m live".
 unit: ros2
 	@logs=$$(mktemp -d); trap 'rm -rf "$$logs"' EXIT; set -x; \
-	ROS_LOG_DIR="$$logs" $(ROS2_ENV) $(PYTHON) -m pytest
+	ROS_LOG_DIR="$$logs" $(ROS2_ENV) $(PYTHON) -m pytest $(PYTEST_ARGS)
 
 demo:
 	$(PYTHON) -m pip install --quiet --disable-pip-version-check . && imrosc demo
