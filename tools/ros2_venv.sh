@@ -46,7 +46,18 @@ fail() {
 pip() { "$venv/bin/python" -m pip install --quiet --disable-pip-version-check "$@" >>"$log" 2>&1; }
 
 rm -rf "$venv"
-"$python" -m venv "$venv" >>"$log" 2>&1 || fail "python -m venv"
+version=$("$python" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+[ "$version" = 3.11 ] || {
+	echo "ROS 2: the Jazzy wheels are built for Python 3.11, $python is $version" \
+		"(set IMROSC_ROS2_BASE_PYTHON)" >&2
+	exit 1
+}
+# without ensurepip (Debian without python3-venv), the creating python's pip bootstraps pip
+"$python" -m venv "$venv" >>"$log" 2>&1 || {
+	rm -rf "$venv"
+	"$python" -m venv --without-pip "$venv" >>"$log" 2>&1 &&
+		"$python" -m pip --python "$venv/bin/python" install --quiet pip >>"$log" 2>&1
+} || fail "python -m venv"
 pip --upgrade pip setuptools wheel || fail "pip install pip"
 pip "ros-jazzy-rclpy[fastrtps]" ros-jazzy-std-msgs ros-jazzy-std-srvs ros-jazzy-sensor-msgs \
 	ros-jazzy-geometry-msgs ros-jazzy-rcl-interfaces ros-jazzy-builtin-interfaces \
