@@ -6,7 +6,9 @@ with ``fail_open:=true``, this node listens to the monitor's heartbeat (``/m/hea
 when it has been silent for ``~timeout`` seconds of wall time (default three periods, at
 least one second), the watchdog relays every blocked topic to ``/m/<topic>`` unchecked and
 serves every relayed service, forwarding calls; when the heartbeat comes back it stops (the
-monitor registers its services again when it restarts, which replaces the watchdog's).
+monitor registers its services again when it restarts, which replaces the watchdog's). A
+topic whose type the master does not know yet and a service not registered yet are looked
+for again at every check of the heartbeat while failing open, and relayed once found.
 
 Parameters: ``~namespace``, ``~period``, ``~timeout``. Python 3.8 syntax.
 """
@@ -16,7 +18,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from typing import Any, Callable, Dict, List, Mapping, Optional
+from typing import Any, Callable, Dict, List, Mapping, Optional, Set
 
 from . import logic
 from .node import load_spec, relay_name
@@ -43,6 +45,9 @@ class Watchdog:
         self.last_beat = time.monotonic()  # a grace period for the monitor to start
         self.relaying = False
         self.endpoints: List[Any] = []
+        self.pending_topics: List[Mapping[str, Any]] = []  # blocked topics of unknown type
+        self.pending_services: List[str] = []  # relayed services not registered yet
+        self.reported: Set[str] = set()
         self.lock = threading.Lock()
         rospy.Subscriber(self.namespace + "/heartbeat", TimeMsg, self.on_beat, queue_size=1)
         threading.Thread(target=self.watch, name="imrosc-watchdog", daemon=True).start()
@@ -53,16 +58,22 @@ class Watchdog:
         self.last_beat = time.monotonic()
 
     def watch(self) -> None:
-        """Check the heartbeat four times per timeout; start or stop relaying."""
+        """Check the heartbeat four times per timeout; start or stop relaying; while
+        relaying, relay what was not found yet."""
         while not rospy.is_shutdown():
             wanted = logic.should_relay(self.last_beat, time.monotonic(), self.timeout)
             with self.lock:
-                if wanted and not self.relaying:
-                    rospy.logwarn("imrosc watchdog: the monitor is silent; failing open")
-                    self.start()
-                elif not wanted and self.relaying:
-                    rospy.logwarn("imrosc watchdog: the monitor is back; relaying stops")
-                    self.stop()
+                try:
+                    if wanted and not self.relaying:
+                        rospy.logwarn("imrosc watchdog: the monitor is silent; failing open")
+                        self.start()
+                    elif wanted:
+                        self.resolve()
+                    elif self.relaying:
+                        rospy.logwarn("imrosc watchdog: the monitor is back; relaying stops")
+                        self.stop()
+                except Exception as error:
+                    rospy.logerr(f"imrosc watchdog: {error}")
             time.sleep(self.timeout / 4.0)
 
     def topic_class(self, msgtype: Optional[str], topic: str) -> Any:
@@ -74,27 +85,49 @@ class Watchdog:
         return roslib.message.get_message_class(msgtype) if msgtype else None
 
     def start(self) -> None:
-        """Relay every blocked topic and serve every relayed service."""
+        """Relay every blocked topic and serve every relayed service (those not found yet
+        at the next ticks)."""
         self.relaying = True
+        self.pending_topics = [t for t in self.spec["topics"] if t.get("relay")]
+        self.pending_services = [s["name"] for s in self.spec["services"]]
+        self.reported = set()
+        self.resolve()
+
+    def resolve(self) -> None:
+        """Relay the blocked topics and services found now; log the others once."""
+        self.pending_topics = [t for t in self.pending_topics if not self.relay_topic(t)]
+        self.pending_services = [s for s in self.pending_services if not self.serve(s)]
+
+    def relay_topic(self, topic: Mapping[str, Any]) -> bool:
+        """Relay one blocked topic if its type is known; whether it is relayed."""
+        found = self.topic_class(topic.get("type"), topic["name"])
+        if found is None:
+            self.not_yet(topic["name"], "type unknown")
+            return False
         ns = self.namespace
-        for topic in self.spec["topics"]:
-            if not topic.get("relay"):
-                continue
-            found = self.topic_class(topic.get("type"), topic["name"])
-            if found is None:
-                rospy.logerr(f"imrosc watchdog: cannot relay {topic['name']}: type unknown")
-                continue
-            publisher = rospy.Publisher(relay_name(ns, topic["name"]), found, queue_size=100)
-            subscriber = rospy.Subscriber(topic["name"], found, publisher.publish, queue_size=100)
-            self.endpoints += [subscriber, publisher]
-        for service in self.spec["services"]:
-            try:
-                found = rosservice.get_service_class_by_name(service["name"])
-            except Exception:
-                rospy.logerr(f"imrosc watchdog: cannot relay {service['name']}: not served")
-                continue
-            forward = self.forward(service["name"], found)
-            self.endpoints.append(rospy.Service(relay_name(ns, service["name"]), found, forward))
+        publisher = rospy.Publisher(relay_name(ns, topic["name"]), found, queue_size=100)
+        subscriber = rospy.Subscriber(topic["name"], found, publisher.publish, queue_size=100)
+        self.endpoints += [subscriber, publisher]
+        return True
+
+    def serve(self, name: str) -> bool:
+        """Serve ``/m/<name>`` if ``name`` is registered; whether it is."""
+        try:
+            found = rosservice.get_service_class_by_name(name)
+        except Exception:
+            self.not_yet(name, "not served")
+            return False
+        forward = self.forward(name, found)
+        self.endpoints.append(rospy.Service(relay_name(self.namespace, name), found, forward))
+        if name in self.reported:
+            rospy.logwarn(f"imrosc watchdog: relaying {name} now")
+        return True
+
+    def not_yet(self, name: str, why: str) -> None:
+        """Log once per failing open that ``name`` cannot be relayed yet."""
+        if name not in self.reported:
+            self.reported.add(name)
+            rospy.logwarn(f"imrosc watchdog: cannot relay {name} yet: {why}; trying again")
 
     @staticmethod
     def forward(name: str, service_class: Any) -> Callable[[Any], Any]:
@@ -112,6 +145,8 @@ class Watchdog:
             else:
                 endpoint.shutdown()
         self.endpoints = []
+        self.pending_topics = []
+        self.pending_services = []
 
 
 def main(package: str) -> None:

@@ -4,14 +4,13 @@ translator's readers (:mod:`imrosc.records`) accept, change detection, and servi
 paired from synthetic introspection events.
 
 The live half (the rendered recorder node on a ROS 2 graph with service introspection)
-runs only with an rclpy interpreter (``IMROSC_ROS2_PYTHON``).
+runs with an rclpy interpreter (``IMROSC_ROS2_PYTHON``; ``tests/backends/ros2_support.py``).
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
 import py_compile
 import subprocess
 import sys
@@ -30,6 +29,7 @@ from imrosc import records
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.monitor_ros2 import logic as graph
 from imrosc.record_ros2 import logic
+from tests.backends.ros2_support import require_ros2, ros2_environment
 from tests.backends.test_monitor_spec import ROOT, write_package
 from tests.backends.test_ros1 import python38
 from tests.backends.test_ros2 import (
@@ -393,19 +393,6 @@ def test_the_client_is_named_by_its_gid_or_the_event_publishers() -> None:
 # -- live: the rendered recorder on a ROS 2 graph -------------------------------------------
 
 
-def _ros2_python() -> str | None:
-    candidate = os.environ.get("IMROSC_ROS2_PYTHON")
-    if not candidate or not Path(candidate).exists():
-        return None
-    probe = subprocess.run(
-        [candidate, "-c", "import rclpy, std_srvs.srv, rcl_interfaces.srv, service_msgs.msg"],
-        capture_output=True,
-        check=False,
-        timeout=60,
-    )
-    return candidate if probe.returncode == 0 else None
-
-
 DRIVER = textwrap.dedent(
     """
     import json, sys, time
@@ -464,12 +451,9 @@ DRIVER = textwrap.dedent(
 def test_live_the_recorder_publishes_graph_parameters_and_calls(
     recorder_package: dict[str, bytes], tmp_path: Path
 ) -> None:
-    python = _ros2_python()
-    if python is None:
-        pytest.skip("needs rclpy with service introspection (set IMROSC_ROS2_PYTHON)")
+    python = require_ros2()
     package = write_package(recorder_package, tmp_path)
-    domain = str(100 + os.getpid() % 100)
-    env = {**os.environ, "ROS_DOMAIN_ID": domain, "PYTHONPATH": str(package)}
+    env = ros2_environment(tmp_path, PYTHONPATH=str(package))
     recorder = subprocess.Popen(
         [
             python,
