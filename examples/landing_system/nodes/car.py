@@ -12,7 +12,6 @@ Faults of Table 5.1 that live here:
 
 from __future__ import annotations
 
-import contextlib
 import random
 
 import landing_core as core
@@ -32,33 +31,25 @@ def main() -> None:
     fake = (rng.uniform(-2.5, 2.5), rng.uniform(-2.5, 2.5))
     pose = rospy.Publisher("/a/car_pose", PoseStamped, queue_size=10)
     drive = rospy.Publisher("/a/car_drive", UInt8, queue_size=10)
-    latest: dict[str, TransformStamped] = {}
+    vicon = node.latest("/vicon/car", TransformStamped)
     slow_last = [-1e9]
-
-    def on_vicon(msg: TransformStamped) -> None:
-        latest["pose"] = msg
 
     def on_task(request: ExecuteTask) -> ExecuteTaskResponse:
         drive.publish(UInt8(request.task_id))
         return ExecuteTaskResponse("ok")
 
-    rospy.Subscriber("/vicon/car", TransformStamped, on_vicon, queue_size=1)
-    rospy.Service("/a/execute_task", ExecuteTask, on_task)
-    node.wait_for_clock()
-    rate = rospy.Rate(RATE)
-    while not rospy.is_shutdown():
-        now = rospy.get_time()
+    def send(now: float) -> None:
         if name == "false_airport":
             pose.publish(node.pose_message(rospy.Time.from_sec(now), *fake, core.PLATFORM_TOP))
-        elif "pose" in latest:
+        elif "msg" in vicon:
             slowed = name == "slowed" and (now % 10.0) >= 5.0
             if not slowed or now - slow_last[0] >= 2.0:
                 slow_last[0] = now
-                pose.publish(node.pose_of_transform(latest["pose"]))
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+                pose.publish(node.pose_of_transform(vicon["msg"]))
+
+    rospy.Service("/a/execute_task", ExecuteTask, on_task)
+    node.every(RATE, send)
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)

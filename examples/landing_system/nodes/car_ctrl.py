@@ -12,7 +12,6 @@ during a landing) calls the landing off: it pursues the platform again.
 
 from __future__ import annotations
 
-import contextlib
 import threading
 
 import landing_core as core
@@ -71,21 +70,18 @@ def main() -> None:
     rospy.Subscriber("/a/subject_ctrl_state", UInt8, on_state, queue_size=10)
     rospy.Service("/a/poll_status", PollStatus, on_poll)
     execute = rospy.ServiceProxy("/a/execute_task", ExecuteTask)
-    node.wait_for_clock()
-    rate = rospy.Rate(20.0)
-    cycle = 0
-    last_sent = -1
-    while not rospy.is_shutdown():
-        now = rospy.get_time()
+    sent = {"cycle": 0, "state": -1}
+
+    def cycle(now: float) -> None:
         with lock:
             pose = uav.get("pose")
             if pose is not None:
                 state, goal, task = control.step(now, int(seen["state"]), pose[:3], uav["vz"][0])
             else:
                 state, goal, task = control.commanded, None, None
-        if state != last_sent or cycle % 4 == 0:
+        if state != sent["state"] or sent["cycle"] % 4 == 0:
             command.publish(UInt8(state))
-            last_sent = state
+            sent["state"] = state
         if goal is not None:
             waypoint.publish(node.pose_message(rospy.Time.from_sec(now), *goal))
         if task is not None:
@@ -93,11 +89,10 @@ def main() -> None:
                 execute.call(task)
             except (rospy.ServiceException, rospy.ROSException) as error:
                 rospy.logwarn("execute_task %d failed: %s", task, error)
-        cycle += 1
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+        sent["cycle"] += 1
+
+    node.every(20.0, cycle)
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)

@@ -5,8 +5,6 @@ current state on ``/a/subject_ctrl_state`` at 10 Hz and at once on a change."""
 
 from __future__ import annotations
 
-import contextlib
-
 import landing_core as core
 import landing_node as node
 import rospy  # type: ignore[import-not-found]
@@ -26,14 +24,8 @@ def main() -> None:
 
     rospy.Subscriber("/a/cmd_subject_ctrl_state", UInt8, on_command, queue_size=10)
     rospy.Subscriber("/a/subject_status", BatteryState, lambda m: None, queue_size=1)
-    node.wait_for_clock()
-    rate = rospy.Rate(10.0)
-    while not rospy.is_shutdown():
-        state.publish(UInt8(current[0]))
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+    node.every(10.0, lambda _now: state.publish(UInt8(current[0])))
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)

@@ -6,8 +6,10 @@ Runs under Debian's ``/usr/bin/python3`` (where rospy lives); the service types
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import rospy  # type: ignore[import-not-found]
@@ -83,3 +85,26 @@ def wait_for_clock() -> None:
     """Block until simulated time runs (``/clock`` published)."""
     while not rospy.is_shutdown() and rospy.get_time() == 0.0:
         time.sleep(0.01)
+
+
+def every(hz: float, work: Callable[[float], None]) -> None:
+    """Once simulated time runs, call ``work(now)`` at ``hz`` of it until shutdown."""
+    wait_for_clock()
+    rate = rospy.Rate(hz)
+    while not rospy.is_shutdown():
+        work(rospy.get_time())
+        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
+            rate.sleep()
+
+
+def latest(topic: str, kind: Any) -> dict[str, Any]:
+    """A subscription keeping the last message of ``topic`` under the key ``"msg"``."""
+    held: dict[str, Any] = {}
+    rospy.Subscriber(topic, kind, lambda m: held.update(msg=m), queue_size=1)
+    return held
+
+
+def run(main: Callable[[], None]) -> None:
+    """Run a node's ``main`` until ROS shuts it down."""
+    with contextlib.suppress(rospy.ROSInterruptException):
+        main()

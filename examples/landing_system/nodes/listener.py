@@ -5,8 +5,6 @@ also polls the controller's status (``/a/poll_status``) at ``/a/car_ctrl/poll_ra
 
 from __future__ import annotations
 
-import contextlib
-
 import landing_node as node
 import rospy  # type: ignore[import-not-found]
 from landing_system.srv import PollStatus  # type: ignore[import-not-found]
@@ -19,18 +17,16 @@ def main() -> None:
     if not rospy.get_param("~poll", False):
         rospy.spin()
         return
-    node.wait_for_clock()
     poll = rospy.ServiceProxy("/a/poll_status", PollStatus)
-    rate = rospy.Rate(float(rospy.get_param("/a/car_ctrl/poll_rate", 2.0)))
-    while not rospy.is_shutdown():
+
+    def ask(_now: float) -> None:
         try:
             poll.call()
         except (rospy.ServiceException, rospy.ROSException) as error:
             rospy.logdebug("poll_status: %s", error)
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+
+    node.every(float(rospy.get_param("/a/car_ctrl/poll_rate", 2.0)), ask)
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)

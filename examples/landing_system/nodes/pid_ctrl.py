@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import threading
 
 import landing_core as core
@@ -45,10 +44,8 @@ def main() -> None:
     rospy.Subscriber("/a/task_waypose", PoseStamped, on_waypoint, queue_size=1)
     rospy.Subscriber("/a/subject_pose", PoseStamped, on_pose, queue_size=1)
     rospy.Subscriber("/a/subject_ctrl_state", UInt8, lambda m: held.update(state=m.data))
-    node.wait_for_clock()
-    rate = rospy.Rate(50.0)
-    while not rospy.is_shutdown():
-        now = rospy.get_time()
+
+    def control(now: float) -> None:
         with lock:
             pose = held.get("pose")
             point = held.get("waypoint")
@@ -70,10 +67,9 @@ def main() -> None:
         msg.angular.x, msg.angular.y = cmd.roll, cmd.pitch
         msg.linear.z, msg.linear.x = cmd.thrust, 1.0 if cmd.motors else 0.0
         out.publish(msg)
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+
+    node.every(50.0, control)
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)

@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import random
 
 import landing_core as core
@@ -26,21 +25,19 @@ def main() -> None:
         lambda m: thrust.__setitem__(0, m.linear.z if m.linear.x > 0.5 else 0.0),
         queue_size=1,
     )
-    node.wait_for_clock()
-    rate = rospy.Rate(10.0)
-    while not rospy.is_shutdown():
+
+    def report(now: float) -> None:
         msg = BatteryState()
-        msg.header.stamp = rospy.Time.from_sec(rospy.get_time())
+        msg.header.stamp = rospy.Time.from_sec(now)
         load = thrust[0] / core.GRAVITY
-        msg.voltage = 12.4 - 0.002 * rospy.get_time() - 0.35 * load + rng.gauss(0.0, 0.01)
+        msg.voltage = 12.4 - 0.002 * now - 0.35 * load + rng.gauss(0.0, 0.01)
         msg.current = 6.0 * load + rng.gauss(0.0, 0.05)
-        msg.percentage = max(0.0, 1.0 - rospy.get_time() / 1200.0)
+        msg.percentage = max(0.0, 1.0 - now / 1200.0)
         msg.present = True
         status.publish(msg)
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+
+    node.every(10.0, report)
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)

@@ -4,8 +4,6 @@
 
 from __future__ import annotations
 
-import contextlib
-
 import landing_node as node
 import rospy  # type: ignore[import-not-found]
 from geometry_msgs.msg import PoseStamped, TransformStamped  # type: ignore[import-not-found]
@@ -14,17 +12,14 @@ from geometry_msgs.msg import PoseStamped, TransformStamped  # type: ignore[impo
 def main() -> None:
     rospy.init_node("uav")
     pose = rospy.Publisher("/a/subject_pose", PoseStamped, queue_size=10)
-    latest: dict[str, TransformStamped] = {}
-    rospy.Subscriber("/vicon/uav", TransformStamped, lambda m: latest.update(pose=m), queue_size=1)
-    node.wait_for_clock()
-    rate = rospy.Rate(50.0)
-    while not rospy.is_shutdown():
-        if "pose" in latest:
-            pose.publish(node.pose_of_transform(latest["pose"]))
-        with contextlib.suppress(rospy.ROSTimeMovedBackwardsException):
-            rate.sleep()
+    vicon = node.latest("/vicon/uav", TransformStamped)
+
+    def forward(_now: float) -> None:
+        if "msg" in vicon:
+            pose.publish(node.pose_of_transform(vicon["msg"]))
+
+    node.every(50.0, forward)
 
 
 if __name__ == "__main__":
-    with contextlib.suppress(rospy.ROSInterruptException):
-        main()
+    node.run(main)
