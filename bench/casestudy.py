@@ -16,7 +16,8 @@ real time; ``tests/live/landing_system.py`` starts it):
    runs of each fault scenario (seeds 2000, ...) that failed;
 2. ``imrosc infer``, then ``imrosc classify`` (which writes ``landing.refined.inv``) on a
    copy of ``examples/uav_landing.xml`` whose ``<check>`` lists those folders and whose
-   ``<monitor>`` checks the refined file (scope, detect and monitor otherwise unchanged);
+   ``<monitor>`` checks the refined file (``--invariants inferred``: the inferred one, as
+   the example has it; scope, detect and monitor otherwise unchanged);
 3. ``imrosc build --backend ros1`` with ``examples/uav_landing.graph.yaml``;
 4. per scenario, ``--trials`` trials (seeds 0, 1, ...) through the system's launch file
    (without the monitor) and through the ``system_monitored.launch`` the build rewrote
@@ -89,9 +90,10 @@ def imrosc(*args: str, cwd: Path, env: dict[str, str] | None = None) -> str:
     return done.stdout + done.stderr
 
 
-def configuration(work: Path) -> Path:
+def configuration(work: Path, refined: bool = True) -> Path:
     """``uav_landing.xml`` with its ``<check>`` on the bench's folders and its monitor on the
-    refined invariants; the launch file and graph beside it."""
+    refined invariants (``refined``; else on the inferred ones, as the example has it); the
+    launch file and graph beside it."""
     text = CONFIG.read_text(encoding="utf-8")
     check = re.search(r"  <check .*?</check>\n", text, re.S)
     assert check is not None, "uav_landing.xml has no <check>"
@@ -102,10 +104,11 @@ def configuration(work: Path) -> Path:
         "    <fail>bags/fail</fail>\n"
         "  </check>\n",
     )
-    text = text.replace(
-        '<monitor launch="launch/landing.launch" inv="landing.inv"',
-        '<monitor launch="launch/landing.launch" inv="landing.refined.inv"',
-    )
+    if refined:
+        text = text.replace(
+            '<monitor launch="launch/landing.launch" inv="landing.inv"',
+            '<monitor launch="launch/landing.launch" inv="landing.refined.inv"',
+        )
     config = work / "uav_landing.xml"
     config.write_text(text, encoding="utf-8")
     shutil.copy(GRAPH, work / GRAPH.name)
@@ -217,6 +220,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--speed", type=float, default=3.0, help="times real time")
     parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it")
+    parser.add_argument(
+        "--invariants",
+        choices=("refined", "inferred"),
+        default="refined",
+        help="what the monitor checks: classify's refined file or infer's",
+    )
     args = parser.parse_args(argv)
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     unknown = [s for s in scenarios if s not in SCENARIOS]
@@ -228,7 +237,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     work = args.keep or Path(tempfile.mkdtemp(prefix="imrosc-casestudy-"))
     work.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    config = configuration(work)
+    config = configuration(work, refined=args.invariants == "refined")
     ros = Ros(work / "ros")
     prepare(ros)
     ros.start()
