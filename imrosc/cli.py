@@ -352,6 +352,35 @@ def export_daikon(
 
 
 @main.command()
+@click.argument("bags", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option(
+    "--format",
+    "output_format",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+)
+def info(bags: tuple[Path, ...], output_format: str) -> None:
+    """What BAGS hold (ROS 1 bags, ROS 2 bag folders, or folders of them): per bag its
+    format, time span and messages; per topic its type, messages, mean rate, publishers and
+    the variables a <publish> of it would watch. Exit status 1 when a bag cannot be read
+    (each named on stderr), 2 when none can."""
+    import json
+
+    from imrosc.info import collect, render
+
+    infos, problems = collect(list(bags))
+    for problem in problems:
+        click.echo(f"imrosc info: {problem.as_text()}", err=True)
+    if output_format == "json":
+        click.echo(json.dumps([i.as_json() for i in infos], indent=2))
+    elif infos:
+        click.echo(render(infos), nl=False)
+    if problems:
+        sys.exit(EXIT_ERRORS if infos else EXIT_USAGE)
+
+
+@main.command()
 @click.argument("inv", type=click.Path(path_type=Path))
 @click.option("--family", "families", multiple=True, help="Only this family (repeatable).")
 @click.option("--point", "points", multiple=True, help="Only this program point (repeatable).")
