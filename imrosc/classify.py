@@ -242,6 +242,8 @@ class RunOutcome:
     after: dict[str, float] = field(default_factory=dict)
     """Per invariant violated at or after the onset, its first violation there."""
     alarms: list[dict[str, Any]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    """What the replay warned of (topics missing, or of another type than learnt)."""
     """The alarms: ``time`` (from the start), ``point``, ``rule``, ``invariant``."""
 
     @property
@@ -275,7 +277,7 @@ def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
     assert _WORKER is not None
     bag, spec = task
     result = _WORKER.run(bag)
-    out = RunOutcome(bag, result.error, result.start, result.end)
+    out = RunOutcome(bag, result.error, result.start, result.end, warnings=result.warnings)
     if result.error is not None:
         return out
     if spec is not None:
@@ -555,6 +557,8 @@ def run_entry(outcome: RunOutcome, kind: str) -> dict[str, Any]:
         "alarms": len(times),
         "first_alarm": _seconds(times[0]) if times else None,
     }
+    if outcome.warnings:
+        entry["warnings"] = list(outcome.warnings)
     if kind == "success":
         entry["false_alarm"] = bool(times)
         return entry

@@ -605,6 +605,9 @@ def classify(
     except OutputRefusedError as refused:
         fail("classify", str(refused), EXIT_USAGE)
     _report(result.diagnostics, "text")
+    for run in result.report.get("runs", ()):
+        for warning in run.get("warnings", ()):
+            click.echo(f"imrosc classify: {run['bag']}: warning: {warning}", err=True)
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
     inputs = (config, *result.inputs)

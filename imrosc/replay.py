@@ -93,6 +93,20 @@ def _topic_warnings(wanted: Iterable[str], present: Iterable[str]) -> list[str]:
     return [f"no messages on {', '.join(missing)}: their invariants are not checked"]
 
 
+def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str, str]:
+    """Per topic whose type in the bag is not the one the invariants were learnt on, a
+    warning naming both: its messages are not read (its fields may mean other things)."""
+    found: dict[str, str] = {}
+    for connection in connections:
+        learnt = (topics.get(connection.topic) or {}).get("type")
+        if learnt and connection.msgtype != learnt and connection.topic not in found:
+            found[connection.topic] = (
+                f"topic {connection.topic} has type {connection.msgtype} in this bag but "
+                f"{learnt} in the invariants: its points are not checked"
+            )
+    return found
+
+
 class Replayer:
     """Feeds bags to one engine built from an invariants document."""
 
@@ -112,13 +126,17 @@ class Replayer:
         try:
             with open_bag(bag) as reader, np.errstate(all="ignore"):
                 result.start, result.end = reader.start_time / 1e9, reader.end_time / 1e9
+                drifted = _drifted(self.document["topics"], reader.connections)
+                result.warnings += drifted.values()
                 wanted = [
                     c
                     for c in reader.connections
-                    if (c.topic in self.flatteners or c.topic in RECORDS) and c.msgcount
+                    if (c.topic in self.flatteners or c.topic in RECORDS)
+                    and c.msgcount
+                    and c.topic not in drifted
                 ]
                 present = {c.topic for c in wanted}
-                result.warnings += _topic_warnings(self.flatteners, present)
+                result.warnings += _topic_warnings(set(self.flatteners) - set(drifted), present)
                 publishers = _Publishers(
                     [] if records.ARCH_TOPIC in present else publisher_starts(reader)
                 )

@@ -17,6 +17,7 @@ from imrosc.invariants import load
 from imrosc.ir import Project, from_json, to_json
 from imrosc.sim import Scenario, ScenarioKind, write_run, write_runs
 from tests.checking import onsets
+from tests.translate import msg, write_bag
 
 # Table 4.1: % true negative, % false positive, % true positive, % false negative, precision,
 # recall, F at beta 0.5, 1.0, 2.0
@@ -407,3 +408,22 @@ def test_fail_onsets_are_lowered_one_per_fail_and_round_trip() -> None:
     assert file.file == "bags/fail_logged/onsets.json" and file.given
     assert all(o.span.line > check.span.line for o in check.onsets)
     assert from_json(Project, to_json(project)) == project
+
+
+def test_a_run_whose_topic_changed_type_is_named_not_scored_silently(
+    prepared: Path, tmp_path: Path
+) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    drifted = [
+        msg("/x", onsets.START + k / 10, "std_msgs/msg/Float32", data=5.0) for k in range(100)
+    ]
+    (folder / "bags" / "drift").mkdir(parents=True)
+    write_bag(folder / "bags" / "drift" / "d.bag", drifted)
+    config = onsets.project(folder, "<fail>bags/drift</fail>")
+    done = CliRunner().invoke(main, ["classify", str(config), "-j", "1"])
+    assert "Traceback" not in done.output
+    assert "d.bag: warning: topic /x has type std_msgs/msg/Float32 in this bag" in done.stderr
+    report = run_check(config, workers=1).report
+    (run,) = [r for r in report["runs"] if r["kind"] == "fail"]
+    assert run["warnings"][0].startswith("topic /x has type std_msgs/msg/Float32")
+    assert run["detected"] is False and run["violated"] == 0

@@ -140,3 +140,20 @@ def test_warnings_reach_every_report(document: dict[str, Any], tmp_path: Path) -
     assert run_["messages"] == 0
     html = runner.invoke(main, ["replay", "--format", "html", str(inv), str(other)])
     assert "none of the invariants&#39; topics is in this bag (/t): not read" in html.stdout
+
+
+def test_a_topic_of_another_type_is_a_warning_and_is_not_checked(
+    document: dict[str, Any], tmp_path: Path
+) -> None:
+    """The same values in another type may mean other things (MagneticField in tesla, then
+    Vector3Stamped in gauss): replay says so rather than checking or passing them."""
+    drifted = [msg("/t", k / 10, "std_msgs/msg/Float32", "/a", data=1e4) for k in range(50)]
+    (result,) = replay(document, [write_bag(tmp_path / "drift.bag", drifted)])
+    assert result.messages == 0 and result.violations == [] and result.alarms == []
+    assert result.warnings[0] == (
+        "topic /t has type std_msgs/msg/Float32 in this bag but std_msgs/msg/Float64 in the "
+        "invariants: its points are not checked"
+    )
+    same = [msg("/t", k / 10, FLOAT, "/a", data=1e4) for k in range(50)]
+    (checked,) = replay(document, [write_bag(tmp_path / "same.bag", same)])
+    assert checked.violations and not checked.warnings  # the same values, learnt type: broken
