@@ -650,6 +650,10 @@ def run_check(
     base = config_path.parent
     inv_path = inv or base / check.inv
     document = read_invariants(inv_path)
+    learnt_for = document.get("project")
+    if learnt_for is not None and learnt_for != project.name:
+        message = f"{inv_path} was inferred for project {learnt_for!r}, not {project.name!r}"
+        out.diagnostics.append(_diagnostic(config_path, check.span, "project-mismatch", message))
     refined_path = output or inv_path.with_name(inv_path.stem + ".refined.inv")
     if before_work is not None:
         before_work(refined_path if check.mode == "classify" else None, inv_path)

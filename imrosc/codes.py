@@ -211,6 +211,12 @@ CODES: tuple[Code, ...] = (
         "The monitor's invariants file is missing, unreadable or not an imrosc invariants file.",
     ),
     Code(
+        "project-mismatch",
+        _W,
+        "backend",
+        "The invariants file was inferred for another project than the configuration's.",
+    ),
+    Code(
         "bad-field-path",
         _E,
         "backend",

@@ -434,6 +434,17 @@ def monitor_spec(inputs: BuildInputs) -> MonitorSpec | None:
             )
         )
         return None
+    learnt_for = document.get("project")
+    if learnt_for is not None and learnt_for != project.name:
+        inputs.diagnostics.append(
+            make(
+                project.source,
+                monitor.span.line,
+                monitor.span.column,
+                "project-mismatch",
+                f"{inv_label} was inferred for project {learnt_for!r}, not {project.name!r}",
+            )
+        )
     try:
         Engine(document)  # what the node does first: a file it cannot load fails the build
     except Exception as error:  # any failure: the document is malformed

@@ -348,9 +348,18 @@ def test_an_unusable_invariants_file_is_a_diagnostic(
 
 
 def test_a_project_name_that_is_no_package_name_is_refused(tmp_path: Path) -> None:
-    document = invariants_document({"/cmd": "std_msgs/msg/UInt8"})
+    document = {**invariants_document({"/cmd": "std_msgs/msg/UInt8"}), "project": "Landing Sim"}
     config = write_case(tmp_path, config_text(project="Landing Sim"), document)
     assert _codes(build_ros1(config)) == {("bad-package-name", "demo.xml")}
+
+
+def test_invariants_of_another_project_are_a_warning(tmp_path: Path) -> None:
+    document = invariants_document({"/cmd": "std_msgs/msg/UInt8"})  # inferred for "demo"
+    config = write_case(tmp_path, config_text(project="other"), document)
+    result = build_ros1(config)
+    assert _codes(result) == {("project-mismatch", "demo.xml")} and result.ok
+    (warning,) = result.diagnostics
+    assert "was inferred for project 'demo', not 'other'" in warning.message
 
 
 def test_an_action_on_a_topic_of_unknown_type_is_noted_and_resolved_at_run_time(

@@ -427,3 +427,11 @@ def test_a_run_whose_topic_changed_type_is_named_not_scored_silently(
     (run,) = [r for r in report["runs"] if r["kind"] == "fail"]
     assert run["warnings"][0].startswith("topic /x has type std_msgs/msg/Float32")
     assert run["detected"] is False and run["violated"] == 0
+
+
+def test_invariants_of_another_project_are_a_warning(prepared: Path, tmp_path: Path) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    config = onsets.project(folder, '<fail onset="12">bags/bad</fail>')
+    config.write_text(config.read_text().replace('project="p"', 'project="q"'))
+    codes = [d.code for d in run_check(config, workers=1).diagnostics]
+    assert "project-mismatch" in codes
