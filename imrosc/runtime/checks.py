@@ -72,6 +72,7 @@ class Checks:
         self.string_index = strings
         self.cleared: Set[str] = set()
         bounds: List[Tuple[int, float, float, Mapping[str, Any]]] = []
+        finite: List[Tuple[int, Mapping[str, Any]]] = []
         one_of: List[Tuple[int, List[float], Mapping[str, Any]]] = []
         nonzero: List[Tuple[int, Mapping[str, Any]]] = []
         pairs: Dict[str, List[Tuple[int, int, Mapping[str, Any]]]] = {"==": [], "<": [], "<=": []}
@@ -94,6 +95,8 @@ class Checks:
                     lo -= abs(lo) * _STAT_SLACK
                     hi += abs(hi) * _STAT_SLACK
                 bounds.append((index[names[0]], lo, hi, inv))
+                if params.get("finite") and family == "bounds":
+                    finite.append((index[names[0]], inv))
             elif family == "one-of" and names[0] in index:
                 one_of.append((index[names[0]], [_number(v) for v in params["values"]], inv))
             elif family == "non-zero" and names[0] in index:
@@ -124,6 +127,9 @@ class Checks:
                     edges.append((index[names[0]], index[names[1]], a, b, c, owner))
             elif family == "string-one-of" and names[0] in strings:
                 self.string_sets.append((strings[names[0]], frozenset(params["values"]), inv))
+        self.finite_at = _ints([f[0] for f in finite])
+        """Variables whose bounds say they are never NaN nor infinite."""
+        self.finite_inv = [f[1] for f in finite]
         self._compile(bounds, one_of, nonzero, pairs, linear, edges)
 
     def _compile(
@@ -223,6 +229,16 @@ class Checks:
             found: Found = []  # the common case, answered by one compiled call
         else:
             found = self._numeric(time, point, row)
+        if len(self.finite_at):
+            x = row.take(self.finite_at)
+            total = x.sum()
+            if total - total != 0:  # NaN or inf among them: a bound misses NaN (and inf
+                # beyond a one-sided bound): the finiteness its params state catches them
+                flagged = {v.invariant for v in found}
+                for k in np.flatnonzero(~np.isfinite(x)).tolist():
+                    inv = self.finite_inv[k]
+                    if inv["id"] not in flagged:
+                        found.append(_violation(time, point, inv, float(x[k]), _FINITE))
         for at, values, inv in self.string_sets:
             value = strings[at]
             if value not in values:
@@ -297,6 +313,7 @@ _TAIL = np.array([0.0, 1.0])
 """Appended to a sample: the zero that pads short forms and the one of constants."""
 _WIDTH = 4
 _ONES = np.ones(_WIDTH)
+_FINITE = "a finite value (never NaN nor infinite in training)"
 _FEW_SETS = 8
 """Up to this many one-of invariants are tested one by one."""
 _DENSE_CELLS = 2**15

@@ -8,6 +8,10 @@ current minimum/maximum first occurred (``common.Extremes``): exact under any ch
 Variables that follow the leader of an equality class (``x == x_copy``, when the equality
 family is on) get no bounds of their own: the leader's bounds and the equality imply them.
 
+A variable of the point's own topic that was never NaN nor infinite in training has
+``finite: true`` in its bounds' params: the runtime then reports a NaN or an infinite value
+as a violation of the bound (NaN compares false with any number, so it would otherwise pass).
+
 Justification: a bound's ``n`` counts the samples since the first occurrence of its final
 value (the sample that set it counts); it is reported when ``1 - 2**-n`` exceeds the
 confidence limit. Both bounds justified print as one ``range`` invariant (confidence of
@@ -122,19 +126,27 @@ def bound_invariant(
         use_lo = False
     shown = subject if subject is not None else variable.name
     kind_of = variable.type
+    # never NaN nor infinite in training: a non-finite value breaks the bound as well (a
+    # NaN compares false with any bound); only the point's own fields, since a relative
+    # topic's value is missing until its first message
+    finite = (
+        variable.trigger and int(extremes.nan[i]) == 0 and math.isfinite(lo) and math.isfinite(hi)
+    )
+    extra = {"finite": True} if finite and family == "bounds" else {}
     if use_lo and use_hi:
         n = min(n_lo, n_hi)
         if lo == hi:
             text = f"{shown} == {number_text(lo, kind_of)}"
         else:
             text = f"{number_text(lo, kind_of)} <= {shown} <= {number_text(hi, kind_of)}"
-        return _make(family, "range", variable, {"min": lo, "max": hi}, text, count, n, context)
+        params = {"min": lo, "max": hi, **extra}
+        return _make(family, "range", variable, params, text, count, n, context)
     if use_lo:
         text = f"{shown} >= {number_text(lo, kind_of)}"
-        return _make(family, "lower", variable, {"min": lo}, text, count, n_lo, context)
+        return _make(family, "lower", variable, {"min": lo, **extra}, text, count, n_lo, context)
     if use_hi:
         text = f"{shown} <= {number_text(hi, kind_of)}"
-        return _make(family, "upper", variable, {"max": hi}, text, count, n_hi, context)
+        return _make(family, "upper", variable, {"max": hi, **extra}, text, count, n_hi, context)
     return None
 
 
