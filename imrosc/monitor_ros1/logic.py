@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from typing import (
     Any,
     Callable,
@@ -308,22 +309,46 @@ def _frozen(found: Mapping[str, Set[str]]) -> Dict[str, FrozenSet[str]]:
     return {name: frozenset(nodes) for name, nodes in sorted(found.items()) if nodes}
 
 
+PLAYBACK = re.compile(r"^/play_\d{10,}$")
+"""The node ``rosbag play`` registers (``/play_<time>``, an anonymous name): it publishes
+what a bag recorded, on behalf of the nodes that published it then."""
+
+
+def learnt_publishers(invariants: Iterable[Mapping[str, Any]]) -> Dict[str, FrozenSet[str]]:
+    """Per topic, the publishers its architecture invariants name (``max_pubs``)."""
+    found: Dict[str, Set[str]] = {}
+    for inv in invariants:
+        if inv.get("family") != "architecture" or inv.get("kind") != "max_pubs":
+            continue
+        params = inv.get("params", {})
+        resource, nodes = params.get("resource"), params.get("nodes")
+        if isinstance(resource, str) and isinstance(nodes, list):
+            found.setdefault(resource, set()).update(str(n) for n in nodes)
+    return {topic: frozenset(nodes) for topic, nodes in found.items()}
+
+
 def logical_graph(
     state: SystemState,
     own: Iterable[str],
     topic_relays: Mapping[str, str],
     service_relays: Mapping[str, str],
+    stand_ins: Optional[Mapping[str, FrozenSet[str]]] = None,
 ) -> Snapshot:
     """The graph the invariants were learnt on, from the master's ``getSystemState``.
 
     The monitor's own nodes (``own``) are left out; a node on a relay topic ``/m/<t>`` is a
     node on ``<t>`` (the launch file remapped it there), and so is a server of a relayed
-    service's ``/m/<s>`` other than the monitor.
+    service's ``/m/<s>`` other than the monitor. ``rosbag play`` (:data:`PLAYBACK`)
+    publishing a topic stands for the publishers ``stand_ins`` learnt for it (a recording
+    replayed into the monitor is not an intruder); on a topic nobody learnt it stays itself.
 
     >>> state = [[["/t", ["/a", "/mon"]], ["/m/t", ["/mon"]]],
     ...          [["/t", ["/mon"]], ["/m/t", ["/b"]]], []]
     >>> logical_graph(state, {"/mon"}, {"/t": "/m/t"}, {})["sub"]
     {'/t': frozenset({'/b'})}
+    >>> played = [[["/t", ["/play_1553088502272947227"]]], [], []]
+    >>> logical_graph(played, set(), {}, {}, {"/t": frozenset({"/a"})})["pub"]
+    {'/t': frozenset({'/a'})}
     """
     mine = set(own)
     topics = {relay: name for name, relay in topic_relays.items()}
@@ -335,8 +360,13 @@ def logical_graph(
             name: str = entry[0]
             nodes = entry[1]
             kept = {node for node in nodes if node not in mine}
+            logical = renames.get(name, name)
+            if kind == "pub" and stand_ins is not None and logical in stand_ins:
+                played = {node for node in kept if PLAYBACK.match(node)}
+                if played:
+                    kept = (kept - played) | set(stand_ins[logical])
             if kept:
-                snapshot[kind].setdefault(renames.get(name, name), set()).update(kept)
+                snapshot[kind].setdefault(logical, set()).update(kept)
     return {kind: _frozen(found) for kind, found in snapshot.items()}
 
 

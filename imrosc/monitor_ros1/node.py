@@ -125,6 +125,8 @@ class Monitor:
         self.last_relayed = 0.0
         """Wall time of the last message on a blocked topic (``keep_warm``)."""
         self.unregister = bool(rospy.get_param("~unregister", True))
+        self.stand_ins = logic.learnt_publishers(document.get("invariants", ()))
+        """Per topic its learnt publishers, for whom ``rosbag play`` stands in."""
         self.name: str = rospy.get_name()
         watchdog = str(rospy.get_param("~watchdog", spec["watchdog"]))
         if not watchdog.startswith("/"):
@@ -396,7 +398,9 @@ class Monitor:
         graph = None
         if state is not None:
             self.state = state
-            graph = logic.logical_graph(state, self.own, self.topic_relays, self.service_relays)
+            graph = logic.logical_graph(
+                state, self.own, self.topic_relays, self.service_relays, self.stand_ins
+            )
         with self.lock:
             now = rospy.get_time()
             found = self.engine.advance(now)
