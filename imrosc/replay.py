@@ -46,6 +46,8 @@ class RunResult:
     error: str | None = None
     warnings: list[str] = field(default_factory=list)
     """What the run could not check: topics of the invariants missing from the bag."""
+    checked: dict[str, int] = field(default_factory=dict)
+    """Per value point (publish, call, parameter), the samples it checked."""
 
     @property
     def violated(self) -> set[str]:
@@ -91,6 +93,27 @@ def _topic_warnings(wanted: Iterable[str], present: Iterable[str]) -> list[str]:
     if len(missing) == len(wanted):
         return [f"none of the invariants' topics is in this bag ({', '.join(missing)}): not read"]
     return [f"no messages on {', '.join(missing)}: their invariants are not checked"]
+
+
+def _unchecked(
+    document: Mapping[str, Any], checked: Mapping[str, int], present: Iterable[str]
+) -> list[str]:
+    """A warning per unconditional publish point that checked no sample although its
+    topic was read: an input topic or parameter it pairs every message with never came,
+    so its invariants were never checked (a conditional point whose condition never held
+    is a state the run did not visit, not a fault)."""
+    read = set(present)
+    found = []
+    for key, count in sorted(checked.items()):
+        info = document["points"].get(key, {})
+        if count or info.get("kind") != "publish" or info.get("condition"):
+            continue
+        if info.get("trigger") in read:
+            found.append(
+                f"point {key} checked no sample: a topic or parameter it pairs "
+                f"{info.get('trigger')} with never came"
+            )
+    return found
 
 
 def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str, str]:
@@ -157,6 +180,8 @@ class Replayer:
                     else:
                         found += self._record(topic, time, message)
                 found += publishers.until(engine, reader.end_time)
+                result.checked = engine.checked()
+                result.warnings += _unchecked(self.document, result.checked, present)
                 withdrawn = {id(v) for v in engine.end_run()}
                 if withdrawn:
                     found[:] = [v for v in found if id(v) not in withdrawn]
@@ -328,6 +353,7 @@ def replay_document(
                 "skipped": result.skipped,
                 "error": result.error,
                 "warnings": list(result.warnings),
+                "checked": dict(result.checked),
                 "violations": len(result.violations),
                 "alarms": alarms_json(result.alarms),
                 "episodes": episodes(result.violations),

@@ -232,7 +232,7 @@ class Checks:
         if len(self.finite_at):
             x = row.take(self.finite_at)
             total = x.sum()
-            if total - total != 0:  # NaN or inf among them: a bound misses NaN (and inf
+            if not math.isfinite(total):  # NaN or inf among them: a bound misses NaN (and inf
                 # beyond a one-sided bound): the finiteness its params state catches them
                 flagged = {v.invariant for v in found}
                 for k in np.flatnonzero(~np.isfinite(x)).tolist():

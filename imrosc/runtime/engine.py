@@ -126,6 +126,8 @@ class _Point:
         }
 
     def reset(self) -> None:
+        self.checked = 0
+        """Samples checked in this run (conditions accepted, inputs all seen)."""
         if self.windows is not None:
             self.windows.reset()
         self.silent = False
@@ -355,6 +357,14 @@ class Engine:
             point.reset()
         self.alarms.reset()
 
+    def checked(self) -> Dict[str, int]:
+        """Per value point (publish, call, parameter), the samples it checked in this run."""
+        return {
+            key: point.checked
+            for key, point in self.points.items()
+            if point.kind in ("publish", "call", "param")
+        }
+
     def take_alarms(self) -> List[Alarm]:
         """The alarms raised since the last call (or the last :meth:`reset`)."""
         return self.alarms.take()
@@ -423,6 +433,7 @@ class Engine:
             for point in self._publish.get(topic, ()):
                 if point.plain and self.trace is None:
                     # the common case: the message is the row, nothing else to do
+                    point.checked += 1
                     broken = point.checks.check(time, point.key, array)
                     if broken or self.alarms.busy(point.key):
                         self.alarms.sample(point.key, time, broken)
@@ -466,6 +477,7 @@ class Engine:
     def _check(self, point: _Point, time: float, row: Any, texts: Sequence[Any]) -> Found:
         if point.filters and not point.accepts(row, self.latest_named, texts):
             return []
+        point.checked += 1
         broken = point.sample(time, row, texts, self.trace)
         if broken or self.alarms.busy(point.key):
             self.alarms.sample(point.key, time, broken)

@@ -157,3 +157,31 @@ def test_a_topic_of_another_type_is_a_warning_and_is_not_checked(
     same = [msg("/t", k / 10, FLOAT, "/a", data=1e4) for k in range(50)]
     (checked,) = replay(document, [write_bag(tmp_path / "same.bag", same)])
     assert checked.violations and not checked.warnings  # the same values, learnt type: broken
+
+
+PAIRED = """<imROS project="p">
+  <scope>
+    <publish id="t"><topic>/t</topic><topic>/u</topic></publish>
+  </scope>
+  <detect inv="p.inv" budget="0"><bag>train.bag</bag></detect>
+</imROS>
+"""
+
+
+def test_replay_says_how_many_samples_each_point_checked(tmp_path: Path) -> None:
+    """A point that pairs /t with /u checks nothing when /u never comes: replay says so
+    (and counts what every point checked) rather than passing the run silently."""
+    both = [msg("/t", 1 + k / 10, FLOAT, "/a", data=1.0) for k in range(50)]
+    both += [msg("/u", 1 + k / 10 - 0.05, FLOAT, "/b", data=2.0) for k in range(50)]
+    write_bag(tmp_path / "train.bag", both)
+    (tmp_path / "p.xml").write_text(PAIRED)
+    learnt = run_detect(tmp_path / "p.xml", workers=1).document
+    assert learnt is not None
+    (whole,) = replay(learnt, [tmp_path / "train.bag"])
+    assert whole.checked == {"t": 50} and whole.warnings == []
+    alone = write_bag(tmp_path / "alone.bag", [m for m in both if m.topic == "/t"])
+    (result,) = replay(learnt, [alone])
+    assert result.checked == {"t": 0} and result.violations == []
+    assert "point t checked no sample: a topic or parameter it pairs /t with never came" in (
+        result.warnings
+    )
