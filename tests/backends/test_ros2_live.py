@@ -264,37 +264,52 @@ os._exit(0)
 """
 
 
-def test_the_generated_node_checks_blocks_acts_and_warns_on_a_live_ros2_graph(
-    tmp_path: Path, ros2_python: str
-) -> None:
+def demo_package(tmp_path: Path) -> Path:
+    """The demo configuration's ROS 2 package, built and written under ``tmp_path``."""
     config = write_case(tmp_path, config_text(scope=SCOPE, monitor=MONITOR), demo_document())
     result = build_ros2(config)
     assert result.ok, [d.as_text() for d in result.diagnostics]
-    package = write_package(result.files, tmp_path / "out")
-    environment = ros2_environment(tmp_path, PYTHONPATH=str(package))
-    monitor = subprocess.Popen(
+    return write_package(result.files, tmp_path / "out")
+
+
+def start_monitor(ros2_python: str, package: Path, environment: dict[str, str]) -> Any:
+    """The package's monitor node, its output piped."""
+    return subprocess.Popen(
         [
             ros2_python,
             "-c",
             "from demo_monitor import main; main.monitor()",
-            "--ros-args",
-            "-p",
-            f"invariants:={package / 'config' / 'invariants.json'}",
+            *("--ros-args", "-p", f"invariants:={package / 'config' / 'invariants.json'}"),
         ],
         env=environment,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
     )
+
+
+def drive(
+    ros2_python: str, driver: str, environment: dict[str, str], timeout: float
+) -> subprocess.CompletedProcess[str]:
+    """Run a driver script against the monitor ``demo_monitor``."""
+    return subprocess.run(
+        [ros2_python, "-c", driver.replace("MONITOR", repr("demo_monitor"))],
+        env=environment,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=timeout,
+    )
+
+
+def test_the_generated_node_checks_blocks_acts_and_warns_on_a_live_ros2_graph(
+    tmp_path: Path, ros2_python: str
+) -> None:
+    package = demo_package(tmp_path)
+    environment = ros2_environment(tmp_path, PYTHONPATH=str(package))
+    monitor = start_monitor(ros2_python, package, environment)
     try:
-        driver = subprocess.run(
-            [ros2_python, "-c", DRIVER.replace("MONITOR", repr("demo_monitor"))],
-            env=environment,
-            capture_output=True,
-            text=True,
-            check=False,
-            timeout=240,
-        )
+        driver = drive(ros2_python, DRIVER, environment, 240)
     finally:
         monitor.terminate()
         try:
@@ -390,10 +405,7 @@ def test_the_watchdog_fails_open_while_the_monitor_is_silent(
     """The watchdog relays the blocked topic and service unchecked while the monitor is
     silent and stops when its heartbeat comes; ``served-late``: the system's publisher and
     service appear only after the watchdog failed open (and found neither)."""
-    config = write_case(tmp_path, config_text(scope=SCOPE, monitor=MONITOR), demo_document())
-    result = build_ros2(config)
-    assert result.ok, [d.as_text() for d in result.diagnostics]
-    package = write_package(result.files, tmp_path / "out")
+    package = demo_package(tmp_path)
     environment = ros2_environment(tmp_path, PYTHONPATH=str(package))
     started: list[Reader] = []
 
@@ -479,10 +491,7 @@ def test_a_check_that_raises_stops_the_ros2_monitor(tmp_path: Path, ros2_python:
     """A check that raises is published on /m/broken_inv (kind ``failure``), the node relays
     nothing from then on and exits with status 1 (issue 18: it used to log the exception
     and go on, unchecked)."""
-    config = write_case(tmp_path, config_text(scope=SCOPE, monitor=MONITOR), demo_document())
-    result = build_ros2(config)
-    assert result.ok, [d.as_text() for d in result.diagnostics]
-    package = write_package(result.files, tmp_path / "out")
+    package = demo_package(tmp_path)
     engine = package / "demo_monitor" / "imrosc" / "runtime" / "engine.py"
     source = engine.read_text(encoding="utf-8")
     needle = "        found = self.advance(time) if self._timed else []\n        split ="
@@ -490,27 +499,9 @@ def test_a_check_that_raises_stops_the_ros2_monitor(tmp_path: Path, ros2_python:
     injected = '        if topic == "/a/level":\n            raise RuntimeError("injected")\n'
     engine.write_text(source.replace(needle, injected + needle), encoding="utf-8")
     environment = ros2_environment(tmp_path, PYTHONPATH=str(package))
-    monitor = subprocess.Popen(
-        [
-            ros2_python,
-            "-c",
-            "from demo_monitor import main; main.monitor()",
-            *("--ros-args", "-p", f"invariants:={package / 'config' / 'invariants.json'}"),
-        ],
-        env=environment,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+    monitor = start_monitor(ros2_python, package, environment)
     try:
-        driver = subprocess.run(
-            [ros2_python, "-c", FAILURE_DRIVER.replace("MONITOR", repr("demo_monitor"))],
-            env=environment,
-            capture_output=True,
-            text=True,
-            check=False,
-            timeout=120,
-        )
+        driver = drive(ros2_python, FAILURE_DRIVER, environment, 120)
         status = monitor.wait(timeout=20)
     finally:
         if monitor.poll() is None:
