@@ -123,12 +123,12 @@ def record(
     config: Path,
     scenario: str,
     seed: int,
-    folder: str,
     speed: float,
     timeout: float,
-) -> Outcome:
+) -> tuple[Outcome, Path]:
     """One recorded run: ``imrosc record`` started, the system launched through its
-    ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over."""
+    ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over; its outcome and
+    bag (in ``bags/recording``)."""
     env = {**os.environ, **ros.env}
     name = f"{scenario}_{seed}"
     command = [
@@ -173,11 +173,13 @@ def record(
     finally:
         recorder.send_signal(signal.SIGINT)
         recorder.wait(120)
-    bag = work / "bags" / "recording" / f"{name}.bag"
-    target = work / "bags" / folder
-    target.mkdir(parents=True, exist_ok=True)
-    shutil.move(str(bag), target / bag.name)
-    return outcome
+    return outcome, work / "bags" / "recording" / f"{name}.bag"
+
+
+def keep(bag: Path, folder: Path) -> None:
+    """Move a recorded bag into ``folder``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    shutil.move(str(bag), folder / bag.name)
 
 
 @dataclass
@@ -249,25 +251,19 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
         for k in range(args.nominal):
             seed = NOMINAL_SEED + k
-            outcome = record(ros, work, config, "normal", seed, "pending", args.speed, args.timeout)
+            outcome, bag = record(ros, work, config, "normal", seed, args.speed, args.timeout)
             folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
-            bag = work / "bags" / "pending" / f"normal_{seed}.bag"
-            (work / "bags" / folder).mkdir(parents=True, exist_ok=True)
-            shutil.move(str(bag), work / "bags" / folder / bag.name)
+            keep(bag, work / "bags" / folder)
             print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
         for scenario in SCENARIOS[1:]:
             for k in range(args.fail_runs):
                 seed = FAIL_SEED + k
-                outcome = record(
-                    ros, work, config, scenario, seed, "pending", args.speed, args.timeout
-                )
-                bag = work / "bags" / "pending" / f"{scenario}_{seed}.bag"
+                outcome, bag = record(ros, work, config, scenario, seed, args.speed, args.timeout)
                 if outcome.success:  # the fault did no harm: neither nominal nor failed
                     bag.unlink()
                     print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
                     continue
-                (work / "bags" / "fail").mkdir(parents=True, exist_ok=True)
-                shutil.move(str(bag), work / "bags" / "fail" / bag.name)
+                keep(bag, work / "bags" / "fail")
                 print(f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail", flush=True)
         print("== imrosc infer, classify, build ==", flush=True)
         print(imrosc("infer", config.name, "-j", "2", cwd=work).strip(), flush=True)
