@@ -25,7 +25,7 @@ RATE = 20.0
 
 
 def main() -> None:
-    rospy.init_node("car")
+    node.init_node("car")
     name = node.scenario()
     rng = random.Random(node.seed() + 17)
     fake = (rng.uniform(-2.5, 2.5), rng.uniform(-2.5, 2.5))

@@ -29,7 +29,7 @@ DEFAULTS = {"landing_radius": 0.15, "landing_time": 1.5, "poll_rate": 2.0}
 
 
 def main() -> None:
-    rospy.init_node("car_ctrl")
+    node.init_node("car_ctrl")
     for name, value in DEFAULTS.items():
         if not rospy.has_param("~" + name):
             rospy.set_param("~" + name, value)

@@ -13,7 +13,7 @@ from std_msgs.msg import UInt8  # type: ignore[import-not-found]
 
 
 def main() -> None:
-    rospy.init_node("ctrl_state_machine")
+    node.init_node("ctrl_state_machine")
     state = rospy.Publisher("/a/subject_ctrl_state", UInt8, queue_size=10)
     current = [core.STARTUP]
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import contextlib
 import math
+import signal
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -70,6 +72,24 @@ def pose_message(stamp: Any, x: float, y: float, z: float, yaw: float = 0.0) -> 
     q = msg.pose.orientation
     q.x, q.y, q.z, q.w = quaternion(0.0, 0.0, yaw)
     return msg
+
+
+def init_node(name: str, **options: Any) -> None:
+    """``rospy.init_node`` with a shutdown that cannot deadlock on a signal.
+
+    rospy's own handler shuts the node down inside the signal handler, on the main thread: a
+    signal that lands while that thread publishes (holding the publisher's lock) waits on that
+    lock forever, and SIGTERM then finds a shutdown "in progress". Here the handler only starts
+    the shutdown on a thread of its own (not a daemon: the interpreter waits for it, so the node
+    unregisters from the master before it exits); the main loop sees ``rospy.is_shutdown()``.
+    """
+    rospy.init_node(name, disable_signals=True, **options)
+
+    def shut_down(signum: int, _frame: Any) -> None:
+        threading.Thread(target=rospy.signal_shutdown, args=(f"signal-{signum}",)).start()
+
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, shut_down)
 
 
 def scenario() -> str:

@@ -12,7 +12,7 @@ from std_msgs.msg import UInt8  # type: ignore[import-not-found]
 
 
 def main() -> None:
-    rospy.init_node("listener")
+    node.init_node("listener")
     rospy.Subscriber("/a/subject_ctrl_state", UInt8, lambda m: None, queue_size=1)
     if not rospy.get_param("~poll", False):
         rospy.spin()

@@ -16,7 +16,7 @@ from std_msgs.msg import UInt8  # type: ignore[import-not-found]
 
 
 def main() -> None:
-    rospy.init_node("pid_ctrl")
+    node.init_node("pid_ctrl")
     loop = core.Attitude()
     lock = threading.Lock()
     held: dict[str, object] = {"state": core.STARTUP}

@@ -15,7 +15,7 @@ from sensor_msgs.msg import BatteryState  # type: ignore[import-not-found]
 
 
 def main() -> None:
-    rospy.init_node("robot_monitor")
+    node.init_node("robot_monitor")
     status = rospy.Publisher("/a/subject_status", BatteryState, queue_size=10)
     thrust = [0.0]
     rng = random.Random(node.seed() + 5)

@@ -29,7 +29,7 @@ NOISE = 0.001
 
 
 def main() -> None:
-    rospy.init_node("vicon")
+    node.init_node("vicon")
     name, trial = node.scenario(), node.seed()
     speed = float(rospy.get_param("~speed", 4.0))
     outcome_file = str(rospy.get_param("~outcome", ""))

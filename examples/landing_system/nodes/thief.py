@@ -15,7 +15,7 @@ RATE = 50.0
 
 
 def main() -> None:
-    rospy.init_node("thief")
+    node.init_node("thief")
     pose = rospy.Publisher("/a/car_pose", PoseStamped, queue_size=10)
     vicon = node.latest("/vicon/car", TransformStamped)
 

@@ -10,7 +10,7 @@ from geometry_msgs.msg import PoseStamped, TransformStamped  # type: ignore[impo
 
 
 def main() -> None:
-    rospy.init_node("uav")
+    node.init_node("uav")
     pose = rospy.Publisher("/a/subject_pose", PoseStamped, queue_size=10)
     vicon = node.latest("/vicon/uav", TransformStamped)
 

@@ -18,9 +18,9 @@ import rospy  # type: ignore[import-not-found]
 from geometry_msgs.msg import PoseStamped  # type: ignore[import-not-found]
 
 if TYPE_CHECKING:  # mypy sees this folder as a namespace package
-    from tests.live.nodes.livenode import Connections, Faults, parse
+    from tests.live.nodes.livenode import Connections, Faults, init_node, parse
 else:  # run as a script, the folder is on sys.path
-    from livenode import Connections, Faults, parse
+    from livenode import Connections, Faults, init_node, parse
 
 XS = (1.0, 1.25, 1.5, 1.75, 2.0, 2.25, 2.5)
 YS = (2.0, 1.75, 1.5)
@@ -35,7 +35,7 @@ def options(parser: argparse.ArgumentParser) -> None:
 
 def main() -> None:
     args = parse(__doc__ or "", options)
-    rospy.init_node("car")
+    init_node("car")
     faults = Faults(args)
     publisher = rospy.Publisher(
         args.topic, PoseStamped, subscriber_listener=Connections(), queue_size=10

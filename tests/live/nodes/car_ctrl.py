@@ -17,9 +17,9 @@ import rospy  # type: ignore[import-not-found]
 from geometry_msgs.msg import PoseStamped  # type: ignore[import-not-found]
 
 if TYPE_CHECKING:  # mypy sees this folder as a namespace package
-    from tests.live.nodes.livenode import Connections, Faults, parse
+    from tests.live.nodes.livenode import Connections, Faults, init_node, parse
 else:  # run as a script, the folder is on sys.path
-    from livenode import Connections, Faults, parse
+    from livenode import Connections, Faults, init_node, parse
 from std_msgs.msg import UInt8  # type: ignore[import-not-found]
 
 TASK = 3
@@ -33,7 +33,7 @@ def options(parser: argparse.ArgumentParser) -> None:
 
 def main() -> None:
     args = parse(__doc__ or "", options)
-    rospy.init_node("car_ctrl")
+    init_node("car_ctrl")
     for name, value in DEFAULTS.items():
         if not rospy.has_param("~" + name):
             rospy.set_param("~" + name, value)

@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any
 import rospy  # type: ignore[import-not-found]
 
 if TYPE_CHECKING:  # mypy sees this folder as a namespace package
-    from tests.live.nodes.livenode import open_log, to_plain, write_line
+    from tests.live.nodes.livenode import init_node, open_log, to_plain, write_line
 else:  # run as a script, the folder is on sys.path
-    from livenode import open_log, to_plain, write_line
+    from livenode import init_node, open_log, to_plain, write_line
 from roslib.message import get_message_class  # type: ignore[import-not-found]
 
 
@@ -28,7 +28,7 @@ def main() -> None:
     parser.add_argument("--out", required=True)
     parser.add_argument("topics", nargs="+")
     args = parser.parse_args(rospy.myargv()[1:])
-    rospy.init_node("listener", anonymous=True)
+    init_node("listener", anonymous=True)
     log = open_log(args.out)
     classes: dict[str, Any] = {}
 

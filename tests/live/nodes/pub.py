@@ -14,10 +14,16 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from typing import TYPE_CHECKING
 
 import rospy  # type: ignore[import-not-found]
 from genpy.message import fill_message_args  # type: ignore[import-not-found]
 from roslib.message import get_message_class  # type: ignore[import-not-found]
+
+if TYPE_CHECKING:  # mypy sees this folder as a namespace package
+    from tests.live.nodes.livenode import init_node
+else:  # run as a script, the folder is on sys.path
+    from livenode import init_node
 
 
 def main() -> None:
@@ -30,7 +36,7 @@ def main() -> None:
     parser.add_argument("--wait-subscribers", type=int, default=0)
     parser.add_argument("--stamp", action="store_true")
     args = parser.parse_args(rospy.myargv()[1:])
-    rospy.init_node("pub", anonymous=True)
+    init_node("pub", anonymous=True)
     cls = get_message_class(args.type)
     if cls is None:
         parser.error(f"unknown message type {args.type}")

@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any
 import rospy  # type: ignore[import-not-found]
 
 if TYPE_CHECKING:  # mypy sees this folder as a namespace package
-    from tests.live.nodes.livenode import open_log, parse, write_line
+    from tests.live.nodes.livenode import init_node, open_log, parse, write_line
 else:  # run as a script, the folder is on sys.path
-    from livenode import open_log, parse, write_line
+    from livenode import init_node, open_log, parse, write_line
 from std_msgs.msg import UInt8  # type: ignore[import-not-found]
 
 
@@ -30,7 +30,7 @@ def options(parser: argparse.ArgumentParser) -> None:
 
 def main() -> None:
     args = parse(__doc__ or "", options)
-    rospy.init_node("ctrl_state_machine")
+    init_node("ctrl_state_machine")
     log = open_log(args.log) if args.log else None
     last = {"data": 0}
 
