@@ -90,16 +90,20 @@ def imrosc(*args: str, cwd: Path, env: dict[str, str] | None = None) -> str:
     return done.stdout + done.stderr
 
 
-def configuration(work: Path, refined: bool = True) -> Path:
-    """``uav_landing.xml`` with its ``<check>`` on the bench's folders and its monitor on the
-    refined invariants (``refined``; else on the inferred ones, as the example has it); the
-    launch file and graph beside it."""
+def configuration(work: Path, refined: bool = True, select: str = "cover") -> Path:
+    """``uav_landing.xml`` with its ``<check>`` on the bench's folders, choosing invariants by
+    ``select`` (``fscore``: the example's threshold and beta), and its monitor on the refined
+    invariants (``refined``; else on the inferred ones, as the example has it); the launch
+    file and graph beside it."""
+    selection = (
+        'select="fscore" threshold="0.6" beta="0.5"' if select == "fscore" else 'select="cover"'
+    )
     text = CONFIG.read_text(encoding="utf-8")
     check = re.search(r"  <check .*?</check>\n", text, re.S)
     assert check is not None, "uav_landing.xml has no <check>"
     text = text.replace(
         check.group(0),
-        '  <check inv="landing.inv" threshold="0.6" beta="0.5">\n'
+        f'  <check inv="landing.inv" {selection}>\n'
         "    <success>bags/success</success>\n"
         "    <fail>bags/fail</fail>\n"
         "  </check>\n",
@@ -228,6 +232,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         default="refined",
         help="what the monitor checks: classify's refined file or infer's",
     )
+    parser.add_argument(
+        "--select",
+        choices=("cover", "fscore"),
+        default="cover",
+        help="how classify chooses the refined file's invariants (<check select>)",
+    )
     args = parser.parse_args(argv)
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     unknown = [s for s in scenarios if s not in SCENARIOS]
@@ -239,7 +249,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     work = args.keep or Path(tempfile.mkdtemp(prefix="imrosc-casestudy-"))
     work.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    config = configuration(work, refined=args.invariants == "refined")
+    config = configuration(work, refined=args.invariants == "refined", select=args.select)
     ros = Ros(work / "ros")
     prepare(ros)
     ros.start()

@@ -488,6 +488,8 @@ def set_check(config: Path, inv: str, classification: Classification) -> Path:
     tree = etree.parse(str(config))
     root = tree.getroot()
     check = etree.Element("check", inv=inv)
+    if SELECT[0] is not None:
+        check.set("select", SELECT[0])
     check.text = "\n    "
     entries: list[etree._Element] = []
     for bag in classification.success:
@@ -524,6 +526,8 @@ def set_check(config: Path, inv: str, classification: Classification) -> Path:
 
 BUDGET: list[float | None] = [None]
 """The false-alarm budget every part learns with (``--budget``; None: imrosc's default)."""
+SELECT: list[str | None] = [None]
+"""How classification chooses its invariants (``--select``; None: imrosc's default)."""
 
 
 def learn(config: Path, bags: Sequence[Path], workers: int | None) -> dict[str, Any]:
@@ -960,8 +964,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--budget", type=float, default=None, help="false-alarm budget (default: imrosc's)"
     )
+    parser.add_argument(
+        "--select",
+        choices=("cover", "fscore"),
+        default=None,
+        help="how classify chooses the kept invariants (default: imrosc's, cover)",
+    )
     args = parser.parse_args(argv)
     BUDGET[0] = args.budget
+    SELECT[0] = args.select
     parts = [p.strip() for p in args.only.split(",") if p.strip()]
     unknown = sorted(set(parts) - set(PARTS))
     if unknown or args.folds < 2:

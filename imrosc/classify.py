@@ -3,10 +3,12 @@
 Classification (thesis 4.2): every invariant is replayed on the ``<success>`` and ``<fail>``
 runs. Over the successful runs it has true negatives (not violated) and false positives
 (violated); over the failed runs true positives (violated) and false negatives. Equations
-4.1-4.4 make these fractions of the runs, 4.5-4.7 give precision, recall and the F-score,
-and invariants whose F-score is below the threshold are dropped from the refined file.
+4.1-4.4 make these fractions of the runs, 4.5-4.7 give precision, recall and the F-score.
 When no success run violates it and no fail run either, precision is undefined (0/0) and
-the F-score is 0: an invariant that never fires detects nothing.
+the F-score is 0: an invariant that never fires detects nothing. The refined file keeps
+what ``<check select>`` chooses (:mod:`imrosc.selection`): the set whose union detects the
+most failed runs minus its expected false alarms (``cover``, the default), or the
+invariants whose F-score reaches the threshold (``fscore``, the thesis' filter).
 
 A ``<fail>`` entry may give its fault's onset (seconds after each bag's start, a label
 topic whose first non-zero message is the onset, or a JSON file of onsets per bag). A failed
@@ -45,6 +47,7 @@ from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.loader import load_config
 from imrosc.schema.names import resolve_name
+from imrosc.selection import SELECTIONS, Cover, Nominal, cover
 
 
 class CheckStageError(Exception):
@@ -353,27 +356,38 @@ def classify(
     threshold: float,
     before: Mapping[Path, set[str]] | None = None,
     delays: Mapping[str, Sequence[float]] | None = None,
-) -> tuple[list[dict[str, Any]], dict[str, dict[str, int]]]:
-    """Scores per invariant and counts per family.
+    untested: Mapping[Path, frozenset[str]] | None = None,
+    select: str = SELECTIONS[0],
+) -> tuple[list[dict[str, Any]], dict[str, dict[str, int]], Cover | None]:
+    """Scores per invariant, counts per family, and the chosen set (``select="cover"``;
+    :mod:`imrosc.selection`).
 
     ``fail`` holds, per failed run, the invariants that detect its fault (violated at or
     after its onset, or anywhere without one); ``before``, per failed run with an onset,
     the invariants violated before it: that part is a nominal run, its violations false
     positives. ``delays``: per invariant, its detection delays (s) on runs with an onset.
+    ``untested``: per successful run scored from its held-out replays, the invariants it was
+    not replayed against (no evidence either way: not counted among its runs).
     """
     scores: list[dict[str, Any]] = []
     families: dict[str, dict[str, int]] = {}
     before = before or {}
+    untested = untested or {}
+    nominal: dict[str, Nominal] = {}
     for inv in document["invariants"]:
         ident = inv["id"]
         early = sum(ident in ids for ids in before.values())
+        tested_in = [ids for run, ids in success.items() if ident not in untested.get(run, ())]
+        tested = len(tested_in)
+        broken = sum(ident in ids for ids in tested_in)
         score = Score(
-            sum(ident in ids for ids in success.values()) + early,
-            len(success) + len(before),
+            broken + early,
+            tested + len(before),
             sum(ident in ids for ids in fail.values()),
             len(fail),
             beta,
         )
+        nominal[ident] = Nominal(tested, broken)
         waits = (delays or {}).get(ident) or ()
         fscore = score.fscore
         kept = fscore >= threshold if fscore is not None else score.violated_success == 0
@@ -399,10 +413,27 @@ def classify(
         if delays is not None:
             scores[-1]["fp_before_onset"] = early
             scores[-1]["delay_mean"] = _number(sum(waits) / len(waits)) if waits else None
+    chosen = None
+    if select == "cover":
+        by_delay = sorted(scores, key=lambda s: s.get("delay_mean") or 0.0)
+        chosen = cover(
+            nominal,
+            fail,
+            before,
+            len(success) + len(fail),
+            order=[s["id"] for s in by_delay],
+        )
+        picked = {ident: rank for rank, ident in enumerate(chosen.chosen)}
+        for entry in scores:
+            entry["kept"] = entry["id"] in picked
+            entry["false_alarm"] = _number(nominal[entry["id"]].false_alarm)
+            if entry["kept"]:
+                entry["chosen"] = picked[entry["id"]] + 1
+    for inv, entry in zip(document["invariants"], scores, strict=True):
         counts = families.setdefault(inv["family"], {"total": 0, "kept": 0})
         counts["total"] += 1
-        counts["kept"] += int(kept)
-    return scores, dict(sorted(families.items()))
+        counts["kept"] += int(entry["kept"])
+    return scores, dict(sorted(families.items())), chosen
 
 
 def compare(
@@ -446,6 +477,7 @@ def refined(
         if by_id[inv["id"]]["kept"]
     ]
     out["classified"] = {
+        "select": report["select"],
         "beta": report["beta"],
         "threshold": report["threshold"],
         "success": report["success"],
@@ -664,6 +696,7 @@ def run_check(
         "config": str(config_path),
         "invariants": str(inv_path),
         "mode": check.mode,
+        "select": check.select,
         "beta": check.beta,
         "threshold": check.threshold,
     }
@@ -741,7 +774,7 @@ def run_check(
             assert outcome.onset is not None
             for ident, at in outcome.after.items():
                 delays.setdefault(ident, []).append(at - outcome.onset)
-        scores, families = classify(
+        scores, families, chosen = classify(
             document,
             success_broken,
             {b: o.detected for b, o in runs["fail"].items()},
@@ -749,8 +782,17 @@ def run_check(
             threshold=check.threshold,
             before={b: o.before for b, o in onset_runs.items() if o.onset},
             delays=delays if onset_runs else None,
+            untested={b: seen.untested for b, seen in held.items()},
+            select=check.select,
         )
         report["scores"], report["families"] = scores, families
+        if chosen is not None:
+            report["cover"] = {
+                "chosen": list(chosen.chosen),
+                "detected": chosen.detected,
+                "false_alarm": _number(chosen.false_alarm),
+                "value": _number(chosen.value),
+            }
         out.refined = refined(document, scores, report)
         if "alarms" in document and runs["success"]:
             out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)

@@ -138,6 +138,12 @@ CODES: tuple[Code, ...] = (
         "semantic",
         "A <fail> gives its fault's onset more than one way (onset, onset_topic, onsets).",
     ),
+    Code(
+        "threshold-unused",
+        _W,
+        "semantic",
+        'A <check> gives a threshold, which only select="fscore" uses.',
+    ),
     Code("unused-condition", _W, "semantic", "A condition that no point uses."),
     Code(
         "uninvolved-event",

@@ -215,6 +215,8 @@ class Check:
     threshold: float = 0.5
     beta: float = 1.0
     onsets: tuple[Onset, ...] = ()
+    select: Literal["cover", "fscore"] = "cover"
+    """How classification chooses the kept invariants (:mod:`imrosc.selection`)."""
     """One per ``fail`` entry, in order (the entry's span; its onset if it gives one)."""
 
 

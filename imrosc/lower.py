@@ -161,6 +161,7 @@ def _check(config: LoadedConfig, element: etree._Element, fallback: str) -> ir.C
         threshold=_number(element, "threshold", 0.5),
         beta=_number(element, "beta", 1.0),
         onsets=tuple(_onset(config, child) for child in children(element, "fail")),
+        select="fscore" if element.get("select") == "fscore" else "cover",
     )
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from imrosc.calibrate.envelope import Envelopes, UnitView
@@ -114,6 +115,25 @@ def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
     return [group for group in found if group]
 
 
+def _evidence(
+    held_out: Sequence[HeldOut],
+    units: Sequence[Unit],
+    envelopes: Envelopes,
+    held: Sequence[tuple[Mapping[str, Any], list[int]]],
+    kept: set[str],
+) -> None:
+    """What each held-out unit says of the kept invariants beyond its replay: those it could
+    not test (``absent``: its fold's document holds them as learnt from every unit) and the
+    sets it breaks when they are learnt from its fold's training units (``set_breaks``)."""
+    index = {(unit.bag, unit.span): k for k, unit in enumerate(units)}
+    everyone = set(range(len(units)))
+    for unit in held_out:
+        training = everyone - set(held[unit.fold][1])
+        at = index[(Path(unit.bag), unit.span)]
+        unit.absent = sorted(envelopes.untested(training) & kept)
+        unit.set_breaks = sorted(envelopes.set_breaks(at, training) & kept)
+
+
 def calibrate(
     document: dict[str, Any],
     units: Sequence[Unit],
@@ -147,6 +167,7 @@ def calibrate(
         else:
             kept.append(invariant)
     final["invariants"] = kept
+    _evidence(report.held_out, units, envelopes, held, {inv["id"] for inv in kept})
     document.clear()
     document.update(final)
     document["alarms"] = found.rule.as_json()

@@ -126,6 +126,8 @@ class Envelopes:
         """Sets that held-out units break, per family."""
         self.unsupported: dict[str, int] = {}
         """Invariants fewer than two units support, per family."""
+        self.sets: dict[str, list[frozenset[Any] | None]] = {}
+        """Per invariant of a set family, the set each unit holds (``None``: not there)."""
         for invariant in document["invariants"]:
             family = invariant["family"]
             if family not in WIDENED and family not in SETS:
@@ -133,7 +135,13 @@ class Envelopes:
             found = [view.lookup(invariant) for view in views]
             if sum(params is not None for params in found) < 2:
                 self._drop(invariant, self.unsupported)
-            elif family in WIDENED:
+                continue
+            if family in SETS:
+                self.sets[invariant["id"]] = [
+                    None if params is None else members({"family": family, "params": params})
+                    for params in found
+                ]
+            if family in WIDENED:
                 self.limits[invariant["id"]] = [
                     _Limit(
                         slot,
@@ -144,6 +152,43 @@ class Envelopes:
                 ]
             elif self._unstable(invariant, found):
                 self._drop(invariant, self.dropped)
+
+    def untested(self, units: set[int]) -> set[str]:
+        """The invariants about which a unit outside ``units``, replayed against the
+        document learnt from ``units``, says nothing: that document holds them only as
+        learnt from every unit (the held-out unit included). They are the invariants
+        calibration neither widens nor treats as sets (relations), and those no unit of
+        ``units`` holds. (A set that some unit of ``units`` holds is tested by
+        :meth:`set_breaks`.)"""
+        found: set[str] = set()
+        for invariant in self.source["invariants"]:
+            ident = invariant["id"]
+            if ident in self.drop:
+                continue
+            limits, sets = self.limits.get(ident), self.sets.get(ident)
+            if sets is not None:
+                if all(sets[u] is None for u in units):
+                    found.add(ident)
+            elif limits is None or all(lim.supports[u] is None for lim in limits for u in units):
+                found.add(ident)
+        return found
+
+    def set_breaks(self, unit: int, units: set[int]) -> set[str]:
+        """The sets that ``unit`` breaks when they are learnt from ``units`` alone."""
+        found: set[str] = set()
+        for invariant in self.source["invariants"]:
+            held = self.sets.get(invariant["id"])
+            if held is None or invariant["id"] in self.drop:
+                continue
+            mine = held[unit]
+            others = [their for u in sorted(units) if (their := held[u]) is not None]
+            if (
+                mine is not None
+                and others
+                and set_broken(invariant, mine, merge_sets(invariant, others))
+            ):
+                found.add(invariant["id"])
+        return found
 
     def _drop(self, invariant: Mapping[str, Any], counts: dict[str, int]) -> None:
         self.drop.add(invariant["id"])

@@ -83,6 +83,13 @@ class HeldOut:
     lasting: float = 0.0
     distinct: int = 0
     event_alarms: int = 0
+    absent: list[str] = field(default_factory=list, repr=False)
+    """The file's invariants this unit says nothing about: its fold's document held them
+    only as learnt from every unit, itself included (relations; invariants no training unit
+    of the fold holds)."""
+    set_breaks: list[str] = field(default_factory=list, repr=False)
+    """The file's sets (one-of values, nodes) it breaks when they are learnt from its
+    fold's training units alone (its replay cannot: the fold's document keeps every value)."""
 
     @property
     def broken(self) -> set[str]:
@@ -104,6 +111,8 @@ class HeldOut:
             "distinct": self.distinct,
             "events": self.event_alarms,
             "trace": self.trace,
+            "absent": self.absent,
+            "set_breaks": self.set_breaks,
         }
 
 
@@ -201,6 +210,9 @@ class HeldOutRun:
 
     broken: frozenset[str]
     traces: tuple[Mapping[str, Any], ...]
+    untested: frozenset[str] = frozenset()
+    """The invariants none of its units was replayed against (absent from their folds'
+    documents): the run is no evidence about them."""
 
     def alarmed(self, kept: set[str], rule: AlarmRule) -> bool:
         """Whether any of its units raises an alarm under ``rule`` with ``kept`` only."""
@@ -212,7 +224,7 @@ def held_out_runs(document: Mapping[str, Any], base: Path) -> dict[Path, HeldOut
     saw. A unit's bag is read as written and, when relative, also from ``base`` (the
     folder of the configuration it was inferred from)."""
     calibration = document.get("calibration") or {}
-    found: dict[Path, tuple[set[str], list[Mapping[str, Any]]]] = {}
+    found: dict[Path, tuple[set[str], list[Mapping[str, Any]], list[set[str]]]] = {}
     for unit in calibration.get("held_out", ()):
         trace = unit.get("trace")
         if not isinstance(trace, Mapping) or not isinstance(unit.get("bag"), str):
@@ -222,12 +234,14 @@ def held_out_runs(document: Mapping[str, Any], base: Path) -> dict[Path, HeldOut
         if not written.is_absolute():
             places.add((base / written).resolve())
         for place in places:
-            broken, traces = found.setdefault(place, (set(), []))
+            broken, traces, absent = found.setdefault(place, (set(), [], []))
             broken.update(trace)
+            broken.update(str(ident) for ident in unit.get("set_breaks", ()))
             traces.append(trace)
+            absent.append({str(ident) for ident in unit.get("absent", ())})
     return {
-        place: HeldOutRun(frozenset(broken), tuple(traces))
-        for place, (broken, traces) in found.items()
+        place: HeldOutRun(frozenset(broken), tuple(traces), frozenset(set.intersection(*absent)))
+        for place, (broken, traces, absent) in found.items()
     }
 
 

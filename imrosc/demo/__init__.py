@@ -92,9 +92,13 @@ def _check_stage(out: Path, config: Path, workers: int | None) -> bool:
     families = checked.report["families"]
     kept = sum(f["kept"] for f in families.values())
     total = sum(f["total"] for f in families.values())
+    how = (
+        "the set whose union detects the most faulty runs minus its expected false alarms"
+        if checked.report["select"] == "cover"
+        else f"F-score >= {checked.report['threshold']}"
+    )
     click.echo(
-        f"   kept {kept} of {total} invariants (F-score >= {checked.report['threshold']}) "
-        f"in {checked.output}; scores in {report}"
+        f"   kept {kept} of {total} invariants ({how}) in {checked.output}; scores in {report}"
     )
     faulty = out / "bags" / "fail" / "spoofed.bag"
     click.echo(

@@ -120,6 +120,8 @@ def classify(view: Classify) -> str:
         lines += ["  " + line for line in table(headers, rows, "rrrrrrrllll")]
     else:
         lines.append("no invariant kept")
+    if view.cover:
+        lines.append(view.cover)
     lines.append(view.dropped_line)
     lines += _runs(view)
     return "\n".join(lines) + "\n"

@@ -366,6 +366,11 @@ class Classify:
     detection: Detection | None = None
     success_in_detect: list[str] = field(default_factory=list)
     cross_validation: str | None = None
+    select: str = "fscore"
+    """How the kept invariants were chosen (``cover`` or ``fscore``; reports written before
+    ``select`` existed filtered by F-score)."""
+    cover: str | None = None
+    """With ``select="cover"``: what the chosen set is worth, in one line."""
 
     @property
     def success_warning(self) -> str | None:
@@ -406,7 +411,9 @@ class Classify:
 
     @property
     def dropped_line(self) -> str:
-        """``N invariants dropped (F below threshold T)``."""
+        """``N invariants dropped (F below threshold T)``, or (cover) not in the chosen set."""
+        if self.select == "cover":
+            return f"{plural(len(self.dropped), 'invariant')} dropped (not in the chosen set)"
         return (
             f"{plural(len(self.dropped), 'invariant')} dropped (F below threshold {self.threshold})"
         )
@@ -419,9 +426,13 @@ class Classify:
                 f"{self.all.broken} of {plural(self.all.total, 'invariant')} broken "
                 f"by {plural(len(self.reference), 'reference run')}"
             )
+        how = (
+            "select cover"
+            if self.select == "cover"
+            else f"beta {self.beta}, threshold {self.threshold}"
+        )
         return (
-            f"{self.all.kept} of {plural(self.all.total, 'invariant')} kept "
-            f"(beta {self.beta}, threshold {self.threshold}) from "
+            f"{self.all.kept} of {plural(self.all.total, 'invariant')} kept ({how}) from "
             f"{len(self.success)} success and {len(self.fail)} fail runs"
         )
 
@@ -564,6 +575,20 @@ def classify(document: Mapping[str, Any]) -> Classify:
         ),
         success_in_detect=[str(b) for b in document.get("success_in_detect") or []],
         cross_validation=_cross_validation(document.get("cross_validation")),
+        select=_text(document.get("select") or "fscore"),
+        cover=_cover(document.get("cover")),
+    )
+
+
+def _cover(data: Any) -> str | None:
+    """The chosen set's worth (a classify document's ``cover``), in one line."""
+    if not isinstance(data, Mapping):
+        return None
+    chosen = data.get("chosen") or []
+    return (
+        f"the chosen set of {plural(len(chosen), 'invariant')} detects "
+        f"{_count(data.get('detected'))} fail runs; estimated false-alarm probability per "
+        f"nominal run {_count(data.get('false_alarm'))}"
     )
 
 

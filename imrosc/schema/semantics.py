@@ -360,6 +360,12 @@ class _Pass:
         successes, fails = children(check, "success"), children(check, "fail")
         for fail in fails:
             self.check_onset(fail)
+        if check.get("threshold") is not None and check.get("select", "cover") != "fscore":
+            message = (
+                'threshold applies to select="fscore" only; classification selects by cover '
+                '(the default): add select="fscore" or remove threshold'
+            )
+            self.at_attribute(check, "threshold", "threshold-unused", message)
         bags = children(check, "bag")
         if (successes or fails) and bags:
             message = "<check> classifies with <success>/<fail> or compares with <bag>, not both"

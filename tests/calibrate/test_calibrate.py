@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from imrosc.calibrate.rule import rule_for
+from imrosc.calibrate.rule import held_out_runs, rule_for
 from imrosc.detect import run_detect
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
@@ -19,8 +20,14 @@ FLOAT = "std_msgs/msg/Float64"
 RATE = 20.0
 
 
-def run(path: Path, seed: int, seconds: float = 20.0, fault_at: float | None = None) -> Path:
-    """A noisy sine on ``/a/x`` at 20 Hz; from ``fault_at`` on, shifted by 3."""
+def run(
+    path: Path,
+    seed: int,
+    seconds: float = 20.0,
+    fault_at: float | None = None,
+    extra: Sequence[Msg] = (),
+) -> Path:
+    """A noisy sine on ``/a/x`` at 20 Hz; from ``fault_at`` on, shifted by 3; and ``extra``."""
     rng = np.random.default_rng(seed)
     phase = rng.uniform(0, 2 * math.pi)
     messages: list[Msg] = []
@@ -30,7 +37,7 @@ def run(path: Path, seed: int, seconds: float = 20.0, fault_at: float | None = N
         if fault_at is not None and k / RATE >= fault_at:
             value += 3.0
         messages.append(msg("/a/x", t, FLOAT, data=value))
-    return write_bag(path, messages)
+    return write_bag(path, [*messages, *extra])
 
 
 def config(folder: Path, bags: list[Path], budget: str = "") -> Path:
@@ -123,3 +130,69 @@ def test_the_file_keeps_what_the_rule_of_a_subset_needs(
     assert rule.persist <= document["alarms"]["persist"] or document["calibration"]["unstable"]
     assert rule_for(document, set()) == AlarmRule(persist=1, seconds=0.001, distinct=1, window=1.0)
     assert rule_for({"calibration": {}}, everything) is None
+
+
+def test_held_out_units_name_the_invariants_their_fold_could_not_test(tmp_path: Path) -> None:
+    """Runs 0 and 1 alone publish /a/y: they are held out together (the first block), so the
+    invariants of /a/y, learnt from them, were absent from their fold's document; a successful
+    run scored from its held-out replays is no evidence about those."""
+    extra = [msg("/a/y", 100.0 + i / RATE, FLOAT, data=float(i % 7)) for i in range(160)]
+    bags = [
+        run(tmp_path / f"good_{k}.bag", k, seconds=8.0, extra=extra if k < 2 else ())
+        for k in range(6)
+    ]
+    path = tmp_path / "c.xml"
+    path.write_text(
+        '<imROS project="c"><scope><publish id="a">/a/x</publish><publish id="b">/a/y</publish>'
+        '</scope><detect inv="c.inv">'
+        + "".join(f"<bag>{b.name}</bag>" for b in bags)
+        + "</detect></imROS>"
+    )
+    result = run_detect(path, workers=1)
+    assert result.document is not None
+    of_b = {i["id"] for i in result.document["invariants"] if i["point"] == "b"}
+    assert of_b
+    absent = {
+        Path(u["bag"]).name: set(u["absent"]) for u in result.document["calibration"]["held_out"]
+    }
+    assert absent == {
+        b.name: (of_b if b.name in ("good_0.bag", "good_1.bag") else set()) for b in bags
+    }
+    seen = held_out_runs(result.document, tmp_path)
+    assert seen[(tmp_path / "good_0.bag").resolve()].untested == of_b
+    assert seen[(tmp_path / "good_4.bag").resolve()].untested == frozenset()
+
+
+def test_a_held_out_unit_breaks_a_set_its_fold_never_saw_whole(tmp_path: Path) -> None:
+    """/a/z takes the values 0 and 1 in every run, and also 2 in the last: held out (the
+    last block alone), that run brings a value the others never had."""
+    bags = []
+    for k in range(6):
+        values = (0.0, 1.0, 2.0) if k == 5 else (0.0, 1.0)
+        extra = [
+            msg("/a/z", 100.0 + i / RATE, FLOAT, data=values[i % len(values)]) for i in range(160)
+        ]
+        bags.append(run(tmp_path / f"good_{k}.bag", k, seconds=8.0, extra=extra))
+    path = tmp_path / "c.xml"
+    path.write_text(
+        '<imROS project="c"><scope><publish id="a">/a/x</publish><publish id="z">/a/z</publish>'
+        '</scope><detect inv="c.inv">'
+        + "".join(f"<bag>{b.name}</bag>" for b in bags)
+        + "</detect></imROS>"
+    )
+    result = run_detect(path, workers=1)
+    assert result.document is not None
+    sets = {
+        i["id"]
+        for i in result.document["invariants"]
+        if i["point"] == "z" and i["family"] == "one-of"
+    }
+    assert len(sets) == 1
+    breaks = {
+        Path(u["bag"]).name: set(u["set_breaks"])
+        for u in result.document["calibration"]["held_out"]
+    }
+    assert breaks == {b.name: (sets if b.name == "good_5.bag" else set()) for b in bags}
+    seen = held_out_runs(result.document, tmp_path)
+    assert sets <= seen[(tmp_path / "good_5.bag").resolve()].broken
+    assert not sets & seen[(tmp_path / "good_5.bag").resolve()].untested

@@ -49,7 +49,10 @@ def test_table_4_1_comes_out_of_the_run_counts(beta: float) -> None:
     }
     success = _runs({f"i{k}": row[1] // 10 for k, row in enumerate(TABLE_4_1)}, 10, "s")
     fail = _runs({f"i{k}": row[2] // 10 for k, row in enumerate(TABLE_4_1)}, 10, "f")
-    scores, families = classify(document, success, fail, beta=beta, threshold=0.6)
+    scores, families, chosen = classify(
+        document, success, fail, beta=beta, threshold=0.6, select="fscore"
+    )
+    assert chosen is None
     column = {0.5: 6, 1.0: 7, 2.0: 8}[beta]
     for score, row in zip(scores, TABLE_4_1, strict=True):
         assert score["tn"] * 10 == row[0] and score["fp"] * 10 == row[1]
@@ -153,7 +156,7 @@ def test_a_violation_before_the_onset_is_a_false_positive() -> None:
     success = {Path("s"): set[str]()}
     fail = {Path("f"): {"late", "both"}}  # broken at or after the onset
     before = {Path("f"): {"early", "both"}}  # broken before it: a nominal run's violation
-    scores, _ = classify(
+    scores, _, _ = classify(
         document, success, fail, beta=1.0, threshold=0.5, before=before, delays={"late": [0.5]}
     )
     early, late, both = scores

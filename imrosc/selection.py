@@ -1,0 +1,134 @@
+"""Which invariants classification keeps for the monitor (``<check select>``).
+
+A monitor alarms when *any* invariant it checks alarms: its detections are the union of
+its invariants' detections, and so are its false alarms. Two selections:
+
+* ``cover`` (the default): the set of invariants whose union is worth the most, counted as
+  the product counts a monitor: failed runs it detects minus runs it would raise a false
+  alarm on. Invariants are added greedily, each time the one that adds the most, while one
+  adds anything. A failed run counts as detected when one of the set breaks at or after its
+  fault's onset (anywhere, without an onset) and none of the set breaks before it.
+
+  False alarms are *estimated*, not counted: with hundreds of candidates and a few runs,
+  some invariant always happens to hold on the runs at hand, and picking it for that is
+  picking noise. An invariant broken by ``k`` of the ``n`` successful runs that tested it
+  breaks a new nominal run with probability ``(k + 1) / (n + 2)`` (Laplace's rule of
+  succession: 1/(n + 2) when none broke it). A failed run up to its onset is not counted
+  among the ``n``: it is part of a run, cut where the fault began, and a per-run probability
+  is learnt from whole runs; what it breaks before its onset is counted where it happened
+  (it spoils that run's detection). The set's false alarm probability is
+  ``1 - prod(1 - p_i)`` (as if the
+  invariants broke independently: more, not less, than their correlated breaks give). Over
+  the classification's runs (successful and failed alike, each of which can raise a false
+  alarm) the set costs ``runs * (1 - prod(1 - p_i))`` false alarms. A successful run that
+  trained the invariants is evidence only about the invariants it was replayed against
+  when calibration held it out (``absent`` in the file's held-out units).
+
+* ``fscore``: the thesis' filter (section 4.2): each invariant is scored alone as a
+  classifier of failed runs and kept when its F-beta score reaches ``threshold``. It keeps
+  the invariants that detect most kinds of failure at once and drops the specialists (an
+  invariant detecting only one of seven fault kinds has a recall of 1/7).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TypeVar
+
+Run = TypeVar("Run", bound=Hashable)
+"""A failed run, however the caller names it (a bag's path)."""
+
+SELECTIONS = ("cover", "fscore")
+"""The values of ``<check select>``; the first is the default."""
+
+
+@dataclass(frozen=True)
+class Nominal:
+    """What the nominal runs say of one invariant: how many tested it, how many broke it."""
+
+    tested: int
+    broken: int
+
+    @property
+    def false_alarm(self) -> float:
+        """The probability that it breaks on a new nominal run (rule of succession).
+
+        >>> Nominal(8, 0).false_alarm, Nominal(8, 2).false_alarm
+        (0.1, 0.3)
+        """
+        return (self.broken + 1) / (self.tested + 2)
+
+
+@dataclass(frozen=True)
+class Cover:
+    """The chosen invariants (in the order they were chosen) and what the set is worth on
+    the classification's runs."""
+
+    chosen: tuple[str, ...]
+    detected: int
+    """Failed runs the set detects."""
+    false_alarm: float
+    """The estimated probability that the set raises a false alarm on a new nominal run."""
+    value: float
+    """``detected - runs * false_alarm``."""
+
+
+def detected_by(
+    chosen: set[str], detects: Mapping[Run, set[str]], early: Mapping[Run, set[str]]
+) -> int:
+    """The failed runs that ``chosen`` detects: one of it breaks at or after the run's onset
+    (``detects``), none before it (``early``).
+
+    >>> detected_by({"a"}, {1: {"a"}, 2: {"a", "b"}}, {2: {"a"}})
+    1
+    """
+    return sum(
+        1 for run, ids in detects.items() if ids & chosen and not early.get(run, set()) & chosen
+    )
+
+
+def cover(
+    nominal: Mapping[str, Nominal],
+    detects: Mapping[Run, set[str]],
+    early: Mapping[Run, set[str]],
+    runs: int,
+    order: Sequence[str] = (),
+) -> Cover:
+    """Greedy selection (see the module's docstring). ``nominal``: per candidate invariant,
+    its evidence from nominal runs; ``detects``: per failed run, the invariants that break
+    at or after its onset; ``early``: per failed run with an onset, those breaking before it;
+    ``runs``: the classification's runs (each can raise a false alarm). ``order`` breaks
+    ties (earlier first; then fewer false alarms, then the id).
+
+    >>> nominal = {"a": Nominal(10, 0), "b": Nominal(10, 0), "c": Nominal(10, 6)}
+    >>> found = cover(nominal, {1: {"a", "c"}, 2: {"a", "c"}, 3: {"b", "c"}}, {}, 13)
+    >>> found.chosen, found.detected, round(found.false_alarm, 3)
+    (('a', 'b'), 3, 0.16)
+    """
+    rank = {ident: k for k, ident in enumerate(order)}
+    useful = {ident for ids in detects.values() for ident in ids} & set(nominal)
+    candidates = sorted(
+        useful,
+        key=lambda i: (rank.get(i, len(rank)), nominal[i].false_alarm, i),
+    )
+    chosen: list[str] = []
+    taken: set[str] = set()
+    clean = 1.0
+    value = 0.0
+    detected = 0
+    while True:
+        best: tuple[str, float, int] | None = None
+        for ident in candidates:
+            if ident in taken:
+                continue
+            found = detected_by(taken | {ident}, detects, early)
+            worth = found - runs * (1.0 - clean * (1.0 - nominal[ident].false_alarm))
+            if worth > (best[1] if best else value) + 1e-9:
+                best = (ident, worth, found)
+        if best is None:
+            return Cover(tuple(chosen), detected, 1.0 - clean, value)
+        ident, value, detected = best
+        chosen.append(ident)
+        taken.add(ident)
+        clean *= 1.0 - nominal[ident].false_alarm
