@@ -102,35 +102,51 @@ class BagSink:
         self.closed = False
 
     def _register(self, type_name: str, definitions: Mapping[str, str]) -> None:
-        """Register ``type_name`` and what it uses: the system's definitions, else rosbags'."""
+        """Register ``type_name`` and what it uses: the system's definitions, else rosbags'
+        (all or nothing: a type that cannot be described leaves the store as it was)."""
+        new: dict[str, Any] = {}
         for name, text in definitions.items():
             if name in self.types.fielddefs:
                 continue
             try:
-                self.types.register(get_types_from_msg(text, name))
+                new.update(get_types_from_msg(text, name))
             except TypesysError as error:
-                raise SinkError(f"the definition of {name} cannot be read: {error}") from None
-        todo = [type_name]
+                reason = _line(error)
+                raise SinkError(f"the definition of {name} cannot be read: {reason}") from None
+        todo, seen = [type_name], set()
         while todo:
             name = todo.pop()
-            if name not in self.types.fielddefs:
-                known = _known_types().fielddefs.get(name)
-                if known is None:
+            if name in seen:
+                continue
+            seen.add(name)
+            fields = self.types.fielddefs.get(name) or new.get(name)
+            if fields is None:
+                fields = _known_types().fielddefs.get(name)
+                if fields is None:
                     raise SinkError(f"no definition of the message type {name} was found")
-                self.types.register({name: known})
-            for _, (kind, detail) in self.types.fielddefs[name][1]:
+                new[name] = fields
+            for _, (kind, detail) in fields[1]:
                 todo += _names(kind, detail)
+        try:
+            self.types.register({k: v for k, v in new.items() if k not in self.types.fielddefs})
+        except TypesysError as error:
+            raise SinkError(f"the type {type_name} cannot be registered: {_line(error)}") from None
 
     def add_topic(self, announced: Mapping[str, Any]) -> Connection:
         """Add the connection the tap announced (``id``, ``topic``, ``type``,
-        ``definitions``, ``qos``); :class:`SinkError` if its type cannot be described."""
+        ``definitions``, ``qos``, the publishers' type ``hashes``); :class:`SinkError` if its
+        type cannot be described. The type hash is the publishers' when they announce one,
+        else computed from the definitions."""
         type_name = str(announced["type"])
         self._register(type_name, dict(announced.get("definitions") or {}))
         try:
             msgdef, _ = self.types.generate_msgdef(type_name, ros_version=2)
             digest = self.types.hash_rihs01(type_name)
         except (TypesysError, KeyError) as error:
-            raise SinkError(f"the type {type_name} cannot be described: {error}") from None
+            raise SinkError(f"the type {type_name} cannot be described: {_line(error)}") from None
+        hashes = list(announced.get("hashes") or [])
+        if len(hashes) == 1:  # what the publishers announce, as rosbag2 records it
+            digest = str(hashes[0])
         connection = self.writer.add_connection(
             str(announced["topic"]),
             type_name,
@@ -156,6 +172,16 @@ class BagSink:
             self.closed = True
             self.writer.close()
         return dict(self.counts)
+
+
+def _line(error: Exception, width: int = 120) -> str:
+    """An error as one short line (rosbags' parse errors span several).
+
+    >>> _line(ValueError("Could not parse:\\n'x'\\n 19"))
+    "Could not parse: 'x' 19"
+    """
+    text = " ".join(str(error).split())
+    return text if len(text) <= width else text[: width - 3] + "..."
 
 
 def _names(kind: Any, detail: Any) -> list[str]:

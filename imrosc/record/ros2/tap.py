@@ -162,6 +162,7 @@ class Tap:
                 definitions=defs,
                 missing=missing,
                 qos=[list(q) for q in offered if q is not None],
+                hashes=self.type_hashes(topic),
             )
         else:
             self.node.destroy_subscription(self.subscriptions.pop(topic))
@@ -175,6 +176,16 @@ class Tap:
             message_class, topic, on_message, plumbing.profile(qos, DATA_DEPTH), raw=True
         )
         self.qos[topic] = qos
+
+    def type_hashes(self, topic: str) -> List[str]:
+        """The type hashes (``RIHS01_...``) the publishers of ``topic`` announce (Iron and
+        later)."""
+        try:
+            infos = self.node.get_publishers_info_by_topic(topic)
+        except Exception:
+            return []
+        found = {str(getattr(info, "topic_type_hash", "")) for info in infos}
+        return sorted(h for h in found if h.startswith("RIHS01_"))
 
     def wants(self, topic: str) -> bool:
         if topic in records.RECORD_TOPICS:
