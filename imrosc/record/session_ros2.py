@@ -179,6 +179,8 @@ class TapRecording:
         self.threads: list[threading.Thread] = []
         self.state: dict[str, Any] = {}
         self.failure: str | None = None
+        self.received: dict[str, int] = {}
+        """What the tap received, by topic (its last words)."""
         self.outcome = Outcome(settings.bag)
         self.started = 0.0
 
@@ -337,6 +339,8 @@ class TapRecording:
             elif kind == "stats" and source == "recorder":
                 self.outcome.published = dict(event.get("published") or {})
                 self.outcome.calls = dict(event.get("calls") or {})
+            elif kind == "stats" and source == "tap":
+                self.received = {str(k): int(v) for k, v in dict(event["received"]).items()}
 
     def _check_children(self) -> None:
         if self.failure:
@@ -380,4 +384,10 @@ class TapRecording:
             self.outcome.messages = self.sink.close()
         except Exception as error:
             raise RecordError(f"{self.settings.bag}: cannot close the bag: {error}") from None
+        for topic, received in sorted(self.received.items()):
+            stored = self.outcome.messages.get(topic, 0)
+            if stored < received:
+                self.warn(
+                    f"{received - stored} of {received} messages on {topic} are not in the bag"
+                )
         return self.outcome
