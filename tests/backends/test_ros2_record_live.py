@@ -13,6 +13,7 @@ does. Then the bag is read with rosbags (through :func:`imrosc.bags.open_bag`) a
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -146,44 +147,61 @@ def children_of(pid: int) -> list[int]:
     return found
 
 
+@dataclass
+class System:
+    """The running system and the environment of its ROS 2 graph."""
+
+    folder: Path
+    environment: dict[str, str]
+
+
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Run]:
+def system(tmp_path_factory: pytest.TempPathFactory) -> Iterator[System]:
     python = require_ros2()
     folder = tmp_path_factory.mktemp("ros2record")
     environment = ros2_environment(folder, IMROSC_ROS2_PYTHON=python)
     environment.pop("ROS_VERSION", None)
     (folder / "recsys2.xml").write_text(CONFIG, encoding="utf-8")
-    system = Reader([python, "-c", SYSTEM], environment)
-    recording: Reader | None = None
+    process = Reader([python, "-c", SYSTEM], environment)
     try:
-        system.wait_for("system up", 60)
+        process.wait_for("system up", 60)
         time.sleep(1.0)
-        recording = imrosc(
-            "record",
-            str(folder / "recsys2.xml"),
-            "-o",
-            str(folder / "rec"),
-            "--ros2",
-            env=environment,
-        )
-        recording.wait_for("recording ", 90)
+        yield System(folder, environment)
+    finally:
+        process.stop(signal.SIGINT)
+
+
+@contextlib.contextmanager
+def recording(system: System, out: str, *args: str) -> Iterator[Reader]:
+    """``imrosc record --ros2`` into ``out``, killed with what it started if it outlives
+    the block."""
+    config = str(system.folder / "recsys2.xml")
+    process = imrosc(
+        "record", config, "-o", str(system.folder / out), "--ros2", *args, env=system.environment
+    )
+    try:
+        yield process
+    finally:
+        for pid in children_of(process.popen.pid):
+            os.kill(pid, signal.SIGKILL)
+        process.kill()
+
+
+@pytest.fixture(scope="module")
+def run(system: System) -> Iterator[Run]:
+    with recording(system, "rec") as process:
+        process.wait_for("recording ", 90)
         time.sleep(4.0)
-        status = recording.stop(signal.SIGINT, timeout=60)  # Ctrl-C, with messages flowing
-        leftovers = children_of(recording.popen.pid)
+        status = process.stop(signal.SIGINT, timeout=60)  # Ctrl-C, with messages flowing
+        leftovers = children_of(process.popen.pid)
         yield Run(
             status,
-            recording.output,
-            folder / "rec" / "recsys2",
-            folder,
-            environment,
+            process.output,
+            system.folder / "rec" / "recsys2",
+            system.folder,
+            system.environment,
             leftovers,
         )
-    finally:
-        if recording is not None:
-            for pid in children_of(recording.popen.pid):
-                os.kill(pid, signal.SIGKILL)
-            recording.kill()
-        system.stop(signal.SIGINT)
 
 
 def test_ctrl_c_stops_the_recording_cleanly(run: Run) -> None:
@@ -285,3 +303,39 @@ def test_imrosc_info_and_infer_read_the_bag(run: Run) -> None:
     assert ("d", "architecture") in found and ("p", "one-of") in found, found
     gain = [i for i in document["invariants"] if i["point"] == "p"]
     assert "2.5" in gain[0]["text"], gain
+
+
+def test_the_duration_ends_the_recording(system: System) -> None:
+    with recording(system, "timed", "--duration", "2", "--name", "short") as process:
+        process.popen.wait(90)
+        status = process.popen.returncode
+        assert status == 0, process.output
+        assert "for 2 s" in process.output
+        assert children_of(process.popen.pid) == []
+    found = messages(system.folder / "timed" / "short")
+    assert len(found["/sys/level"]) >= 10
+    assert found[records.ARCH_TOPIC]
+
+
+def test_a_killed_tap_fails_the_recording_and_keeps_what_it_sent(system: System) -> None:
+    with recording(system, "killed") as process:
+        process.wait_for("recording ", 90)
+        time.sleep(1.5)
+        taps = [p for p in children_of(process.popen.pid) if b".tap" in cmdline(p)]
+        assert len(taps) == 1
+        os.kill(taps[0], signal.SIGKILL)
+        process.popen.wait(60)
+        assert process.popen.returncode == 1, process.output
+        last = process.lines[-1]
+        assert last.startswith("imrosc record: the bag tap was killed (signal 9)"), process.output
+        assert "Traceback" not in process.output
+        assert children_of(process.popen.pid) == []  # the recorder was stopped too
+    found = messages(system.folder / "killed" / "recsys2")
+    assert len(found["/sys/cmd"]) >= 5
+
+
+def cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
