@@ -1,4 +1,5 @@
-"""The ROS 2 recorder node (rclpy): publishes the record topics that ``ros2 bag record`` saves.
+"""The ROS 2 recorder node (rclpy): publishes the record topics that ``imrosc record --ros2``
+(or ``ros2 bag record``) saves.
 
 Every ``period`` seconds (and at start) it reads the graph (rclpy's graph API, through
 ``monitor_ros2``'s :func:`plumbing.read_graph`) and asks the nodes for the scope's
@@ -78,7 +79,21 @@ class Recorder:
     def __init__(self, node: Any, spec: Dict[str, Any]) -> None:
         self.node = node
         self.log = node.get_logger()
-        self.warn = getattr(self.log, "warning", None) or self.log.warn  # Foxy has warn only
+        log_warning = getattr(self.log, "warning", None) or self.log.warn  # Foxy: warn only
+        self.warn = log_warning
+        if spec.get("events"):  # imrosc record: the user sees them too
+
+            def warn(text: str) -> None:
+                log_warning(text)
+                prefix = "imrosc recorder: "
+                say(
+                    {
+                        "event": "warning",
+                        "message": text[len(prefix) :] if text.startswith(prefix) else text,
+                    }
+                )
+
+            self.warn = warn
         self.period = float(plumbing.get_param(node, "period", spec["period"]))
         self.name = graph.node_name(node.get_namespace(), node.get_name())
         self.services: List[str] = list(spec["services"])
