@@ -216,7 +216,7 @@ def _write_launch(
     type=click.Path(file_okay=False, path_type=Path),
     help="Folder of the bag (created if missing).",
 )
-@click.option("--name", help="Name of the bag, without .bag [default: the project's name].")
+@click.option("--name", help="Name of the bag (ROS 1: without .bag) [default: the project's name].")
 @click.option(
     "--duration",
     type=click.FloatRange(min=0, min_open=True),
@@ -227,10 +227,17 @@ def _write_launch(
     type=click.FloatRange(min=0, min_open=True),
     default=1.0,
     show_default=True,
-    help="Seconds between two looks at the master (architecture and parameters).",
+    help="Seconds between two looks at the graph (architecture and parameters).",
 )
-@click.option("--all", "all_topics", is_flag=True, help="Record every topic (rosbag record -a).")
-@click.option("--all-params", is_flag=True, help="Record every parameter, not only the scope's.")
+@click.option(
+    "--all",
+    "all_topics",
+    is_flag=True,
+    help="Record every topic (rosbag record -a; ROS 2: every topic that is not hidden).",
+)
+@click.option(
+    "--all-params", is_flag=True, help="Record every parameter, not only the scope's (ROS 1)."
+)
 @click.option(
     "--graph",
     "graph_files",

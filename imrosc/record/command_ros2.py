@@ -33,7 +33,7 @@ def is_ros2_bag(folder: Path) -> bool:
     ``metadata.yaml``: a recording that was killed)."""
     if not folder.is_dir():
         return False
-    names = [p for p in folder.iterdir()]
+    names = list(folder.iterdir())
     if any(p.name == ROS2_METADATA for p in names):
         return True
     return bool(names) and all(p.suffix in ROS2_STORAGE_SUFFIXES for p in names)
@@ -102,8 +102,7 @@ def record_ros2(
     if scope.empty:
         _fail(f"{config}: the scope has nothing to record (no <publish>, <call>, <param>, <arch>)")
     bag_name = name or "".join(c if c.isalnum() or c in "-_." else "_" for c in project.name)
-    settings_output = output
-    _check_output(settings_output, output / bag_name, force)
+    _check_output(output, output / bag_name, force)
     try:
         interpreter = choose_python(python, os.environ)
         check_python(interpreter, os.environ)

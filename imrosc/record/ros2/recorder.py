@@ -9,6 +9,7 @@ subscribes to the record topics). Python 3.8 syntax.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from typing import List, Optional
@@ -31,7 +32,8 @@ def main(argv: Optional[List[str]] = None) -> None:
     except (IndexError, ValueError) as error:
         sys.exit(f"imrosc recorder: {error}")
     node.init([])
-    node.serve(str(spec["node"]), spec)
+    with contextlib.suppress(KeyboardInterrupt):  # stopped while it waited for the tap
+        node.serve(str(spec["node"]), spec)
 
 
 if __name__ == "__main__":
