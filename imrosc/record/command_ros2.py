@@ -113,9 +113,11 @@ def record_ros2(
         _fail(f"{output}: {error.strerror}")
     settings = Settings2(output, bag_name, period, all_topics, interpreter)
     final: list[Scope] = [scope]
+    warned: list[bool] = []
 
     def choose(arch: str) -> tuple[str, ...]:
-        """The scope's topics with the graph the tap saw (relative inputs)."""
+        """The scope's topics with the graph the tap saw (relative inputs); the warnings
+        of the graph the recording starts with."""
         graph = files
         try:
             live = Graph.from_snapshot(records.decode_arch(arch), GRAPH_SOURCE)
@@ -125,7 +127,8 @@ def record_ros2(
         again = compile_scope(config, graph)
         if again.scope is not None:
             final[0] = again.scope
-        if not all_topics:
+        if not all_topics and not warned:
+            warned.append(True)
             for warning in again.warnings:
                 _warn(warning)
         return final[0].topics

@@ -4,7 +4,8 @@ the MCAP bag imrosc writes from what the tap sends.
 Start: the bag tap first (``/_imrosc_bag_<pid>``, hidden; :mod:`imrosc.record.ros2.tap`
 under the ROS 2 Python). It subscribes to the record topics, describes the graph once
 discovery settled, and imrosc answers with the topics of the scope (computed with that
-graph: relative inputs). Once it says ``ready``, the recorder node
+graph: relative inputs); the tap describes the graph again when it changes, and imrosc
+answers again when that changes the scope's topics. Once it says ``ready``, the recorder node
 (``/imrosc_recorder_<pid>``, :mod:`imrosc.record.ros2.recorder`), which waits until the tap
 subscribes to its record topics before it publishes its first snapshots, and says
 ``ready``.
@@ -178,6 +179,8 @@ class TapRecording:
         self.events: queue.Queue[dict[str, Any]] = queue.Queue()
         self.threads: list[threading.Thread] = []
         self.state: dict[str, Any] = {}
+        self.topics: tuple[str, ...] | None = None
+        """The topics the tap was told to record (``None`` before the first graph)."""
         self.failure: str | None = None
         self.received: dict[str, int] = {}
         """What the tap received, by topic (its last words)."""
@@ -198,6 +201,7 @@ class TapRecording:
             "fd": write_end,
             "period": min(settings.period, 0.5),
             "settle": settings.settle,
+            "expect": list(self.scope.topics),
         }
         try:
             self.tap = _Child(
@@ -213,8 +217,7 @@ class TapRecording:
         self._thread(self._read_frames, os.fdopen(read_end, "rb"))
         if not self._wait(lambda: "graph" in self.state, stop, "the bag tap to see the graph"):
             return False
-        topics = self.choose(str(self.state["graph"]))
-        self._answer({"topics": list(topics), "all": settings.all_topics})
+        self._choose(str(self.state["graph"]))
         if not self._wait(lambda: "tap ready" in self.state, stop, "the bag tap"):
             return False
         recorder = {
@@ -246,12 +249,19 @@ class TapRecording:
         thread.start()
         self.threads.append(thread)
 
-    def _answer(self, answer: Mapping[str, Any]) -> None:
+    def _choose(self, arch: str) -> None:
+        """Tell the tap the scope's topics in the graph ``arch`` (again when they change)."""
+        topics = tuple(sorted(self.choose(arch)))
+        if topics == self.topics:
+            return
+        if self.topics is not None and set(topics) - set(self.topics):
+            self.say(f"the graph names more of the scope: recording {', '.join(topics)}")
+        self.topics = topics
         assert self.tap is not None and self.tap.popen.stdin is not None
-        stdin = self.tap.popen.stdin
-        with contextlib.suppress(OSError):
-            stdin.write(json.dumps(answer).encode() + b"\n")
-            stdin.close()
+        answer = {"topics": list(topics), "all": self.settings.all_topics}
+        with contextlib.suppress(OSError, ValueError):  # a tap that died is found elsewhere
+            self.tap.popen.stdin.write(json.dumps(answer).encode() + b"\n")
+            self.tap.popen.stdin.flush()
 
     def _wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
         deadline = time.monotonic() + self.settings.ready_timeout + self.settings.settle
@@ -330,6 +340,8 @@ class TapRecording:
             source = str(event.get("from", ""))
             if kind == "graph":
                 self.state["graph"] = str(event.get("arch", ""))
+                if self.topics is not None:
+                    self._choose(self.state["graph"])
             elif kind == "ready":
                 self.state[f"{source} ready"] = True
             elif kind == "warning":
@@ -370,8 +382,9 @@ class TapRecording:
                 self.warn("the recorder node did not stop in time and was killed")
             time.sleep(STOP_GRACE)
         if self.tap is not None:
-            if self.tap.popen.stdin is not None and not self.tap.popen.stdin.closed:
-                self._answer({"topics": []})  # it may still wait for the scope
+            if self.tap.popen.stdin is not None:
+                with contextlib.suppress(OSError):
+                    self.tap.popen.stdin.close()  # it may still wait for the scope
             if not self.tap.interrupt(30.0):
                 self.warn("the bag tap did not stop in time and was killed")
         for thread in self.threads:

@@ -1,15 +1,19 @@
 """The bag tap: an rclpy node that hands every message of the recording to imrosc.
 
 ``python -m imrosc.record.ros2.tap SPEC`` (``SPEC``: JSON with ``node``, the tap's hidden
-node name; ``fd``, the pipe to write frames to; ``period``; ``settle``, seconds to wait for
-discovery before describing the graph). Under the ROS 2 Python, started by ``imrosc record``.
+node name; ``fd``, the pipe to write frames to; ``period``; ``settle``, seconds to wait at
+most for discovery before describing the graph; ``expect``, the topics the scope names).
+Under the ROS 2 Python, started by ``imrosc record``.
 
 1. It subscribes at once to the three record topics (``std_msgs/msg/String``, reliable and
    transient local, as the recorder offers them), so that it hears the recorder's first
    snapshots.
-2. After ``settle`` seconds (earlier when the graph is complete) it sends the graph it sees
-   (``graph``: an architecture record, for the scope's relative inputs) and reads one line on
-   standard input: ``{"topics": [...], "all": false}``, the topics to record.
+2. Once discovery settled (the scope's named topics have publishers and the graph is
+   complete and steady; at most ``settle`` seconds) it sends the graph it sees (``graph``:
+   an architecture record, for the scope's relative inputs) and waits for a line on standard
+   input: ``{"topics": [...], "all": false}``, the topics to record. It sends the graph again
+   whenever it changes, and imrosc sends another line when that changes the topics (a
+   relative point's inputs known late).
 3. Every ``period`` seconds it reads the graph and subscribes to each of those topics that
    has appeared, with a serialized (``raw``) subscription of the type the graph gives and a
    QoS that hears every publisher (best effort when one publisher is, transient local when
@@ -111,6 +115,8 @@ class Tap:
         self.counts: Dict[str, int] = {}
         self.told: Set[str] = set()
         self.closed = False
+        self.described = ""
+        """The last graph sent."""
         for topic in records.RECORD_TOPICS:
             qos = graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL)
             self.subscribe(topic, RECORD_TYPE, String, qos, [qos])
@@ -195,10 +201,13 @@ class Tap:
         return self.wanted is not None and topic in self.wanted
 
     def poll(self) -> None:
-        """Subscribe to the wanted topics that have appeared; follow their publishers' QoS."""
+        """Describe the graph when it changed; subscribe to the wanted topics that have
+        appeared; follow their publishers' QoS."""
+        view = plumbing.read_graph(self.node)
+        if view.complete:
+            self.describe(view)
         if self.wanted is None and not self.everything:
             return
-        view = plumbing.read_graph(self.node)
         mine = [graph.node_name(self.node.get_namespace(), self.node.get_name())]
         for topic, kinds in sorted(view.types.items()):
             if not self.wants(topic) or not kinds:
@@ -222,11 +231,18 @@ class Tap:
                 continue
             self.subscribe(topic, type_name, message_class, wanted, offered)
 
-    def graph_text(self) -> str:
-        """The graph as an architecture record (the tap and the recorder left out)."""
-        view = plumbing.read_graph(self.node)
+    def describe(self, view: graph.GraphView) -> None:
+        """Send the graph (an architecture record, the tap left out) if it changed."""
         topics, services = records.arch_of(view)
-        return records.arch_text(topics, services)
+        text = records.arch_text(topics, services)
+        if text != self.described:
+            self.described = text
+            self.tell("graph", arch=text)
+
+    def choose(self, answer: Dict[str, Any]) -> None:
+        """Take imrosc's choice of topics (``topics``, ``all``)."""
+        self.everything = bool(answer.get("all"))
+        self.wanted = set(answer.get("topics") or [])
 
     def close(self) -> None:
         self.tell("stats", received=dict(self.counts))
@@ -236,9 +252,10 @@ class Tap:
                 self.out.close()
 
 
-def settle(node: Any, executor: Any, seconds: float) -> None:
-    """Spin while discovery goes on: at least :data:`LEAST` seconds and until the graph is
-    complete and unchanged for :data:`STEADY` seconds, at most ``seconds``."""
+def settle(node: Any, executor: Any, seconds: float, expected: List[str]) -> None:
+    """Spin while discovery goes on: at least :data:`LEAST` seconds, then until every
+    ``expected`` topic has a publisher and the graph is complete and unchanged for
+    :data:`STEADY` seconds; at most ``seconds``."""
     start = time.monotonic()
     last = None
     since = start
@@ -247,18 +264,26 @@ def settle(node: Any, executor: Any, seconds: float) -> None:
         now = time.monotonic()
         view = plumbing.read_graph(node)
         seen = (sorted(view.topics.items()), sorted(view.services.items()))
-        if seen != last or not view.complete:
+        published = all(view.topics.get(t, ((), ()))[0] for t in expected)
+        if seen != last or not view.complete or not published:
             last, since = seen, now
         if now - start >= seconds or (now - start >= LEAST and now - since >= STEADY):
             return
 
 
-def choose(tap: Tap) -> None:
-    """Read imrosc's answer (the topics to record) from standard input."""
-    line = sys.stdin.readline()
-    answer = json.loads(line) if line.strip() else {}
-    tap.everything = bool(answer.get("all"))
-    tap.wanted = set(answer.get("topics") or [])
+def listen(tap: Tap, stream: IO[str], first: threading.Event) -> None:
+    """imrosc's choices, one JSON line each (the first before recording starts, then one
+    whenever the graph changes what the scope names); ``first`` is set after the first
+    (or when imrosc closed the stream)."""
+    for line in stream:
+        try:
+            answer = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(answer, dict):
+            tap.choose(answer)
+            first.set()
+    first.set()
 
 
 def main(argv: Optional[List[str]] = None) -> None:
@@ -274,9 +299,12 @@ def main(argv: Optional[List[str]] = None) -> None:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        settle(node, executor, float(spec.get("settle", 5.0)))
-        tap.tell("graph", arch=tap.graph_text())
-        choose(tap)
+        settle(node, executor, float(spec.get("settle", 5.0)), list(spec.get("expect", [])))
+        tap.describe(plumbing.read_graph(node))
+        chosen = threading.Event()
+        threading.Thread(target=listen, args=(tap, sys.stdin, chosen), daemon=True).start()
+        while not chosen.wait(0.1):
+            executor.spin_once(timeout_sec=0.0)
         tap.poll()
         tap.tell("ready")
         node.create_timer(tap.period, plumbing.guarded(tap.log, "poll", tap.poll))
