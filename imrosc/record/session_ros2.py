@@ -40,6 +40,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from rosbags.rosbag2 import WriterError
+
 from imrosc.record.mcap import BagSink, SinkError
 from imrosc.record.ros2 import wire
 from imrosc.record.scope import Scope
@@ -141,10 +143,10 @@ def link_package(folder: Path) -> Path:
     """``folder/imrosc`` pointing at the ``imrosc`` package; ``folder`` is returned."""
     folder.mkdir(parents=True, exist_ok=True)
     link = folder / "imrosc"
-    if link.is_symlink() or link.exists():
+    if link.is_symlink():
         if link.resolve() == PACKAGE:
             return folder
-        link.unlink()
+        link.unlink()  # imrosc's own link, to another checkout
     link.symlink_to(PACKAGE, target_is_directory=True)
     return folder
 
@@ -192,9 +194,13 @@ class TapRecording:
     def start(self, stop: threading.Event) -> bool:
         """Start the tap and the recorder; False if ``stop`` was set before they were ready."""
         settings = self.settings
-        settings.logs.mkdir(parents=True, exist_ok=True)
-        env = ros2_environment(self.env, link_package(settings.logs / "path"))
-        self.sink = BagSink(settings.bag)
+        try:
+            settings.logs.mkdir(parents=True, exist_ok=True)
+            env = ros2_environment(self.env, link_package(settings.logs / "path"))
+            self.sink = BagSink(settings.bag)
+        except (OSError, WriterError) as error:
+            reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+            raise RecordError(f"{settings.output}: cannot write the bag: {reason}") from None
         read_end, write_end = os.pipe()
         spec = {
             "node": self.tap_name,

@@ -8,6 +8,7 @@ import io
 import os
 import struct
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -115,3 +116,15 @@ def test_the_tap_s_frames_become_the_bag(tmp_path: Path) -> None:
 def test_finishing_a_recording_that_never_started_says_so(tmp_path: Path) -> None:
     with pytest.raises(RecordError, match="no bag was written"):
         recording(tmp_path).finish()
+
+
+def test_a_bag_that_cannot_be_written_is_one_line_before_anything_starts(tmp_path: Path) -> None:
+    session = recording(tmp_path)
+    session.settings.bag.mkdir(parents=True)  # there already: rosbags refuses it
+    with pytest.raises(RecordError, match=r"out: cannot write the bag: .*exists"):
+        session.start(threading.Event())
+    assert session.tap is None
+    blocked = recording(tmp_path / "other")
+    (blocked.settings.logs / "path" / "imrosc").mkdir(parents=True)  # not imrosc's link
+    with pytest.raises(RecordError, match="cannot write the bag: File exists"):
+        blocked.start(threading.Event())
