@@ -14,7 +14,6 @@ does. Then the bag is read with rosbags (through :func:`imrosc.bags.open_bag`) a
 from __future__ import annotations
 
 import contextlib
-import itertools
 import json
 import os
 import signal
@@ -264,7 +263,7 @@ def test_the_records_are_the_system_s_graph_parameters_and_calls(run: Run) -> No
     calls = [records.decode_call(cast(Any, v).data) for _, v in found[records.SRVS_TOPIC]]
     assert len(calls) >= 3, run.output
     stamps = sorted(call.stamp for call in calls)  # one record a call (made every 0.5 s)
-    assert all(b - a > 0.3 for a, b in itertools.pairwise(stamps)), stamps
+    assert len(stamps) <= (stamps[-1] - stamps[0]) / 0.5 + 2, stamps
     for call in calls:
         assert (call.service, call.client, call.server, call.ok) == (
             "/sys/switch",
