@@ -1,12 +1,13 @@
-"""``imrosc record``: record a configuration's scope from a running ROS 1 system."""
+"""``imrosc record``: record a configuration's scope from a running ROS 1 or ROS 2 system."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, NoReturn
@@ -22,7 +23,12 @@ if TYPE_CHECKING:
 
 EXIT_CLEAN, EXIT_ERRORS = 0, 1
 PYTHON_VARIABLE = "IMROSC_ROS_PYTHON"
-HELP = """Record CONFIG's scope from the running ROS 1 system into OUTPUT/NAME.bag.
+ROS2_VARIABLE = "IMROSC_ROS2_PYTHON"
+HELP = """Record CONFIG's scope from the running ROS 1 or ROS 2 system.
+
+\b
+ROS 1 (the default) records into OUTPUT/NAME.bag; ROS 2 (--ros2, or ROS_VERSION=2
+as a sourced ROS 2 setup sets it) into the MCAP bag OUTPUT/NAME/ (see ROS 2 below).
 
 \b
 Starts 'rosbag record' on the topics of the scope (publish points, their input
@@ -45,11 +51,36 @@ Recording stops after --duration seconds or on Ctrl-C (SIGINT) or SIGTERM:
 the recording node first (calls in flight are answered and recorded), then
 rosbag, which closes and indexes the bag. Exit status: 0 when the bag was
 written, 1 otherwise.
+
+\b
+ROS 2: a bag tap (an rclpy node under the ROS 2 Python: --python, else
+$IMROSC_ROS2_PYTHON, else this Python if it has rclpy) subscribes to the
+scope's topics with the publishers' QoS and hands every message to imrosc,
+which writes it into the MCAP bag at once; imrosc's ROS 2 recorder node
+publishes the graph, the parameters and the service calls, which it learns
+from service introspection (no remap: enable introspection with contents on
+the servers or clients). Ctrl-C stops the recorder, then the tap, and imrosc
+closes the bag: every message received is in it. --launch, --server and
+--all-params are ROS 1 only.
 """
 
 
 def _ros_python() -> str:
     return os.environ.get(PYTHON_VARIABLE) or "/usr/bin/python3"
+
+
+def wants_ros2(ros1: bool | None, environment: Mapping[str, str]) -> bool:
+    """Whether to record on ROS 2: ``--ros1`` (True) or ``--ros2`` (False) if given, else
+    ``ROS_VERSION`` (which a sourced ROS setup sets), else ROS 1.
+
+    >>> wants_ros2(None, {"ROS_VERSION": "2"}), wants_ros2(True, {"ROS_VERSION": "2"})
+    (True, False)
+    >>> wants_ros2(None, {}), wants_ros2(False, {})
+    (False, True)
+    """
+    if ros1 is not None:
+        return not ros1
+    return environment.get("ROS_VERSION", "").strip() == "2"
 
 
 def _fail(message: str) -> NoReturn:
@@ -59,6 +90,26 @@ def _fail(message: str) -> NoReturn:
 
 def _warn(message: str) -> None:
     click.echo(f"imrosc record: warning: {message}", err=True)
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[threading.Event]:
+    """An event set by SIGINT or SIGTERM (imrosc's handlers while the block runs)."""
+    stop = threading.Event()
+    previous = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
+
+    def on_signal(number: int, frame: FrameType | None) -> None:
+        if not stop.is_set():
+            click.echo("stopping...", err=True)
+        stop.set()
+
+    for number in previous:
+        signal.signal(number, on_signal)
+    try:
+        yield stop
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def _report(diagnostics: list[Diagnostic]) -> None:
@@ -165,7 +216,7 @@ def _write_launch(
     type=click.Path(file_okay=False, path_type=Path),
     help="Folder of the bag (created if missing).",
 )
-@click.option("--name", help="Name of the bag, without .bag [default: the project's name].")
+@click.option("--name", help="Name of the bag (ROS 1: without .bag) [default: the project's name].")
 @click.option(
     "--duration",
     type=click.FloatRange(min=0, min_open=True),
@@ -176,10 +227,17 @@ def _write_launch(
     type=click.FloatRange(min=0, min_open=True),
     default=1.0,
     show_default=True,
-    help="Seconds between two looks at the master (architecture and parameters).",
+    help="Seconds between two looks at the graph (architecture and parameters).",
 )
-@click.option("--all", "all_topics", is_flag=True, help="Record every topic (rosbag record -a).")
-@click.option("--all-params", is_flag=True, help="Record every parameter, not only the scope's.")
+@click.option(
+    "--all",
+    "all_topics",
+    is_flag=True,
+    help="Record every topic (rosbag record -a; ROS 2: every topic that is not hidden).",
+)
+@click.option(
+    "--all-params", is_flag=True, help="Record every parameter, not only the scope's (ROS 1)."
+)
 @click.option(
     "--graph",
     "graph_files",
@@ -205,10 +263,18 @@ def _write_launch(
     help="The node that serves SERVICE, for --launch (repeatable).",
 )
 @click.option(
+    "--ros1/--ros2",
+    "ros1",
+    default=None,
+    help="The middleware [default: ROS 2 when ROS_VERSION=2, else ROS 1].",
+)
+@click.option(
     "--python",
-    default=_ros_python,
-    show_default=f"${PYTHON_VARIABLE} or /usr/bin/python3",
-    help="The Python that has rospy; the recording node runs under it.",
+    help=(
+        "The Python that has rospy (ROS 1) or rclpy (ROS 2); the recording nodes run under it "
+        f"[default: ROS 1: ${PYTHON_VARIABLE} or /usr/bin/python3; ROS 2: ${ROS2_VARIABLE}, "
+        "or this Python if it has rclpy]."
+    ),
 )
 @click.option(
     "--force",
@@ -216,6 +282,58 @@ def _write_launch(
     help="Record into a folder that holds a bag already; overwrite a --launch copy.",
 )
 def record(
+    config: Path,
+    output: Path,
+    name: str | None,
+    duration: float | None,
+    period: float,
+    all_topics: bool,
+    all_params: bool,
+    graph_files: tuple[Path, ...],
+    launch: Path | None,
+    launch_out: Path | None,
+    servers: tuple[str, ...],
+    ros1: bool | None,
+    python: str | None,
+    force: bool,
+) -> None:
+    if name is not None and (not name or "/" in name or name.startswith(".")):
+        raise click.BadParameter(f"{name!r} is not a file name", param_hint="--name")
+    if wants_ros2(ros1, os.environ):
+        ros1_only = {
+            "--launch": launch is not None,
+            "--launch-out": launch_out is not None,
+            "--server": bool(servers),
+            "--all-params": all_params,
+        }
+        for option, value in ros1_only.items():
+            if value:
+                raise click.UsageError(
+                    f"{option} is for ROS 1 only (ROS 2 records calls "
+                    "from service introspection, and the scope's parameters)"
+                )
+        from imrosc.record.command_ros2 import record_ros2
+
+        record_ros2(config, output, name, duration, period, all_topics, graph_files, python, force)
+        return
+    _record_ros1(
+        config,
+        output,
+        name,
+        duration,
+        period,
+        all_topics,
+        all_params,
+        graph_files,
+        launch,
+        launch_out,
+        servers,
+        python or _ros_python(),
+        force,
+    )
+
+
+def _record_ros1(
     config: Path,
     output: Path,
     name: str | None,
@@ -242,8 +360,6 @@ def record(
     )
 
     given = _parse_servers(servers)
-    if name is not None and (not name or "/" in name or name.startswith(".")):
-        raise click.BadParameter(f"{name!r} is not a file name", param_hint="--name")
     uri = master_uri()
     state = None
     master_problem = None
@@ -291,19 +407,9 @@ def record(
     for stale in (settings.bag, settings.bag.with_name(settings.bag.name + ".active")):
         if stale.exists():
             stale.unlink()
-    stop = threading.Event()
     session = Recording(scope, settings, env, uri, say=click.echo, warn=_warn)
-    previous = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
-
-    def on_signal(number: int, frame: FrameType | None) -> None:
-        if not stop.is_set():
-            click.echo("stopping...", err=True)
-        stop.set()
-
-    for number in previous:
-        signal.signal(number, on_signal)
     failure: str | None = None
-    try:
+    with stop_on_signals() as stop:
         try:
             if session.start(program, stop):
                 length = f"for {duration:g} s" if duration else "until Ctrl-C"
@@ -315,9 +421,6 @@ def record(
             outcome = session.finish()
         except RecordError as error:
             _fail(f"{failure}; {error}" if failure else str(error))
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
     _summary(outcome, scope.topics if not all_topics else (), scope.services)
     if failure is not None:
         _fail(failure)  # the bag holds what was recorded until then
@@ -332,7 +435,9 @@ def _all_nodes(state: SystemState) -> set[str]:
     return found
 
 
-def _summary(outcome: Outcome, topics: tuple[str, ...], services: tuple[str, ...]) -> None:
+def _summary(
+    outcome: Outcome, topics: tuple[str, ...], services: tuple[str, ...], ros2: bool = False
+) -> None:
     from imrosc import records
 
     counts = outcome.messages
@@ -352,7 +457,12 @@ def _summary(outcome: Outcome, topics: tuple[str, ...], services: tuple[str, ...
     for service in services:
         if outcome.calls.get(service):
             continue
-        if service in outcome.relayed:
+        if ros2:
+            _warn(
+                f"no call of {service} was recorded: are there calls, and does its server or "
+                f"client enable service introspection (see docs/record.md)?"
+            )
+        elif service in outcome.relayed:
             _warn(f"no call of {service} was recorded")
         else:
             _warn(

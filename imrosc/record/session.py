@@ -173,6 +173,8 @@ class _Child:
         env: Mapping[str, str],
         log: Path,
         stdout: int | IO[bytes] | None = None,
+        stdin: int = subprocess.DEVNULL,
+        pass_fds: tuple[int, ...] = (),
     ) -> None:
         self.name = name
         self.log = log
@@ -180,10 +182,11 @@ class _Child:
             self.popen = subprocess.Popen(
                 command,
                 env=dict(env),
-                stdin=subprocess.DEVNULL,
+                stdin=stdin,
                 stdout=out if stdout is None else stdout,
                 stderr=out,
                 start_new_session=True,
+                pass_fds=pass_fds,
                 preexec_fn=_parent_death_signal(),  # noqa: PLW1509 - only a libc call
             )
 

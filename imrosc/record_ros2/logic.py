@@ -50,6 +50,8 @@ CLIENT, SERVER = "client", "server"
 _SIDES = {REQUEST_SENT: CLIENT, RESPONSE_RECEIVED: CLIENT}
 _REQUESTS = (REQUEST_SENT, REQUEST_RECEIVED)
 _RESPONSES = (RESPONSE_SENT, RESPONSE_RECEIVED)
+DONE = 1000
+"""Calls given out that :class:`Pairing` remembers, for the late events of their other side."""
 _GLOBAL_NAME = re.compile(r"^(/[A-Za-z0-9_]+)+$")
 
 
@@ -354,6 +356,19 @@ class Call(NamedTuple):
     delay: float
 
 
+def same_participant(gid: bytes, other: bytes) -> bool:
+    """Whether two DDS gids (GUIDs: a 12-byte participant prefix, a 4-byte entity id) are
+    different endpoints of one participant.
+
+    >>> p = bytes(range(12))
+    >>> same_participant(p + b"\\0\\0\\x2a\\x03", p + b"\\0\\0\\x29\\x04")
+    True
+    >>> same_participant(p + b"\\0\\0\\x2a\\x03", bytes(16)), same_participant(b"ab", b"ab")
+    (False, False)
+    """
+    return len(gid) >= 16 and len(other) >= 16 and gid[:12] == other[:12] and gid != other
+
+
 def _side(kind: int) -> str:
     return _SIDES.get(kind, SERVER)
 
@@ -414,20 +429,63 @@ class Pairing:
         self.first: Dict[Tuple[str, bytes, int], float] = {}
         self.answered: Dict[Tuple[str, bytes, int], float] = {}
         self.sides: Dict[str, Set[str]] = {}
+        self.aliases: Dict[Tuple[str, bytes, int], Tuple[str, bytes, int]] = {}
+        """The other side's name of a waiting call (see :meth:`_key`)."""
+        self.done: Dict[Tuple[str, bytes, int], Set[str]] = {}
+        """The last calls given out and the sides they had (at most :data:`DONE`)."""
         self.dropped = 0
         """Calls seen only by their response (the recorder started in between)."""
 
     def add(self, service: str, event: ServiceEvent, now: float) -> List[Call]:
         """Take one event; the calls it completes."""
-        key = (service, event.client_gid, event.sequence)
-        self.pending.setdefault(key, {}).setdefault(event.kind, event)
         self.sides.setdefault(service, set()).add(_side(event.kind))
+        key = self._key(service, event)
+        if key is None:  # the other side of a call given out already
+            return []
+        self.pending.setdefault(key, {}).setdefault(event.kind, event)
         self.first.setdefault(key, now)
         if event.kind in _RESPONSES:
             self.answered.setdefault(key, now)
         if self._complete(key):
             return self._take([key])
         return []
+
+    def _key(self, service: str, event: ServiceEvent) -> Optional[Tuple[str, bytes, int]]:
+        """The call an event belongs to. The two sides name the client differently: the
+        client's events carry the gid of its request writer, the server's the gid of the
+        client's response reader (rmw_fastrtps, Jazzy), two endpoints of one DDS
+        participant. An event of one side therefore joins the waiting call of the other
+        side with the same sequence number whose gid has the same participant prefix
+        (:func:`same_participant`; the nearest in time if there are several). ``None``
+        for an event of the side a call given out already lacked (before the recorder had
+        seen that side introspect): it belongs to that call."""
+        own = (service, event.client_gid, event.sequence)
+        if own in self.pending:
+            return own
+        if own in self.aliases and self.aliases[own] in self.pending:
+            return self.aliases[own]
+        side = _side(event.kind)
+        others = [
+            (abs(min(e.stamp for e in events.values()) - event.stamp), key)
+            for key, events in self.pending.items()
+            if key[0] == service
+            and key[2] == event.sequence
+            and same_participant(key[1], event.client_gid)
+            and all(_side(kind) != side for kind in events)
+        ]
+        if not others:
+            for key, sides in self.done.items():
+                if (
+                    key[0] == service
+                    and key[2] == event.sequence
+                    and same_participant(key[1], event.client_gid)
+                    and side not in sides
+                ):
+                    return None
+            return own
+        found = min(others)[1]
+        self.aliases[own] = found
+        return found
 
     def _complete(self, key: Tuple[str, bytes, int]) -> bool:
         events = self.pending[key]
@@ -438,10 +496,16 @@ class Pairing:
 
     def _take(self, keys: Sequence[Tuple[str, bytes, int]]) -> List[Call]:
         calls: List[Call] = []
+        taken = set(keys)
+        for alias in [a for a, key in self.aliases.items() if key in taken]:
+            del self.aliases[alias]
         for key in keys:
             events = self.pending.pop(key)
             self.first.pop(key, None)
             self.answered.pop(key, None)
+            self.done[key] = {_side(kind) for kind in events}
+            while len(self.done) > DONE:
+                del self.done[next(iter(self.done))]
             call = pair(key[0], events)
             if call is None:
                 self.dropped += 1

@@ -1,4 +1,5 @@
-"""The ROS 2 recorder node (rclpy): publishes the record topics that ``ros2 bag record`` saves.
+"""The ROS 2 recorder node (rclpy): publishes the record topics that ``imrosc record --ros2``
+(or ``ros2 bag record``) saves.
 
 Every ``period`` seconds (and at start) it reads the graph (rclpy's graph API, through
 ``monitor_ros2``'s :func:`plumbing.read_graph`) and asks the nodes for the scope's
@@ -21,6 +22,8 @@ The record topics are reliable and transient local (the last snapshot, the last 
 
 from __future__ import annotations
 
+import json
+import signal
 import sys
 import threading
 import time
@@ -39,6 +42,13 @@ try:  # only a ROS 2 system has these
     from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
         MultiThreadedExecutor,
     )
+
+    try:  # Humble and later: spin() ends with it when the context is shut down
+        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
+            ExternalShutdownException,
+        )
+    except ImportError:  # Foxy, Galactic
+        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
@@ -50,6 +60,8 @@ SNAPSHOT_DEPTH = 1
 CALL_DEPTH = 100
 """... and the last calls."""
 EVENT_DEPTH = 100
+LINGER = 0.3
+"""Seconds the node lives on after its last records (their reliable delivery)."""
 
 
 def event_class_of(type_name: str) -> Any:
@@ -67,7 +79,21 @@ class Recorder:
     def __init__(self, node: Any, spec: Dict[str, Any]) -> None:
         self.node = node
         self.log = node.get_logger()
-        self.warn = getattr(self.log, "warning", None) or self.log.warn  # Foxy has warn only
+        log_warning = getattr(self.log, "warning", None) or self.log.warn  # Foxy: warn only
+        self.warn = log_warning
+        if spec.get("events"):  # imrosc record: the user sees them too
+
+            def warn(text: str) -> None:
+                log_warning(text)
+                prefix = "imrosc recorder: "
+                say(
+                    {
+                        "event": "warning",
+                        "message": text[len(prefix) :] if text.startswith(prefix) else text,
+                    }
+                )
+
+            self.warn = warn
         self.period = float(plumbing.get_param(node, "period", spec["period"]))
         self.name = graph.node_name(node.get_namespace(), node.get_name())
         self.services: List[str] = list(spec["services"])
@@ -101,10 +127,24 @@ class Recorder:
             logic.SRVS_TOPIC: node.create_publisher(String, logic.SRVS_TOPIC, calls),
         }
         self.published = dict.fromkeys(logic.RECORD_TOPICS, 0)
+        self.counts: Dict[str, int] = {}
+        """Calls published, by service."""
+        self.await_subscribers(float(spec.get("wait", 0.0)))
         self.tick()
         self.timer = node.create_timer(
             self.period, plumbing.guarded(self.log, "poll", self.tick), callback_group=self.polls
         )
+
+    def await_subscribers(self, seconds: float) -> None:
+        """Wait until every record topic has a subscriber (at most ``seconds``)."""
+        end = time.monotonic() + seconds
+        publishers = list(self.publishers.values())
+        while time.monotonic() < end:
+            if all(p.get_subscription_count() > 0 for p in publishers):
+                return
+            time.sleep(0.05)
+        if seconds > 0:
+            self.warn("imrosc recorder: the record topics have no subscriber yet")
 
     def publish(self, topic: str, text: str) -> None:
         message = String()
@@ -223,6 +263,7 @@ class Recorder:
             )
             server = logic.server_node(self.servers.get(call.service, []))
             self.publish(logic.SRVS_TOPIC, logic.call_record(call, client, server))
+            self.counts[call.service] = self.counts.get(call.service, 0) + 1
 
     def close(self) -> None:
         """Publish the calls still waiting."""
@@ -231,38 +272,92 @@ class Recorder:
         self.flush(calls)
 
 
+def init(args: Optional[List[str]] = None) -> None:
+    """``rclpy.init`` without rclpy's signal handlers where it can (Humble and later): SIGINT
+    and SIGTERM then end :func:`spin` with the context still valid, so that the last calls
+    can still be published."""
+    try:
+        from rclpy.signals import (  # type: ignore[import-not-found, unused-ignore]
+            SignalHandlerOptions,
+        )
+    except ImportError:  # Foxy, Galactic: rclpy's handlers shut the context down
+        rclpy.init(args=args)
+        return
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+
+
+def spin(executor: Any, step: float = 0.1) -> None:
+    """Spin ``executor`` until SIGINT or SIGTERM (or ROS shuts down)."""
+    stop = threading.Event()
+
+    def on_signal(number: int, frame: Any) -> None:
+        stop.set()
+
+    previous = {
+        number: signal.signal(number, on_signal) for number in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        while not stop.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=step)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 def main(package: str, args: Optional[List[str]] = None) -> None:
-    """Run the recorder node of ``package`` until ROS shuts down."""
+    """Run the recorder node of ``package`` (its ``recorder.json``) until SIGINT or SIGTERM."""
     if rclpy is None:
         sys.exit("imrosc recorder: rclpy is not importable; run it on a ROS 2 system")
-    rclpy.init(args=args)
-    node = Node(
-        package + "_recorder",
-        allow_undeclared_parameters=True,
-        automatically_declare_parameters_from_overrides=True,
-    )
     try:
         spec = logic.load_spec()
     except (OSError, ValueError) as error:
-        node.get_logger().fatal(f"imrosc recorder: {error}")
-        sys.exit(1)
+        sys.exit(f"imrosc recorder: {error}")
+    init(args)
+    serve(package + "_recorder", spec)
+
+
+def serve(name: str, spec: Dict[str, Any]) -> None:
+    """Run the recorder node ``name`` with ``spec`` (after :func:`init`) until SIGINT or
+    SIGTERM, then publish the calls still waiting. With ``events`` in the spec it says on
+    standard output, one JSON object a line, when it is ``ready`` and, at the end, what it
+    published (``stats``); with ``wait`` it first waits (at most that many seconds) until
+    each record topic has a subscriber, so that its first snapshots reach the bag
+    (``imrosc record``)."""
+    node = Node(
+        name,
+        allow_undeclared_parameters=True,
+        automatically_declare_parameters_from_overrides=True,
+    )
+    events = bool(spec.get("events"))
     recorder = Recorder(node, spec)
     node.get_logger().info(
         f"imrosc recorder {recorder.name}: recording the graph, {len(recorder.params)} "
         f"parameters and the calls of {len(recorder.services)} services"
     )
+    if events:
+        say({"event": "ready"})
     executor = MultiThreadedExecutor(num_threads=THREADS)
     executor.add_node(node)
     try:
-        executor.spin()
-    except KeyboardInterrupt:
-        pass
+        spin(executor)
     finally:
         try:
-            recorder.close()
+            if rclpy.ok():
+                recorder.close()
+                time.sleep(LINGER)  # reliable delivery of the last records
         except Exception as error:
             node.get_logger().error(f"imrosc recorder: last calls: {error}")
+        if events:
+            say({"event": "stats", "published": recorder.published, "calls": recorder.counts})
         executor.shutdown()
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
+
+
+def say(event: Dict[str, Any]) -> None:
+    """One event line on standard output (for ``imrosc record``)."""
+    sys.stdout.write(json.dumps(event, sort_keys=True) + "\n")
+    sys.stdout.flush()

@@ -310,6 +310,53 @@ def test_server_side_introspection_alone_records_calls() -> None:
     assert decoded.response == {"b": [1, 2]}
 
 
+PARTICIPANT = bytes(range(100, 112))
+WRITER = PARTICIPANT + bytes([0, 0, 0x2A, 0x03])
+"""The client's request writer: the gid of the client's own events (rmw_fastrtps, Jazzy)."""
+READER = PARTICIPANT + bytes([0, 0, 0x29, 0x04])
+"""The client's response reader: the gid the server's events carry for that client."""
+
+
+@pytest.mark.parametrize("order", [(0, 1, 2, 3), (1, 2, 0, 3), (1, 0, 2, 3), (2, 1, 3, 0)])
+def test_the_two_sides_name_the_client_by_two_endpoints_and_make_one_call(
+    order: tuple[int, ...],
+) -> None:
+    pairing = logic.Pairing()
+    gids = {logic.REQUEST_SENT: WRITER, logic.RESPONSE_RECEIVED: WRITER}
+    calls = []
+    for sequence in (4, 5):
+        events = [
+            event(logic.REQUEST_SENT, sequence + 0.0, WRITER, sequence, request={"data": True}),
+            event(logic.REQUEST_RECEIVED, sequence + 0.1, READER, sequence, request={"data": True}),
+            event(logic.RESPONSE_SENT, sequence + 0.2, READER, sequence, response={"ok": 1}),
+            event(logic.RESPONSE_RECEIVED, sequence + 0.3, WRITER, sequence, response={"ok": 1}),
+        ]
+        for index in order:
+            assert gids.get(events[index].kind, READER) == events[index].client_gid
+            calls += pairing.add("/s", events[index], 0.0)
+    assert [(c.request, c.response) for c in calls] == [({"data": True}, {"ok": 1})] * 2
+    # once both sides have been seen introspecting, a call is the client's, timed by it (the
+    # first is the server's when the server's events came first and completed it)
+    assert (calls[1].client_gid, calls[1].stamp, round(calls[1].delay, 6)) == (WRITER, 5.0, 0.3)
+    first = (calls[0].client_gid, calls[0].stamp, round(calls[0].delay, 6))
+    assert first in ((WRITER, 4.0, 0.3), (READER, 4.1, 0.1))
+    assert pairing.drain() == [] and pairing.dropped == 0 and pairing.aliases == {}
+
+
+def test_the_late_side_of_a_call_given_out_already_is_part_of_it() -> None:
+    pairing = logic.Pairing()
+    client = [
+        event(logic.REQUEST_SENT, 1.0, WRITER, 1, request={"data": True}),
+        event(logic.RESPONSE_RECEIVED, 1.3, WRITER, 1, response={"ok": 1}),
+    ]
+    assert pairing.add("/s", client[0], 0.0) == []
+    (call,) = pairing.add("/s", client[1], 0.0)  # the server has not been seen introspecting
+    assert pairing.add("/s", event(logic.REQUEST_RECEIVED, 1.1, READER, 1), 0.0) == []
+    assert pairing.add("/s", event(logic.RESPONSE_SENT, 1.2, READER, 1), 0.0) == []
+    assert pairing.drain() == [] and pairing.dropped == 0
+    assert call.stamp == 1.0
+
+
 def test_calls_of_two_clients_with_the_same_sequence_number_stay_apart() -> None:
     pairing = logic.Pairing()
     pairing.add("/s", event(logic.REQUEST_RECEIVED, 1.0, GID, 7, request={"x": 1}), 0.0)

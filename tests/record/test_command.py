@@ -85,7 +85,8 @@ def config(tmp_path: Path) -> Path:
 
 
 def record(*args: str, uri: str = NO_MASTER) -> Result:
-    return CliRunner().invoke(main, ["record", *args], env={"ROS_MASTER_URI": uri})
+    env = {"ROS_MASTER_URI": uri, "ROS_VERSION": None}  # ROS 1, whatever the shell sourced
+    return CliRunner().invoke(main, ["record", *args], env=env)
 
 
 def one_line_error(result: Result, status: int = 1) -> str:

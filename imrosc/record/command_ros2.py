@@ -1,0 +1,154 @@
+"""``imrosc record --ros2``: record a configuration's scope from a running ROS 2 system into
+an MCAP bag (``OUTPUT/NAME/``), with the session of :mod:`imrosc.record.session_ros2`."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import click
+
+from imrosc.bags import ROS2_METADATA, ROS2_STORAGE_SUFFIXES
+from imrosc.graph.model import Graph
+from imrosc.record.command import (
+    EXIT_CLEAN,
+    EXIT_ERRORS,
+    _existing_bags,
+    _fail,
+    _report,
+    _summary,
+    _warn,
+    stop_on_signals,
+)
+
+__all__ = ["record_ros2"]
+
+GRAPH_SOURCE = "ros2 graph"
+
+
+def is_ros2_bag(folder: Path) -> bool:
+    """Whether ``folder`` is a ROS 2 bag, or what is left of one (storage files without
+    ``metadata.yaml``: a recording that was killed)."""
+    if not folder.is_dir():
+        return False
+    names = list(folder.iterdir())
+    if any(p.name == ROS2_METADATA for p in names):
+        return True
+    return bool(names) and all(p.suffix in ROS2_STORAGE_SUFFIXES for p in names)
+
+
+def existing_ros2_bags(folder: Path) -> list[Path]:
+    """The bags in ``folder``: ROS 1 files and ROS 2 bag folders."""
+    found = _existing_bags(folder)
+    if folder.is_dir():
+        found += sorted(
+            p for p in folder.iterdir() if not p.name.startswith(".") and is_ros2_bag(p)
+        )
+    return found
+
+
+def _check_output(output: Path, bag: Path, force: bool) -> None:
+    """Refuse an output folder that is a file or holds a bag already (unless ``force``);
+    with ``force``, the bag of the same name is removed (nothing else is)."""
+    if output.exists() and not output.is_dir():
+        _fail(f"{output}: exists and is not a folder")
+    if bag.is_symlink() or (bag.exists() and not is_ros2_bag(bag)):
+        _fail(f"{bag}: exists and is not a ROS 2 bag; choose another --name")
+    existing = existing_ros2_bags(output)
+    if existing and not force:
+        _fail(
+            f"{output} holds a bag already ({existing[0].name}): record into a new folder, "
+            f"or use --force"
+        )
+    if bag.exists():
+        try:
+            shutil.rmtree(bag)
+        except OSError as error:
+            _fail(f"{bag}: cannot remove the old bag: {error.strerror}")
+
+
+def record_ros2(
+    config: Path,
+    output: Path,
+    name: str | None,
+    duration: float | None,
+    period: float,
+    all_topics: bool,
+    graph_files: tuple[Path, ...],
+    python: str | None,
+    force: bool,
+) -> None:
+    """The ROS 2 recording of ``imrosc record`` (the options as the command has them)."""
+    from imrosc import records
+    from imrosc.build import load_graph
+    from imrosc.record.scope import Scope, compile_scope
+    from imrosc.record.session import RecordError
+    from imrosc.record.session_ros2 import (
+        Settings2,
+        TapRecording,
+        check_python,
+        choose_python,
+    )
+
+    files, problems = load_graph(graph_files, ())
+    _report(problems)
+    compiled = compile_scope(config, files)
+    _report(compiled.diagnostics)
+    if compiled.scope is None or compiled.project is None:
+        sys.exit(EXIT_ERRORS)
+    scope, project = compiled.scope, compiled.project
+    if scope.empty:
+        _fail(f"{config}: the scope has nothing to record (no <publish>, <call>, <param>, <arch>)")
+    bag_name = name or "".join(c if c.isalnum() or c in "-_." else "_" for c in project.name)
+    _check_output(output, output / bag_name, force)
+    try:
+        interpreter = choose_python(python, os.environ)
+        check_python(interpreter, os.environ)
+        output.mkdir(parents=True, exist_ok=True)
+    except RecordError as error:
+        _fail(str(error))
+    except OSError as error:
+        _fail(f"{output}: {error.strerror}")
+    settings = Settings2(output, bag_name, period, all_topics, interpreter)
+    final: list[Scope] = [scope]
+    warned: list[bool] = []
+
+    def choose(arch: str) -> tuple[str, ...]:
+        """The scope's topics with the graph the tap saw (relative inputs); the warnings
+        of the graph the recording starts with."""
+        graph = files
+        try:
+            live = Graph.from_snapshot(records.decode_arch(arch), GRAPH_SOURCE)
+            graph = live if graph is None else Graph.merge(graph, live)
+        except records.RecordError as error:
+            _warn(f"the ROS 2 graph cannot be read ({error}); recording without it")
+        again = compile_scope(config, graph)
+        if again.scope is not None:
+            final[0] = again.scope
+        if not all_topics and not warned:
+            warned.append(True)
+            for warning in again.warnings:
+                _warn(warning)
+        return final[0].topics
+
+    session = TapRecording(scope, settings, os.environ, choose, say=click.echo, warn=_warn)
+    failure: str | None = None
+    with stop_on_signals() as stop:
+        try:
+            if session.start(stop):
+                length = f"for {duration:g} s" if duration else "until Ctrl-C"
+                described = final[0].describe()
+                click.echo(f"recording {described} into {settings.bag} (ROS 2, MCAP) {length}")
+                session.run(stop, duration)
+        except RecordError as error:
+            failure = str(error)
+        try:
+            outcome = session.finish()
+        except RecordError as error:
+            _fail(f"{failure}; {error}" if failure else str(error))
+    _summary(outcome, final[0].topics if not all_topics else (), scope.services, ros2=True)
+    if failure is not None:
+        _fail(failure)  # the bag holds what was recorded until then
+    sys.exit(EXIT_CLEAN)
