@@ -17,7 +17,7 @@ def test_the_configuration_is_the_example_with_the_benchs_folders(tmp_path: Path
     config = c.configuration(tmp_path)
     project, problems = load_project(config)
     assert project is not None and not [p for p in problems if p.severity.value == "error"]
-    assert project.check is not None and project.check.select == "cover"
+    assert project.check is not None and project.check.select == "fscore"
     assert (project.check.success, project.check.fail) == (("bags/success",), ("bags/fail",))
     assert project.check.onsets[0].seconds is None  # scored whole
     assert project.monitor is not None and project.monitor.inv == "landing.refined.inv"
