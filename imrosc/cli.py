@@ -364,7 +364,8 @@ def info(bags: tuple[Path, ...], output_format: str) -> None:
     """What BAGS hold (ROS 1 bags, ROS 2 bag folders, or folders of them): per bag its
     format, time span and messages; per topic its type, messages, mean rate, publishers and
     the variables a <publish> of it would watch. Exit status 1 when a bag cannot be read
-    (each named on stderr), 2 when none can."""
+    (each named on stderr), 2 when none can; a bag cut short is read as far as it goes, with
+    a warning."""
     import json
 
     from imrosc.info import collect, render
@@ -376,7 +377,7 @@ def info(bags: tuple[Path, ...], output_format: str) -> None:
         click.echo(json.dumps([i.as_json() for i in infos], indent=2))
     elif infos:
         click.echo(render(infos), nl=False)
-    if problems:
+    if has_errors(problems):
         sys.exit(EXIT_ERRORS if infos else EXIT_USAGE)
 
 
@@ -519,9 +520,10 @@ def replay(
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
         fail("replay", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)
     shown = "json" if as_json else output_format
-    if shown != "text" or report_path is not None:  # the text report on stdout says it
-        for result in results:
-            for warning in result.warnings:
+    every = shown != "text" or report_path is not None  # else the report on stdout says them
+    for result in results:
+        for warning in result.warnings:
+            if every or warning == result.recovered:  # a damaged bag is said on stderr too
                 click.echo(f"imrosc replay: {result.bag}: warning: {warning}", err=True)
     _emit("replay", report, shown, report_path, force, (inv, *bags, *found))
     broken = any(r.alarms or r.error for r in results) or has_errors(problems)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from imrosc import records
-from imrosc.bags import BagError, discover_bags, open_bag, time_text
+from imrosc.bags import BagError, discover_bags, open_bag, recovered_diagnostic, time_text
 from imrosc.diagnostics import Diagnostic
 from imrosc.msgtypes import FieldSpec, flatten
 
@@ -107,9 +107,13 @@ def _variables(fields: Sequence[FieldSpec]) -> tuple[int, int, int, tuple[str, .
     return numeric, strings, arrays, names
 
 
-def bag_info(path: Path) -> BagInfo:
-    """What one bag holds (raises :class:`~imrosc.bags.BagError` when it cannot be read)."""
+def bag_info(path: Path, warnings: list[Diagnostic] | None = None) -> BagInfo:
+    """What one bag holds (raises :class:`~imrosc.bags.BagError` when it cannot be read);
+    a bag recovered from its records gives a warning in ``warnings``."""
     with open_bag(path) as reader:
+        warning = recovered_diagnostic(path, reader)
+        if warning is not None and warnings is not None:
+            warnings.append(warning)
         start, end = reader.start_time, reader.end_time
         if not reader.message_count:
             start = end = 0
@@ -162,7 +166,7 @@ def collect(paths: Sequence[Path]) -> tuple[list[BagInfo], list[Diagnostic]]:
         problems += found
         for bag in bags:
             try:
-                infos.append(bag_info(bag))
+                infos.append(bag_info(bag, problems))
             except BagError as error:
                 problems.append(error.diagnostic())
     return infos, problems

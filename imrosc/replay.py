@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from imrosc import records
-from imrosc.bags import BagError, MessageError, open_bag
+from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
 from imrosc.runtime import Engine, Violation
@@ -48,6 +48,8 @@ class RunResult:
     """What the run could not check: topics of the invariants missing from the bag."""
     checked: dict[str, int] = field(default_factory=dict)
     """Per value point (publish, call, parameter), the samples it checked."""
+    recovered: str | None = None
+    """What was recovered of a ROS 1 bag cut short or never indexed (also a warning)."""
 
     @property
     def violated(self) -> set[str]:
@@ -149,6 +151,8 @@ class Replayer:
         try:
             with open_bag(bag) as reader, np.errstate(all="ignore"):
                 result.start, result.end = reader.start_time / 1e9, reader.end_time / 1e9
+                result.recovered = recovered(reader)
+                result.warnings += filter(None, [result.recovered])
                 drifted = _drifted(self.document["topics"], reader.connections)
                 result.warnings += drifted.values()
                 wanted = [

@@ -70,7 +70,7 @@ def run_stability(
         train = [b for b in bags if b not in held_out]
         detected = run_detect(config_path, workers=workers, bags=train)
         for found_problem in detected.diagnostics:
-            bag_level = found_problem.code in ("bag-error", "bag-empty", "bag-type-drift")
+            bag_level = found_problem.code.startswith("bag-")
             if bag_level and found_problem not in problems:  # each round sees the same bags
                 problems.append(found_problem)
         document = detected.document

@@ -64,7 +64,7 @@ def project(tmp_path: Path) -> Path:
     good_run(bags / "run1.bag", 0.0)
     good_run(bags / "run2.bag", 100.0, odd=True)
     whole = good_run(tmp_path / "whole.bag", 200.0).read_bytes()
-    (bags / "truncated.bag").write_bytes(whole[: len(whole) // 2])
+    (bags / "truncated.bag").write_bytes(whole[:4200])  # before its first message
     (bags / "notes.txt").write_text("not a bag\n")
     shutil.copyfile(FIXTURES / "bags" / "bag-empty.bag", bags / "empty.bag")
     unknown_type_bag(bags / "unknown_types")

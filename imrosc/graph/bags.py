@@ -19,7 +19,14 @@ from pathlib import Path
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection, ConnectionExtRosbag1
 
-from imrosc.bags import BagError, MessageError, discover_bags, open_bag, time_text
+from imrosc.bags import (
+    BagError,
+    MessageError,
+    discover_bags,
+    open_bag,
+    recovered_diagnostic,
+    time_text,
+)
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.graph.model import SOURCE_CALLERID, SOURCE_RECORDS, Graph, Node
 from imrosc.records import ARCH_TOPIC, RECORD_PREFIX, RECORD_TYPE, RecordError, decode_arch
@@ -134,6 +141,9 @@ def graph_from_bag(path: Path) -> tuple[Graph, list[Diagnostic]]:
     """The graph one bag records: raises :class:`imrosc.bags.BagError` if it is unreadable."""
     found = _BagGraph()
     with open_bag(path) as reader:
+        warning = recovered_diagnostic(path, reader)
+        if warning is not None:
+            found.problems.append(warning)
         found.callers = _callers(reader)
         _records(reader, path, found)
     callers = Graph.build(found.callers, [SOURCE_CALLERID] if found.callers else [], False)
