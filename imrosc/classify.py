@@ -242,9 +242,11 @@ class RunOutcome:
     after: dict[str, float] = field(default_factory=dict)
     """Per invariant violated at or after the onset, its first violation there."""
     alarms: list[dict[str, Any]] = field(default_factory=list)
+    """The alarms: ``time`` (from the start), ``point``, ``rule``, ``invariant``."""
     warnings: list[str] = field(default_factory=list)
     """What the replay warned of (topics missing, or of another type than learnt)."""
-    """The alarms: ``time`` (from the start), ``point``, ``rule``, ``invariant``."""
+    unchecked: list[str] = field(default_factory=list)
+    """The unconditional publish points that checked no sample in this run."""
 
     @property
     def violated(self) -> set[str]:
@@ -277,7 +279,14 @@ def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
     assert _WORKER is not None
     bag, spec = task
     result = _WORKER.run(bag)
-    out = RunOutcome(bag, result.error, result.start, result.end, warnings=result.warnings)
+    out = RunOutcome(
+        bag,
+        result.error,
+        result.start,
+        result.end,
+        warnings=result.warnings,
+        unchecked=result.unchecked,
+    )
     if result.error is not None:
         return out
     if spec is not None:
@@ -559,6 +568,8 @@ def run_entry(outcome: RunOutcome, kind: str) -> dict[str, Any]:
     }
     if outcome.warnings:
         entry["warnings"] = list(outcome.warnings)
+    if outcome.unchecked:
+        entry["unchecked"] = list(outcome.unchecked)
     if kind == "success":
         entry["false_alarm"] = bool(times)
         return entry
@@ -770,6 +781,9 @@ def run_check(
         report["scores"], report["families"] = compare(
             document, {b: o.violated for b, o in runs["reference"].items()}
         )
+        unchecked = {str(b): o.unchecked for b, o in runs["reference"].items() if o.unchecked}
+        if unchecked:  # per bag, the points that checked no sample
+            report["unchecked"] = unchecked
     out.diagnostics = finalize(out.diagnostics)
     out.report = report
     return out

@@ -29,6 +29,9 @@ EXIT_VIOLATIONS = 3
 EXIT_ENVIRONMENT = 4
 """The system refused: an output cannot be written (permission denied, disk full, a path
 through a regular file, a read-only file system). The README has the table."""
+EXIT_UNCHECKED = 5
+"""``imrosc replay``, ``imrosc classify``: nothing worse, but a publish point checked no
+sample in some run (its invariants went unchecked there). Precedence: 1, then 3, then 5."""
 
 
 def fail(command: str, message: str, status: int) -> NoReturn:
@@ -497,7 +500,8 @@ def replay(
     """Run the monitor's engine over BAGS as if live and print the violation timeline.
 
     Exit status: 0 no violation, 1 an alarm (or a bag that could not be read), 3
-    violations that raised no alarm.
+    violations that raised no alarm, 5 a point that checked no sample in some run (its
+    invariants went unchecked there); the first that applies, in that order.
     """
     from imrosc.bags import discover_bags
     from imrosc.invariants import InvariantsFileError, load
@@ -528,7 +532,16 @@ def replay(
     _emit("replay", report, shown, report_path, force, (inv, *bags, *found))
     broken = any(r.alarms or r.error for r in results) or has_errors(problems)
     violated = any(r.violations for r in results)
-    sys.exit(EXIT_ERRORS if broken else EXIT_VIOLATIONS if violated else EXIT_CLEAN)
+    unchecked = any(r.unchecked for r in results)
+    sys.exit(
+        EXIT_ERRORS
+        if broken
+        else EXIT_VIOLATIONS
+        if violated
+        else EXIT_UNCHECKED
+        if unchecked
+        else EXIT_CLEAN
+    )
 
 
 @main.command()
@@ -566,7 +579,11 @@ def classify(
     force: bool,
 ) -> None:
     """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
-    useful ones; with fault onsets, score the alarms and their delays too."""
+    useful ones; with fault onsets, score the alarms and their delays too.
+
+    Exit status: 0 done, 1 a run that could not be read, 5 a point that checked no sample
+    in some run (its invariants went unchecked there).
+    """
     from imrosc.build import write_files
     from imrosc.classify import CheckStageError, run_check
     from imrosc.invariants import dumps
@@ -634,7 +651,10 @@ def classify(
         click.echo(f"wrote {refined_path}: kept {kept} of {len(result.report['scores'])}", err=True)
     _emit("classify", result.report, output_format, report_path, force, inputs)
     errors = has_errors(result.diagnostics) or bool(result.report.get("errors"))
-    sys.exit(EXIT_ERRORS if errors else EXIT_CLEAN)
+    unchecked = bool(result.report.get("unchecked")) or any(
+        run.get("unchecked") for run in result.report.get("runs", ())
+    )
+    sys.exit(EXIT_ERRORS if errors else EXIT_UNCHECKED if unchecked else EXIT_CLEAN)
 
 
 @main.command()

@@ -50,6 +50,9 @@ class RunResult:
     """Per value point (publish, call, parameter), the samples it checked."""
     recovered: str | None = None
     """What was recovered of a ROS 1 bag cut short or never indexed (also a warning)."""
+    unchecked: list[str] = field(default_factory=list)
+    """The unconditional publish points that checked no sample: their invariants were not
+    checked in this run (``imrosc replay`` and ``classify`` exit with their own status)."""
 
     @property
     def violated(self) -> set[str]:
@@ -116,6 +119,19 @@ def _unchecked(
                 f"{info.get('trigger')} with never came"
             )
     return found
+
+
+def no_samples(document: Mapping[str, Any], checked: Mapping[str, int]) -> list[str]:
+    """The unconditional publish points that checked no sample (a conditional point whose
+    condition never held is a state the run did not visit, not a gap in the check)."""
+    points = document["points"]
+    return [
+        key
+        for key, count in sorted(checked.items())
+        if not count
+        and points.get(key, {}).get("kind") == "publish"
+        and not points.get(key, {}).get("condition")
+    ]
 
 
 def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str, str]:
@@ -185,6 +201,7 @@ class Replayer:
                         found += self._record(topic, time, message)
                 found += publishers.until(engine, reader.end_time)
                 result.checked = engine.checked()
+                result.unchecked = no_samples(self.document, result.checked)
                 result.warnings += _unchecked(self.document, result.checked, present)
                 withdrawn = {id(v) for v in engine.end_run()}
                 if withdrawn:
@@ -358,6 +375,7 @@ def replay_document(
                 "error": result.error,
                 "warnings": list(result.warnings),
                 "checked": dict(result.checked),
+                "unchecked": list(result.unchecked),
                 "violations": len(result.violations),
                 "alarms": alarms_json(result.alarms),
                 "episodes": episodes(result.violations),
