@@ -319,6 +319,8 @@ def infer(
         click.echo(f"skipped {len(skipped)} bag{'s' * (len(skipped) != 1)}: {', '.join(skipped)}")
     for message in result.skipped_points:
         click.echo(f"skipped {message}")
+    for line in result.nonfinite():
+        click.echo(line)
     if inferred.discovered:
         shown = ", ".join(sorted({d.key for d in inferred.discovered}))
         click.echo(f"conditions found: {shown}")
