@@ -41,6 +41,7 @@ from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
+from imrosc.progress import Progress, ProgressFactory
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.loader import load_config
@@ -247,6 +248,7 @@ class RunOutcome:
     """What the replay warned of (topics missing, or of another type than learnt)."""
     unchecked: list[str] = field(default_factory=list)
     """The unconditional publish points that checked no sample in this run."""
+    messages: int = 0
 
     @property
     def violated(self) -> set[str]:
@@ -286,6 +288,7 @@ def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
         result.end,
         warnings=result.warnings,
         unchecked=result.unchecked,
+        messages=result.messages,
     )
     if result.error is not None:
         return out
@@ -323,18 +326,26 @@ def observe_runs(
     bags: Sequence[Path],
     workers: int | None = None,
     onsets: Mapping[Path, OnsetSpec] | None = None,
+    progress: Progress | None = None,
 ) -> dict[Path, RunOutcome]:
     """Replay each bag (in worker processes) and keep what classification needs; a bag in
-    ``onsets`` also gets its fault's onset."""
+    ``onsets`` also gets its fault's onset; ``progress`` hears of each bag done."""
     tasks = [(bag, (onsets or {}).get(bag)) for bag in bags]
     workers = min(workers or default_workers(), max(len(bags), 1))
+    found: list[RunOutcome] = []
     if workers <= 1:
         _start_worker(document)
-        found = [_observe(task) for task in tasks]
+        for task in tasks:
+            found.append(_observe(task))
+            if progress is not None:
+                progress(found[-1].bag, found[-1].messages)
     else:
         context = multiprocessing.get_context("fork")
         with context.Pool(workers, _start_worker, (document,)) as pool:
-            found = pool.map(_observe, tasks, chunksize=1)
+            for outcome in pool.imap(_observe, tasks, chunksize=1):
+                found.append(outcome)
+                if progress is not None:
+                    progress(outcome.bag, outcome.messages)
     return {outcome.bag: outcome for outcome in found}
 
 
@@ -637,6 +648,7 @@ def run_check(
     workers: int | None = None,
     cross_validate: int | None = None,
     before_work: Callable[[Path | None, Path], None] | None = None,
+    progress_factory: ProgressFactory | None = None,
 ) -> CheckResult:
     """The check stage of ``config_path``: classification or comparison.
 
@@ -699,7 +711,8 @@ def run_check(
     )
     everything = [b for bags in found.values() for b in bags]
     out.inputs = [inv_path, *everything]
-    observed = observe_runs(document, everything, workers, specs)
+    progress = progress_factory(len(everything)) if progress_factory is not None else None
+    observed = observe_runs(document, everything, workers, specs, progress)
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
     ]
@@ -826,7 +839,7 @@ def cross_validated(
         scored = [b for b in success if b.resolve() in held]
         detected = run_detect(config_path, workers=workers, bags=train)
         for problem in detected.diagnostics:
-            if problem.code in ("bag-error", "bag-empty", "bag-type-drift"):
+            if problem.code.startswith("bag-"):
                 problems.append(problem)
         inferred = detected.document
         if inferred is None or has_errors(detected.diagnostics):

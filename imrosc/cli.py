@@ -19,6 +19,7 @@ from imrosc.check import check_files
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
+from imrosc.progress import bag_progress, quiet_option
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 """0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
@@ -198,35 +199,6 @@ def build(
 main.add_command(graph_command)
 
 
-class _BagProgress:
-    """A progress bar over bags on stderr: bags done and messages per second."""
-
-    def __init__(self, total: int, enabled: bool) -> None:
-        import time
-
-        self.clock = time.monotonic
-        self.started = self.clock()
-        self.messages = 0
-        self.bar = (
-            click.progressbar(length=total, label="inferring", file=sys.stderr, show_pos=True)
-            if enabled and total
-            else None
-        )
-        if self.bar is not None:
-            self.bar.__enter__()
-
-    def __call__(self, bag: Path, messages: int) -> None:
-        self.messages += messages
-        if self.bar is not None:
-            rate = self.messages / max(self.clock() - self.started, 1e-9)
-            self.bar.label = f"inferring ({rate:,.0f} msg/s)"
-            self.bar.update(1)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
-
-
 @main.command()
 @click.argument("config", type=click.Path(path_type=Path))
 @click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
@@ -245,7 +217,7 @@ class _BagProgress:
     "alarm [default: detect/@budget, 0.05].",
 )
 @click.option("--force", is_flag=True, help="Overwrite an output file imrosc did not write.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@quiet_option
 def infer(
     config: Path,
     jobs: int | None,
@@ -267,26 +239,19 @@ def infer(
         """Refuse the invariants file once the bags are known, before any is read."""
         target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
-    progress: list[_BagProgress] = []
-
-    def factory(total: int) -> _BagProgress:
-        progress.append(_BagProgress(total, not quiet and sys.stderr.isatty()))
-        return progress[-1]
-
     try:
-        result = run_detect(
-            config,
-            workers=jobs,
-            graph_files=graph_files,
-            bags=list(bags) or None,
-            progress_factory=factory,
-            budget=budget,
-            before_work=before_work,
-        )
+        with bag_progress("inferring", quiet) as factory:
+            result = run_detect(
+                config,
+                workers=jobs,
+                graph_files=graph_files,
+                bags=list(bags) or None,
+                progress_factory=factory,
+                budget=budget,
+                before_work=before_work,
+            )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)
-    for bar in progress:
-        bar.close()
     _report(result.diagnostics, "text")
     if result.document is None or result.output is None:
         sys.exit(_stopped(result.diagnostics))
@@ -335,8 +300,14 @@ def infer(
 @graph_option
 @bags_option
 @click.option("--force", is_flag=True, help="Overwrite .decls/.dtrace files imrosc did not write.")
+@quiet_option
 def export_daikon(
-    config: Path, output: Path, graph_files: tuple[Path, ...], bags: tuple[Path, ...], force: bool
+    config: Path,
+    output: Path,
+    graph_files: tuple[Path, ...],
+    bags: tuple[Path, ...],
+    force: bool,
+    quiet: bool,
 ) -> None:
     """Write the program points of CONFIG's bags as Daikon .decls/.dtrace files."""
     from imrosc.detect import prepare
@@ -351,7 +322,16 @@ def export_daikon(
         paths = targets(output, catalog.bags, force=force, inputs=(config, *catalog.bags))
     except OutputRefusedError as refused:
         fail("export-daikon", str(refused), EXIT_USAGE)
-    for path in export(prepared.specs, prepared.layouts, catalog.callerids, catalog.bags, paths):
+    with bag_progress("exporting", quiet) as factory:
+        written = export(
+            prepared.specs,
+            prepared.layouts,
+            catalog.callerids,
+            catalog.bags,
+            paths,
+            factory(len(catalog.bags)),
+        )
+    for path in written:
         click.echo(f"wrote {path}")
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
 
@@ -365,7 +345,8 @@ def export_daikon(
     default="text",
     show_default=True,
 )
-def info(bags: tuple[Path, ...], output_format: str) -> None:
+@quiet_option
+def info(bags: tuple[Path, ...], output_format: str, quiet: bool) -> None:
     """What BAGS hold (ROS 1 bags, ROS 2 bag folders, or folders of them): per bag its
     format, time span and messages; per topic its type, messages, mean rate, publishers and
     the variables a <publish> of it would watch. Exit status 1 when a bag cannot be read
@@ -375,7 +356,8 @@ def info(bags: tuple[Path, ...], output_format: str) -> None:
 
     from imrosc.info import collect, render
 
-    infos, problems = collect(list(bags))
+    with bag_progress("reading", quiet) as factory:
+        infos, problems = collect(list(bags), factory)
     for problem in problems:
         click.echo(f"imrosc info: {problem.as_text()}", err=True)
     if output_format == "json":
@@ -490,6 +472,7 @@ def _emit(
 @report_option
 @click.option("--no-plots", is_flag=True, help="Leave the plot data out (smaller reports).")
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@quiet_option
 def replay(
     inv: Path,
     bags: tuple[Path, ...],
@@ -498,6 +481,7 @@ def replay(
     report_path: Path | None,
     no_plots: bool,
     force: bool,
+    quiet: bool,
 ) -> None:
     """Run the monitor's engine over BAGS as if live and print the violation timeline.
 
@@ -522,7 +506,10 @@ def replay(
         problems += bad
     _report(problems, "text")
     try:
-        report, results = replay_document(inv, document, found, plots=not no_plots)
+        with bag_progress("replaying", quiet) as factory:
+            report, results = replay_document(
+                inv, document, found, plots=not no_plots, progress=factory(len(found))
+            )
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
         fail("replay", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)
     shown = "json" if as_json else output_format
@@ -570,6 +557,7 @@ def replay(
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
+@quiet_option
 def classify(
     config: Path,
     jobs: int | None,
@@ -579,6 +567,7 @@ def classify(
     output_format: str,
     report_path: Path | None,
     force: bool,
+    quiet: bool,
 ) -> None:
     """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
     useful ones; with fault onsets, score the alarms and their delays too.
@@ -613,14 +602,16 @@ def classify(
         target(report_path, REPORT, inputs=(*every, *filter(None, [refined_path])), force=force)
 
     try:
-        result = run_check(
-            config,
-            inv=inv,
-            output=refined,
-            workers=jobs,
-            cross_validate=cross_validate,
-            before_work=before_work,
-        )
+        with bag_progress("classifying", quiet) as factory:
+            result = run_check(
+                config,
+                inv=inv,
+                output=refined,
+                workers=jobs,
+                cross_validate=cross_validate,
+                before_work=before_work,
+                progress_factory=factory,
+            )
     except CheckStageError as error:
         fail("classify", str(error), EXIT_USAGE)
     except OutputRefusedError as refused:
@@ -671,6 +662,7 @@ def classify(
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@quiet_option
 def stability(
     config: Path,
     folds: int | None,
@@ -679,6 +671,7 @@ def stability(
     output_format: str,
     report_path: Path | None,
     force: bool,
+    quiet: bool,
 ) -> None:
     """Cross-validate inference over CONFIG's <detect> bags: how many invariants learnt from
     the other bags does each held-out bag violate (per family)?"""
@@ -687,7 +680,14 @@ def stability(
 
     _report_target("stability", report_path, force, (config, *bags))
     try:
-        report, problems = run_stability(config, folds=folds, workers=jobs, bags=list(bags) or None)
+        with bag_progress("cross-validating", quiet) as factory:
+            report, problems = run_stability(
+                config,
+                folds=folds,
+                workers=jobs,
+                bags=list(bags) or None,
+                progress_factory=factory,
+            )
     except CheckStageError as error:
         fail("stability", str(error), EXIT_USAGE)
     _report(problems, "text")

@@ -19,6 +19,7 @@ from imrosc import records
 from imrosc.bags import BagError, discover_bags, open_bag, recovered_diagnostic, time_text
 from imrosc.diagnostics import Diagnostic
 from imrosc.msgtypes import FieldSpec, flatten
+from imrosc.progress import ProgressFactory
 
 SECOND = 1_000_000_000
 SHOWN_VARIABLES = 6
@@ -156,19 +157,26 @@ def bag_info(path: Path, warnings: list[Diagnostic] | None = None) -> BagInfo:
     return info
 
 
-def collect(paths: Sequence[Path]) -> tuple[list[BagInfo], list[Diagnostic]]:
+def collect(
+    paths: Sequence[Path], progress_factory: ProgressFactory | None = None
+) -> tuple[list[BagInfo], list[Diagnostic]]:
     """Every bag under ``paths`` (folders are searched as ``imrosc infer`` searches them);
     bags that cannot be read become diagnostics."""
     infos: list[BagInfo] = []
     problems: list[Diagnostic] = []
+    bags: list[Path] = []
     for path in paths:
-        bags, found = discover_bags(path)
-        problems += found
-        for bag in bags:
-            try:
-                infos.append(bag_info(bag, problems))
-            except BagError as error:
-                problems.append(error.diagnostic())
+        found, reported = discover_bags(path)
+        bags += found
+        problems += reported
+    progress = progress_factory(len(bags)) if progress_factory is not None else None
+    for bag in bags:
+        try:
+            infos.append(bag_info(bag, problems))
+        except BagError as error:
+            problems.append(error.diagnostic())
+        if progress is not None:
+            progress(bag, infos[-1].messages if infos and infos[-1].path == bag else 0)
     return infos, problems
 
 

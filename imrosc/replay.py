@@ -23,6 +23,7 @@ from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
+from imrosc.progress import Progress
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, alarms_json
 from imrosc.runtime.flatten import make_flattener
@@ -352,10 +353,15 @@ class PlotTrace:
 
 
 def replay_document(
-    inv: Path, document: Mapping[str, Any], bags: Iterable[Path], *, plots: bool = True
+    inv: Path,
+    document: Mapping[str, Any],
+    bags: Iterable[Path],
+    *,
+    plots: bool = True,
+    progress: Progress | None = None,
 ) -> tuple[dict[str, Any], list[RunResult]]:
     """Replay ``bags`` and describe each run: its timeline and, with ``plots``, the data
-    of its violated polygons and frequencies."""
+    of its violated polygons and frequencies; ``progress`` hears of each bag done."""
     trace = PlotTrace(document) if plots else None
     replayer = Replayer(document, Engine(document, trace))
     runs: list[dict[str, Any]] = []
@@ -365,6 +371,8 @@ def replay_document(
             trace.reset()
         result = replayer.run(bag)
         results.append(result)
+        if progress is not None:
+            progress(bag, result.messages)
         runs.append(
             {
                 "bag": str(bag),

@@ -47,10 +47,10 @@ COMMANDS: dict[str, tuple[tuple[str, ...], str, set[int]]] = {
     "infer": (("infer", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r2.bag", {0}),
     "replay": (("replay", "{d}/p.inv", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
     "classify": (("classify", "{d}/p.xml", "-j", "1"), "bags/bad/f1.bag", {0}),
-    "stability": (("stability", "{d}/p.xml", "-j", "1"), "bags/train/r1.bag", {0}),
+    "stability": (("stability", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r1.bag", {0}),
     "info": (("info", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
     "export-daikon": (
-        ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon"),
+        ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon", "-q"),
         "bags/train/r1.bag",
         {0},
     ),
