@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 from hypothesis import HealthCheck, Phase, given, seed, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from tests.pipeline_fuzz import BAGS, configurations, run_case, write_bags  # noqa: E402
+from tests.pipeline_fuzz import cases, run_case, write_bags  # noqa: E402
 
 
 def main() -> int:
@@ -35,8 +35,8 @@ def main() -> int:
     parser.add_argument("--keep", type=Path, help="Write one configuration per crash here.")
     args = parser.parse_args()
     statuses: collections.Counter[str] = collections.Counter()
-    crashes: dict[str, list[bytes]] = collections.defaultdict(list)
-    cases = 0
+    crashes: dict[str, list[tuple[bytes, dict[str, bytes]]]] = collections.defaultdict(list)
+    done = 0
     with tempfile.TemporaryDirectory() as folder:
         bags = write_bags(Path(folder) / "bags")
 
@@ -50,19 +50,19 @@ def main() -> int:
         )
         @given(data=st.data())
         def one(data: st.DataObject) -> None:
-            nonlocal cases
-            config = data.draw(configurations([str(bags["train"]), str(bags["odd"])]))
-            replayed = data.draw(st.sampled_from(BAGS))
-            outcome = run_case(config, bags[replayed])
-            cases += 1
+            nonlocal done
+            config, replayed, files = data.draw(cases(bags))
+            bag = bags[replayed] if replayed in bags else Path(replayed)
+            outcome = run_case(config, bag, None, files)
+            done += 1
             statuses[" ".join(f"{k}={v}" for k, v in outcome.statuses.items())] += 1
             if outcome.crash is not None:
-                crashes[outcome.crash].append(config)
+                crashes[outcome.crash].append((config, files))
 
         started = time.monotonic()
         one()
         seconds = time.monotonic() - started
-    print(f"cases: {cases}")
+    print(f"cases: {done}")
     print("how far they went (exit statuses):")
     for text, count in statuses.most_common():
         print(f"  {count:5d}  {text}")
@@ -72,8 +72,11 @@ def main() -> int:
         print(f"  {len(configs):5d}  {crash}")
         if args.keep is not None:
             args.keep.mkdir(parents=True, exist_ok=True)
-            (args.keep / f"crash-{index:02d}.xml").write_bytes(configs[0])
-    print(f"time: {seconds:.1f} s ({seconds / max(cases, 1):.2f} s per case)")
+            config, files = configs[0]
+            (args.keep / f"crash-{index:02d}.xml").write_bytes(config)
+            for name, content in files.items():
+                (args.keep / f"crash-{index:02d}-{name}").write_bytes(content)
+    print(f"time: {seconds:.1f} s ({seconds / max(done, 1):.2f} s per case)")
     return 1 if total else 0
 
 

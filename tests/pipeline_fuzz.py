@@ -169,6 +169,40 @@ def configurations(draw: st.DrawFn, train: str | list[str]) -> bytes:
     return data
 
 
+def damage(draw: st.DrawFn, source: bytes) -> bytes:
+    """A bag with 1 to 3 kinds of damage: cut short, a span overwritten with random bytes or
+    zeros, its index dropped (``index_pos`` 0)."""
+    data = bytearray(source)
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["cut", "overwrite", "zeros", "unindex"]))
+        where = draw(st.integers(0, max(len(data) - 1, 0)))
+        if kind == "cut":
+            del data[where:]
+        elif kind == "overwrite":
+            span = draw(st.binary(min_size=1, max_size=64))
+            data[where : where + len(span)] = span
+        elif kind == "zeros":
+            data[where : where + draw(st.integers(1, 256))] = bytes(draw(st.integers(1, 256)))
+        elif b"index_pos=" in data:
+            field = data.index(b"index_pos=") + len(b"index_pos=")
+            data[field : field + 8] = bytes(8)
+    return bytes(data)
+
+
+@st.composite
+def cases(draw: st.DrawFn, bags: dict[str, Path]) -> tuple[bytes, str, dict[str, bytes]]:
+    """A case: the configuration, the bag to replay (a name of ``bags`` or a file of the
+    case), and the files to write in the case's folder first (a damaged bag)."""
+    files = {}
+    if draw(st.integers(0, 3)) == 3:  # one case in four reads a damaged copy of a bag
+        source = bags[draw(st.sampled_from(["train", "odd"]))].read_bytes()
+        files["damaged.bag"] = damage(draw, source)
+    trains = [str(bags["train"]), str(bags["odd"]), *(["damaged.bag"] if files else [])]
+    config = draw(configurations(trains))
+    replayed = draw(st.sampled_from([*BAGS, *(["damaged.bag"] if files else [])]))
+    return config, replayed, files
+
+
 @dataclass
 class Outcome:
     """What one case did: each command's exit status, and the first crash (None: none)."""
@@ -177,12 +211,21 @@ class Outcome:
     crash: str | None = None
 
 
-def run_case(config: bytes, replay_bag: Path, folder: Path | None = None) -> Outcome:
+def run_case(
+    config: bytes,
+    replay_bag: Path,
+    folder: Path | None = None,
+    files: dict[str, bytes] | None = None,
+) -> Outcome:
     """``check``, ``infer`` and (if it wrote invariants) ``replay`` on one configuration,
-    in a fresh folder (removed afterwards unless ``folder`` is given)."""
+    in a fresh folder (removed afterwards unless ``folder`` is given) holding ``files``
+    (a relative ``replay_bag`` is one of them)."""
     work = folder or Path(tempfile.mkdtemp(prefix="imrosc-fuzz-"))
     outcome = Outcome()
     try:
+        for name, content in (files or {}).items():
+            (work / name).write_bytes(content)
+        replay_bag = work / replay_bag
         config_path = work / "p.xml"
         config_path.write_bytes(config)
         inv = work / "p.inv"

@@ -3,14 +3,18 @@ messages read are exactly the first ones written, as many as the warning says.""
 
 from __future__ import annotations
 
+import contextlib
 import random
 import struct
+import tempfile
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from rosbags.rosbag1 import Reader, Writer
 
-from imrosc.bags import BagError, open_bag, recovered
+from imrosc.bags import BagError, MessageError, open_bag, recovered
 from tests.translate import build, store
 
 TYPE = "std_msgs/msg/Float64"
@@ -137,3 +141,59 @@ def test_an_index_pointing_nowhere_is_scanned_past(tmp_path: Path) -> None:
     found, note = values(bag)
     assert found == [float(i) for i in range(500)]
     assert note is not None and note.startswith("index damaged; recovered 500 messages")
+
+
+@settings(
+    max_examples=150,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    compression=st.sampled_from(list(COMPRESSIONS)),
+    edits=st.lists(
+        st.tuples(
+            st.sampled_from(["cut", "overwrite", "flip", "unindex"]),
+            st.floats(0, 1),
+            st.binary(min_size=1, max_size=64),
+        ),
+        min_size=1,
+        max_size=3,
+    ),
+)
+def test_a_damaged_bag_is_read_or_refused_never_crashes(
+    damaged_sources: dict[str, bytes],
+    compression: str,
+    edits: list[tuple[str, float, bytes]],
+) -> None:
+    """Whatever the damage, opening and reading a bag gives messages or a BagError."""
+    data = bytearray(damaged_sources[compression])
+    for kind, fraction, payload in edits:
+        where = int(fraction * max(len(data) - 1, 0))
+        if kind == "cut":
+            del data[where:]
+        elif kind == "overwrite":
+            data[where : where + len(payload)] = payload
+        elif kind == "flip" and data:
+            data[where] ^= payload[0] | 1
+        elif b"index_pos=" in data:
+            field = data.index(b"index_pos=") + len(b"index_pos=")
+            data[field : field + 8] = bytes(8)
+    with tempfile.TemporaryDirectory() as folder:
+        bag = Path(folder) / "x.bag"
+        bag.write_bytes(bytes(data))
+        try:
+            with open_bag(bag) as reader:
+                assert reader.message_count >= 0 and "\n" not in (recovered(reader) or "")
+                for connection, _, raw in reader.messages():
+                    with contextlib.suppress(MessageError):
+                        reader.deserialize(raw, connection.msgtype)
+        except BagError as error:
+            assert "\n" not in error.message and "\\x" not in error.message
+
+
+@pytest.fixture(scope="module")
+def damaged_sources(tmp_path_factory: pytest.TempPathFactory) -> dict[str, bytes]:
+    folder = tmp_path_factory.mktemp("sources")
+    return {name: write(folder / f"{name}.bag", name, 600).read_bytes() for name in COMPRESSIONS}

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tests.pipeline_fuzz import BAGS, configurations, run_case, write_bags
+from tests.pipeline_fuzz import cases, run_case, write_bags
 
 CI = settings(
     max_examples=60,
@@ -31,9 +31,8 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 def test_fuzzed_configurations_never_crash_the_pipeline(
     bags: dict[str, Path], data: st.DataObject
 ) -> None:
-    config = data.draw(configurations([str(bags["train"]), str(bags["odd"])]), label="config")
-    replayed = bags[data.draw(st.sampled_from(BAGS), label="replayed")]
-    outcome = run_case(config, replayed)
+    config, replayed, files = data.draw(cases(bags), label="case")
+    outcome = run_case(config, bags[replayed] if replayed in bags else Path(replayed), None, files)
     assert outcome.crash is None, (outcome.crash, config.decode(errors="replace"))
 
 
