@@ -145,7 +145,9 @@ class RecoveringReader(Reader):
             index_pos = header.get_uint64("index_pos")
             bio.seek(read_uint32(bio), os.SEEK_CUR)
         except (ReaderError, ValueError) as error:
-            raise ReaderError(f"truncated at byte {size:,}, in its header") from error
+            if _runs_past(bio, len(MAGIC), size):
+                raise ReaderError(f"truncated at byte {size:,}, in its header") from error
+            raise ReaderError("its header record is damaged") from error
         if bio.tell() > size:
             raise ReaderError(f"truncated at byte {size:,}, in its header")
         connections: dict[int, Connection] = {}

@@ -132,6 +132,15 @@ def test_a_damaged_record_stops_the_scan(tmp_path: Path) -> None:
     assert note is not None and note.startswith(f"damaged at byte {index_pos:,}; recovered 500 ")
 
 
+def test_a_damaged_bag_header_is_said_so(tmp_path: Path) -> None:
+    bag = write(tmp_path / "a.bag", "none", 50)
+    data = bytearray(bag.read_bytes())
+    data[17:30] = b"\xff" * 13  # the fields of the bag header record
+    bag.write_bytes(bytes(data))
+    with pytest.raises(BagError, match=r"cannot open bag: its header record is damaged$"):
+        values(bag)
+
+
 def test_an_index_pointing_nowhere_is_scanned_past(tmp_path: Path) -> None:
     bag = write(tmp_path / "a.bag", "bz2", 500)
     data = bytearray(bag.read_bytes())
