@@ -60,6 +60,25 @@ TUNABLES: dict[str, list[str]] = {
 }
 
 
+GRAPH = """version: 1
+nodes:
+  /src:
+    publishes: [/in]
+  /ctl:
+    publishes: [/out]
+    subscribes: [/in, /pos]
+  /loc:
+    publishes: [/pos]
+    subscribes: [/out]
+  /lab:
+    publishes: [/label, /name]
+    subscribes: [/out, /scan]
+  /scanner:
+    publishes: [/scan]
+"""
+"""Who subscribes to what (``--graph``, one case in two): relative points need it."""
+
+
 def run_messages(offset: float, scale: float = 1.0, odd: bool = False) -> list[Msg]:
     """Four seconds of a small system at 10 Hz: /in (0, 1, 2), /out, /pos, /label, /name
     (two strings) and /scan (an array whose length changes)."""
@@ -192,8 +211,11 @@ def damage(draw: st.DrawFn, source: bytes) -> bytes:
 @st.composite
 def cases(draw: st.DrawFn, bags: dict[str, Path]) -> tuple[bytes, str, dict[str, bytes]]:
     """A case: the configuration, the bag to replay (a name of ``bags`` or a file of the
-    case), and the files to write in the case's folder first (a damaged bag)."""
+    case), and the files to write in the case's folder first (a damaged bag; the graph file,
+    which infer then reads)."""
     files = {}
+    if draw(st.booleans()):
+        files["graph.yaml"] = GRAPH.encode()
     if draw(st.integers(0, 3)) == 3:  # one case in four reads a damaged copy of a bag
         source = bags[draw(st.sampled_from(["train", "odd"]))].read_bytes()
         files["damaged.bag"] = damage(draw, source)
@@ -226,12 +248,13 @@ def run_case(
         for name, content in (files or {}).items():
             (work / name).write_bytes(content)
         replay_bag = work / replay_bag
+        graph = ["--graph", str(work / "graph.yaml")] if (work / "graph.yaml").exists() else []
         config_path = work / "p.xml"
         config_path.write_bytes(config)
         inv = work / "p.inv"
         steps = [
             ("check", ["check", str(config_path)]),
-            ("infer", ["infer", str(config_path), "-j", "1", "-q"]),
+            ("infer", ["infer", str(config_path), "-j", "1", "-q", *graph]),
             ("replay", ["replay", str(inv), str(replay_bag), "-q", "--format", "json"]),
         ]
         runner = CliRunner()
