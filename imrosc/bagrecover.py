@@ -1,4 +1,4 @@
-"""Reading ROS 1 bags that were cut short or never indexed, as ``rosbag reindex`` would.
+"""Reading ROS 1 bags that were cut short or never indexed, up to their last whole record.
 
 A ROS 1 bag (format 2.0) is a header, then chunks of records (connections and messages),
 each followed by its index records, and at the end the index: the connections and one
@@ -11,8 +11,11 @@ scans the records from the start instead, up to the last complete chunk or messa
 (a chunk cut short gives the messages whose records it holds whole, decompressed as far as
 its bytes go), and rebuilds the index in memory; messages are then read from the file
 itself, as from any indexed bag. :attr:`RecoveringReader.recovery` says what was
-recovered. A file that does not begin as a ROS 1 bag is refused before anything else is
-read, without quoting its bytes.
+recovered. ``rosbag reindex`` recovers the whole chunks only: of a recording killed after
+7.2 s (``rosbag record --chunksize=16``, SIGKILL) it kept 1,212 messages where this reader
+reads 1,432, the open chunk's whole records included (a single open chunk: 0 against
+1,956). A file that does not begin as a ROS 1 bag is refused before anything else is read,
+without quoting its bytes.
 """
 
 from __future__ import annotations
@@ -74,7 +77,7 @@ class Recovery:
             what = "not indexed (the recording was interrupted)"
         return (
             f"{what}; recovered {self.messages:,} message{'s' * (self.messages != 1)} "
-            f"of the first {self.seconds:.3f} s, as rosbag reindex would"
+            f"of the first {self.seconds:.3f} s"
         )
 
 

@@ -184,7 +184,10 @@ def _is_ros2_bag(directory: Path) -> bool:
 
 def _not_a_bag(path: Path) -> Diagnostic:
     if path.name.endswith(ROS1_SUFFIX + ".active"):
-        reason = "an unfinished ROS 1 bag (rosbag record was interrupted; try rosbag reindex)"
+        reason = (
+            "an unfinished ROS 1 bag (rosbag record was interrupted): named .bag, it is read "
+            "up to its last whole record; or run rosbag reindex"
+        )
     elif path.suffix in ROS2_STORAGE_SUFFIXES:
         reason = f"a ROS 2 storage file without {ROS2_METADATA} beside it (try ros2 bag reindex)"
     else:

@@ -161,7 +161,7 @@ CODES: tuple[Code, ...] = (
         _W,
         "graph",
         "A ROS 1 bag cut short or never indexed; its messages up to the last whole record "
-        "are read, as rosbag reindex would recover them.",
+        "are read.",
     ),
     Code(
         "bag-empty",

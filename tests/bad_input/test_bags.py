@@ -9,6 +9,7 @@ file that was there before changes (the bag itself included).
 
 from __future__ import annotations
 
+import re
 import struct
 from pathlib import Path
 
@@ -81,7 +82,7 @@ def test_a_bag_cut_short_is_read_up_to_its_last_whole_record(
     assert len(lines) == 1, stderr
     (line,) = lines
     assert str(bag) in line and f"truncated at byte {size:,}; recovered " in line, line
-    assert "messages of the first" in line and "as rosbag reindex would" in line
+    assert re.search(r"messages? of the first \d+\.\d{3} s( \[bag-recovered\])?$", line), line
     after = snapshot(project)
     written = {"p.inv"} if command == "infer" else set()  # its own output, rewritten
     assert {k: v for k, v in after.items() if k in before and k not in written} == {
