@@ -25,6 +25,7 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 from rosbags.typesys.store import Typestore
 
+from imrosc.bagrecover import RecoveringReader
 from imrosc.diagnostics import Diagnostic, make
 
 __all__ = [
@@ -35,6 +36,8 @@ __all__ = [
     "MessageError",
     "discover_bags",
     "open_bag",
+    "recovered",
+    "recovered_diagnostic",
     "time_text",
 ]
 
@@ -99,6 +102,15 @@ class _SafeReader(AnyReader):
     def __init__(self, path: Path) -> None:
         super().__init__([path], default_typestore=_fallback_typestore())
         self.bag_path = path
+        if not self.is2:  # a ROS 1 bag cut short or never indexed is scanned instead
+            self.readers = [RecoveringReader(path)]
+
+    @property
+    def recovered(self) -> str | None:
+        """What was recovered from a ROS 1 bag whose index could not be read, in one line
+        (None: the bag was read through its index)."""
+        recovery = getattr(self.readers[0], "recovery", None) if self.readers else None
+        return None if recovery is None else recovery.text()
 
     def messages(
         self,
@@ -127,6 +139,19 @@ class _SafeReader(AnyReader):
         except Exception as error:  # corrupt data raises anything from rosbags
             message = f"cannot decode a {typ} message: {_one_line(error)}"
             raise MessageError(self.bag_path, message) from error
+
+
+def recovered(reader: AnyReader) -> str | None:
+    """What was recovered from a ROS 1 bag cut short or never indexed, in one line (None:
+    the bag was read through its index); :mod:`imrosc.bagrecover` says how."""
+    found = getattr(reader, "recovered", None)
+    return found if isinstance(found, str) else None
+
+
+def recovered_diagnostic(path: Path, reader: AnyReader) -> Diagnostic | None:
+    """The ``bag-recovered`` warning for a bag :func:`recovered` says was recovered."""
+    found = recovered(reader)
+    return None if found is None else make(str(path), 1, 1, "bag-recovered", found)
 
 
 @contextmanager
@@ -159,7 +184,10 @@ def _is_ros2_bag(directory: Path) -> bool:
 
 def _not_a_bag(path: Path) -> Diagnostic:
     if path.name.endswith(ROS1_SUFFIX + ".active"):
-        reason = "an unfinished ROS 1 bag (rosbag record was interrupted; try rosbag reindex)"
+        reason = (
+            "an unfinished ROS 1 bag (rosbag record was interrupted): named .bag, it is read "
+            "up to its last whole record; or run rosbag reindex"
+        )
     elif path.suffix in ROS2_STORAGE_SUFFIXES:
         reason = f"a ROS 2 storage file without {ROS2_METADATA} beside it (try ros2 bag reindex)"
     else:

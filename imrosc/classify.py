@@ -43,6 +43,7 @@ from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
+from imrosc.progress import Progress, ProgressFactory
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.loader import load_config
@@ -245,9 +246,12 @@ class RunOutcome:
     after: dict[str, float] = field(default_factory=dict)
     """Per invariant violated at or after the onset, its first violation there."""
     alarms: list[dict[str, Any]] = field(default_factory=list)
+    """The alarms: ``time`` (from the start), ``point``, ``rule``, ``invariant``."""
     warnings: list[str] = field(default_factory=list)
     """What the replay warned of (topics missing, or of another type than learnt)."""
-    """The alarms: ``time`` (from the start), ``point``, ``rule``, ``invariant``."""
+    unchecked: list[str] = field(default_factory=list)
+    """The unconditional publish points that checked no sample in this run."""
+    messages: int = 0
 
     @property
     def violated(self) -> set[str]:
@@ -280,7 +284,15 @@ def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
     assert _WORKER is not None
     bag, spec = task
     result = _WORKER.run(bag)
-    out = RunOutcome(bag, result.error, result.start, result.end, warnings=result.warnings)
+    out = RunOutcome(
+        bag,
+        result.error,
+        result.start,
+        result.end,
+        warnings=result.warnings,
+        unchecked=result.unchecked,
+        messages=result.messages,
+    )
     if result.error is not None:
         return out
     if spec is not None:
@@ -317,18 +329,26 @@ def observe_runs(
     bags: Sequence[Path],
     workers: int | None = None,
     onsets: Mapping[Path, OnsetSpec] | None = None,
+    progress: Progress | None = None,
 ) -> dict[Path, RunOutcome]:
     """Replay each bag (in worker processes) and keep what classification needs; a bag in
-    ``onsets`` also gets its fault's onset."""
+    ``onsets`` also gets its fault's onset; ``progress`` hears of each bag done."""
     tasks = [(bag, (onsets or {}).get(bag)) for bag in bags]
     workers = min(workers or default_workers(), max(len(bags), 1))
+    found: list[RunOutcome] = []
     if workers <= 1:
         _start_worker(document)
-        found = [_observe(task) for task in tasks]
+        for task in tasks:
+            found.append(_observe(task))
+            if progress is not None:
+                progress(found[-1].bag, found[-1].messages)
     else:
         context = multiprocessing.get_context("fork")
         with context.Pool(workers, _start_worker, (document,)) as pool:
-            found = pool.map(_observe, tasks, chunksize=1)
+            for outcome in pool.imap(_observe, tasks, chunksize=1):
+                found.append(outcome)
+                if progress is not None:
+                    progress(outcome.bag, outcome.messages)
     return {outcome.bag: outcome for outcome in found}
 
 
@@ -591,6 +611,8 @@ def run_entry(outcome: RunOutcome, kind: str) -> dict[str, Any]:
     }
     if outcome.warnings:
         entry["warnings"] = list(outcome.warnings)
+    if outcome.unchecked:
+        entry["unchecked"] = list(outcome.unchecked)
     if kind == "success":
         entry["false_alarm"] = bool(times)
         return entry
@@ -658,6 +680,7 @@ def run_check(
     workers: int | None = None,
     cross_validate: int | None = None,
     before_work: Callable[[Path | None, Path], None] | None = None,
+    progress_factory: ProgressFactory | None = None,
 ) -> CheckResult:
     """The check stage of ``config_path``: classification or comparison.
 
@@ -721,7 +744,8 @@ def run_check(
     )
     everything = [b for bags in found.values() for b in bags]
     out.inputs = [inv_path, *everything]
-    observed = observe_runs(document, everything, workers, specs)
+    progress = progress_factory(len(everything)) if progress_factory is not None else None
+    observed = observe_runs(document, everything, workers, specs, progress)
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
     ]
@@ -812,6 +836,9 @@ def run_check(
         report["scores"], report["families"] = compare(
             document, {b: o.violated for b, o in runs["reference"].items()}
         )
+        unchecked = {str(b): o.unchecked for b, o in runs["reference"].items() if o.unchecked}
+        if unchecked:  # per bag, the points that checked no sample
+            report["unchecked"] = unchecked
     out.diagnostics = finalize(out.diagnostics)
     out.report = report
     return out
@@ -854,7 +881,7 @@ def cross_validated(
         scored = [b for b in success if b.resolve() in held]
         detected = run_detect(config_path, workers=workers, bags=train)
         for problem in detected.diagnostics:
-            if problem.code in ("bag-error", "bag-empty", "bag-type-drift"):
+            if problem.code.startswith("bag-"):
                 problems.append(problem)
         inferred = detected.document
         if inferred is None or has_errors(detected.diagnostics):

@@ -19,6 +19,7 @@ from imrosc.check import check_files
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
+from imrosc.progress import bag_progress, quiet_option
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 """0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
@@ -29,6 +30,9 @@ EXIT_VIOLATIONS = 3
 EXIT_ENVIRONMENT = 4
 """The system refused: an output cannot be written (permission denied, disk full, a path
 through a regular file, a read-only file system). The README has the table."""
+EXIT_UNCHECKED = 5
+"""``imrosc replay``, ``imrosc classify``: nothing worse, but a publish point checked no
+sample in some run (its invariants went unchecked there). Precedence: 1, then 3, then 5."""
 
 
 def fail(command: str, message: str, status: int) -> NoReturn:
@@ -195,35 +199,6 @@ def build(
 main.add_command(graph_command)
 
 
-class _BagProgress:
-    """A progress bar over bags on stderr: bags done and messages per second."""
-
-    def __init__(self, total: int, enabled: bool) -> None:
-        import time
-
-        self.clock = time.monotonic
-        self.started = self.clock()
-        self.messages = 0
-        self.bar = (
-            click.progressbar(length=total, label="inferring", file=sys.stderr, show_pos=True)
-            if enabled and total
-            else None
-        )
-        if self.bar is not None:
-            self.bar.__enter__()
-
-    def __call__(self, bag: Path, messages: int) -> None:
-        self.messages += messages
-        if self.bar is not None:
-            rate = self.messages / max(self.clock() - self.started, 1e-9)
-            self.bar.label = f"inferring ({rate:,.0f} msg/s)"
-            self.bar.update(1)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(None, None, None)
-
-
 @main.command()
 @click.argument("config", type=click.Path(path_type=Path))
 @click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
@@ -242,7 +217,7 @@ class _BagProgress:
     "alarm [default: detect/@budget, 0.05].",
 )
 @click.option("--force", is_flag=True, help="Overwrite an output file imrosc did not write.")
-@click.option("-q", "--quiet", is_flag=True, help="No progress bar.")
+@quiet_option
 def infer(
     config: Path,
     jobs: int | None,
@@ -264,26 +239,19 @@ def infer(
         """Refuse the invariants file once the bags are known, before any is read."""
         target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
-    progress: list[_BagProgress] = []
-
-    def factory(total: int) -> _BagProgress:
-        progress.append(_BagProgress(total, not quiet and sys.stderr.isatty()))
-        return progress[-1]
-
     try:
-        result = run_detect(
-            config,
-            workers=jobs,
-            graph_files=graph_files,
-            bags=list(bags) or None,
-            progress_factory=factory,
-            budget=budget,
-            before_work=before_work,
-        )
+        with bag_progress("inferring", quiet) as factory:
+            result = run_detect(
+                config,
+                workers=jobs,
+                graph_files=graph_files,
+                bags=list(bags) or None,
+                progress_factory=factory,
+                budget=budget,
+                before_work=before_work,
+            )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)
-    for bar in progress:
-        bar.close()
     _report(result.diagnostics, "text")
     if result.document is None or result.output is None:
         sys.exit(_stopped(result.diagnostics))
@@ -316,6 +284,8 @@ def infer(
         click.echo(f"skipped {len(skipped)} bag{'s' * (len(skipped) != 1)}: {', '.join(skipped)}")
     for message in result.skipped_points:
         click.echo(f"skipped {message}")
+    for line in result.nonfinite():
+        click.echo(line)
     if inferred.discovered:
         shown = ", ".join(sorted({d.key for d in inferred.discovered}))
         click.echo(f"conditions found: {shown}")
@@ -330,8 +300,14 @@ def infer(
 @graph_option
 @bags_option
 @click.option("--force", is_flag=True, help="Overwrite .decls/.dtrace files imrosc did not write.")
+@quiet_option
 def export_daikon(
-    config: Path, output: Path, graph_files: tuple[Path, ...], bags: tuple[Path, ...], force: bool
+    config: Path,
+    output: Path,
+    graph_files: tuple[Path, ...],
+    bags: tuple[Path, ...],
+    force: bool,
+    quiet: bool,
 ) -> None:
     """Write the program points of CONFIG's bags as Daikon .decls/.dtrace files."""
     from imrosc.detect import prepare
@@ -346,7 +322,16 @@ def export_daikon(
         paths = targets(output, catalog.bags, force=force, inputs=(config, *catalog.bags))
     except OutputRefusedError as refused:
         fail("export-daikon", str(refused), EXIT_USAGE)
-    for path in export(prepared.specs, prepared.layouts, catalog.callerids, catalog.bags, paths):
+    with bag_progress("exporting", quiet) as factory:
+        written = export(
+            prepared.specs,
+            prepared.layouts,
+            catalog.callerids,
+            catalog.bags,
+            paths,
+            factory(len(catalog.bags)),
+        )
+    for path in written:
         click.echo(f"wrote {path}")
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
 
@@ -360,23 +345,26 @@ def export_daikon(
     default="text",
     show_default=True,
 )
-def info(bags: tuple[Path, ...], output_format: str) -> None:
+@quiet_option
+def info(bags: tuple[Path, ...], output_format: str, quiet: bool) -> None:
     """What BAGS hold (ROS 1 bags, ROS 2 bag folders, or folders of them): per bag its
     format, time span and messages; per topic its type, messages, mean rate, publishers and
     the variables a <publish> of it would watch. Exit status 1 when a bag cannot be read
-    (each named on stderr), 2 when none can."""
+    (each named on stderr), 2 when none can; a bag cut short is read as far as it goes, with
+    a warning."""
     import json
 
     from imrosc.info import collect, render
 
-    infos, problems = collect(list(bags))
+    with bag_progress("reading", quiet) as factory:
+        infos, problems = collect(list(bags), factory)
     for problem in problems:
         click.echo(f"imrosc info: {problem.as_text()}", err=True)
     if output_format == "json":
         click.echo(json.dumps([i.as_json() for i in infos], indent=2))
     elif infos:
         click.echo(render(infos), nl=False)
-    if problems:
+    if has_errors(problems):
         sys.exit(EXIT_ERRORS if infos else EXIT_USAGE)
 
 
@@ -484,6 +472,7 @@ def _emit(
 @report_option
 @click.option("--no-plots", is_flag=True, help="Leave the plot data out (smaller reports).")
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@quiet_option
 def replay(
     inv: Path,
     bags: tuple[Path, ...],
@@ -492,11 +481,13 @@ def replay(
     report_path: Path | None,
     no_plots: bool,
     force: bool,
+    quiet: bool,
 ) -> None:
     """Run the monitor's engine over BAGS as if live and print the violation timeline.
 
     Exit status: 0 no violation, 1 an alarm (or a bag that could not be read), 3
-    violations that raised no alarm.
+    violations that raised no alarm, 5 a point that checked no sample in some run (its
+    invariants went unchecked there); the first that applies, in that order.
     """
     from imrosc.bags import discover_bags
     from imrosc.invariants import InvariantsFileError, load
@@ -515,18 +506,31 @@ def replay(
         problems += bad
     _report(problems, "text")
     try:
-        report, results = replay_document(inv, document, found, plots=not no_plots)
+        with bag_progress("replaying", quiet) as factory:
+            report, results = replay_document(
+                inv, document, found, plots=not no_plots, progress=factory(len(found))
+            )
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
         fail("replay", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)
     shown = "json" if as_json else output_format
-    if shown != "text" or report_path is not None:  # the text report on stdout says it
-        for result in results:
-            for warning in result.warnings:
+    every = shown != "text" or report_path is not None  # else the report on stdout says them
+    for result in results:
+        for warning in result.warnings:
+            if every or warning == result.recovered:  # a damaged bag is said on stderr too
                 click.echo(f"imrosc replay: {result.bag}: warning: {warning}", err=True)
     _emit("replay", report, shown, report_path, force, (inv, *bags, *found))
     broken = any(r.alarms or r.error for r in results) or has_errors(problems)
     violated = any(r.violations for r in results)
-    sys.exit(EXIT_ERRORS if broken else EXIT_VIOLATIONS if violated else EXIT_CLEAN)
+    unchecked = any(r.unchecked for r in results)
+    sys.exit(
+        EXIT_ERRORS
+        if broken
+        else EXIT_VIOLATIONS
+        if violated
+        else EXIT_UNCHECKED
+        if unchecked
+        else EXIT_CLEAN
+    )
 
 
 @main.command()
@@ -553,6 +557,7 @@ def replay(
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
+@quiet_option
 def classify(
     config: Path,
     jobs: int | None,
@@ -562,9 +567,14 @@ def classify(
     output_format: str,
     report_path: Path | None,
     force: bool,
+    quiet: bool,
 ) -> None:
     """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
-    useful ones; with fault onsets, score the alarms and their delays too."""
+    useful ones; with fault onsets, score the alarms and their delays too.
+
+    Exit status: 0 done, 1 a run that could not be read, 5 a point that checked no sample
+    in some run (its invariants went unchecked there).
+    """
     from imrosc.build import write_files
     from imrosc.classify import CheckStageError, run_check
     from imrosc.invariants import dumps
@@ -592,14 +602,16 @@ def classify(
         target(report_path, REPORT, inputs=(*every, *filter(None, [refined_path])), force=force)
 
     try:
-        result = run_check(
-            config,
-            inv=inv,
-            output=refined,
-            workers=jobs,
-            cross_validate=cross_validate,
-            before_work=before_work,
-        )
+        with bag_progress("classifying", quiet) as factory:
+            result = run_check(
+                config,
+                inv=inv,
+                output=refined,
+                workers=jobs,
+                cross_validate=cross_validate,
+                before_work=before_work,
+                progress_factory=factory,
+            )
     except CheckStageError as error:
         fail("classify", str(error), EXIT_USAGE)
     except OutputRefusedError as refused:
@@ -632,7 +644,10 @@ def classify(
         click.echo(f"wrote {refined_path}: kept {kept} of {len(result.report['scores'])}", err=True)
     _emit("classify", result.report, output_format, report_path, force, inputs)
     errors = has_errors(result.diagnostics) or bool(result.report.get("errors"))
-    sys.exit(EXIT_ERRORS if errors else EXIT_CLEAN)
+    unchecked = bool(result.report.get("unchecked")) or any(
+        run.get("unchecked") for run in result.report.get("runs", ())
+    )
+    sys.exit(EXIT_ERRORS if errors else EXIT_UNCHECKED if unchecked else EXIT_CLEAN)
 
 
 @main.command()
@@ -647,6 +662,7 @@ def classify(
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@quiet_option
 def stability(
     config: Path,
     folds: int | None,
@@ -655,6 +671,7 @@ def stability(
     output_format: str,
     report_path: Path | None,
     force: bool,
+    quiet: bool,
 ) -> None:
     """Cross-validate inference over CONFIG's <detect> bags: how many invariants learnt from
     the other bags does each held-out bag violate (per family)?"""
@@ -663,7 +680,14 @@ def stability(
 
     _report_target("stability", report_path, force, (config, *bags))
     try:
-        report, problems = run_stability(config, folds=folds, workers=jobs, bags=list(bags) or None)
+        with bag_progress("cross-validating", quiet) as factory:
+            report, problems = run_stability(
+                config,
+                folds=folds,
+                workers=jobs,
+                bags=list(bags) or None,
+                progress_factory=factory,
+            )
     except CheckStageError as error:
         fail("stability", str(error), EXIT_USAGE)
     _report(problems, "text")

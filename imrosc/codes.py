@@ -163,6 +163,13 @@ CODES: tuple[Code, ...] = (
     Code("graph-invalid", _E, "graph", "A graph file does not follow the graph file format."),
     Code("bag-error", _E, "graph", "A bag cannot be opened or read; it is skipped."),
     Code(
+        "bag-recovered",
+        _W,
+        "graph",
+        "A ROS 1 bag cut short or never indexed; its messages up to the last whole record "
+        "are read.",
+    ),
+    Code(
         "bag-empty",
         _W,
         "translate",

@@ -38,6 +38,8 @@ from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
 
+_LABELS = {"nan": "NaN", "+inf": "+inf", "-inf": "-inf"}
+
 
 @dataclass
 class DetectResult:
@@ -57,6 +59,26 @@ class DetectResult:
     @property
     def ok(self) -> bool:
         return self.document is not None and not has_errors(self.diagnostics)
+
+    def nonfinite(self) -> list[str]:
+        """One line per point whose training samples held NaN or infinite values (left out
+        by inference), naming its variables and how many of each (conditional points found
+        in the data repeat their point's and are not listed)."""
+        lines = []
+        for key, point in (self.document or {}).get("points", {}).items():
+            found = point.get("support", {}).get("nonfinite")
+            if not found:
+                continue
+            parts = []
+            for name, counts in found.items():
+                shown = [f"{n:,} {_LABELS[label]}" for label, n in counts.items() if n]
+                parts.append(f"{name}: {', '.join(shown)}")
+            samples = point["support"]["samples"]
+            lines.append(
+                f"non-finite values left out of point {key} (of {samples:,} samples): "
+                + "; ".join(parts)
+            )
+        return lines
 
     def counts(self) -> dict[str, int]:
         """Invariants per summary group, in the thesis' order."""
@@ -119,6 +141,7 @@ def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointIn
                 state.runs,
                 spec.variables,
                 _sources(spec, found),
+                None if found else {k: tuple(v) for k, v in state.nonfinite.items()},
             )
         )
     return infos

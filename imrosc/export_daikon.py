@@ -19,6 +19,7 @@ from typing import Any, BinaryIO, TextIO
 
 from imrosc.infer.core import Samples, Variable
 from imrosc.outputs import DAIKON, mark, target, write_atomic
+from imrosc.progress import Progress
 from imrosc.translate.points import PointSpec
 from imrosc.translate.stream import BagTranslator
 
@@ -102,9 +103,11 @@ def export(
     callerids: Any,
     bags: Sequence[Path],
     paths: Sequence[Path],
+    progress: Progress | None = None,
 ) -> list[Path]:
     """Write the declarations to ``paths[0]`` and each bag's samples (bags sorted) to the
-    next paths (:func:`targets`), each atomically; return the files."""
+    next paths (:func:`targets`), each atomically; return the files. ``progress`` hears of
+    each bag done."""
     banner = f"// {mark(DAIKON)} (imrosc export-daikon)\n"
 
     def decls(binary: BinaryIO) -> None:
@@ -124,6 +127,8 @@ def export(
                 write_samples(stream, samples)
             stream.flush()
             stream.detach()
+            if progress is not None:
+                progress(bag, translator.messages)
 
         write_atomic(path, trace)
     return list(paths)

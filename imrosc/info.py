@@ -16,9 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from imrosc import records
-from imrosc.bags import BagError, discover_bags, open_bag, time_text
+from imrosc.bags import BagError, discover_bags, open_bag, recovered_diagnostic, time_text
 from imrosc.diagnostics import Diagnostic
 from imrosc.msgtypes import FieldSpec, flatten
+from imrosc.progress import ProgressFactory
 
 SECOND = 1_000_000_000
 SHOWN_VARIABLES = 6
@@ -107,9 +108,13 @@ def _variables(fields: Sequence[FieldSpec]) -> tuple[int, int, int, tuple[str, .
     return numeric, strings, arrays, names
 
 
-def bag_info(path: Path) -> BagInfo:
-    """What one bag holds (raises :class:`~imrosc.bags.BagError` when it cannot be read)."""
+def bag_info(path: Path, warnings: list[Diagnostic] | None = None) -> BagInfo:
+    """What one bag holds (raises :class:`~imrosc.bags.BagError` when it cannot be read);
+    a bag recovered from its records gives a warning in ``warnings``."""
     with open_bag(path) as reader:
+        warning = recovered_diagnostic(path, reader)
+        if warning is not None and warnings is not None:
+            warnings.append(warning)
         start, end = reader.start_time, reader.end_time
         if not reader.message_count:
             start = end = 0
@@ -152,19 +157,26 @@ def bag_info(path: Path) -> BagInfo:
     return info
 
 
-def collect(paths: Sequence[Path]) -> tuple[list[BagInfo], list[Diagnostic]]:
+def collect(
+    paths: Sequence[Path], progress_factory: ProgressFactory | None = None
+) -> tuple[list[BagInfo], list[Diagnostic]]:
     """Every bag under ``paths`` (folders are searched as ``imrosc infer`` searches them);
     bags that cannot be read become diagnostics."""
     infos: list[BagInfo] = []
     problems: list[Diagnostic] = []
+    bags: list[Path] = []
     for path in paths:
-        bags, found = discover_bags(path)
-        problems += found
-        for bag in bags:
-            try:
-                infos.append(bag_info(bag))
-            except BagError as error:
-                problems.append(error.diagnostic())
+        found, reported = discover_bags(path)
+        bags += found
+        problems += reported
+    progress = progress_factory(len(bags)) if progress_factory is not None else None
+    for bag in bags:
+        try:
+            infos.append(bag_info(bag, problems))
+        except BagError as error:
+            problems.append(error.diagnostic())
+        if progress is not None:
+            progress(bag, infos[-1].messages if infos and infos[-1].path == bag else 0)
     return infos, problems
 
 

@@ -1,9 +1,11 @@
 """The invariants file (``detect/@inv``): versioned JSON that every later stage reads.
 
 It holds, per invariant, a stable id, the family, program point, condition, variables,
-parameters, support (samples, runs) and confidence; per point its kind, trigger and
-variables; and per topic its message type and variable layout (the monitor backends generate
-their flatteners from it). Ids are stable: the same invariant (point, family, kind,
+parameters, support (samples, runs) and confidence; per point its kind, trigger,
+variables and support (samples, runs and, when training held some, the NaN or missing, +inf
+and -inf values of each variable that inference left out: ``nonfinite``); and per topic
+its message type and variable layout (the monitor backends generate their flatteners from
+it). Ids are stable: the same invariant (point, family, kind,
 variables) gets the same id in every run, so ``/m/clear_inv`` and reports can name it.
 """
 
@@ -84,6 +86,20 @@ class PointInfo:
     sources: Mapping[str, Any] | None = None
     """What the runtime engine needs to rebuild the point's samples: ``inputs`` (topics),
     ``params``, ``events`` (``[id, kind, name]``) and ``filter`` (its conditions)."""
+    nonfinite: Mapping[str, Sequence[int]] | None = None
+    """Per numeric variable that had some in training, its NaN (or missing), +inf and -inf
+    values, which inference left out (``support.nonfinite``: ``{"nan", "+inf", "-inf"}``)."""
+
+
+def _support(point: PointInfo) -> dict[str, Any]:
+    """A point's support: samples and runs, and the non-finite values left out, if any."""
+    found: dict[str, Any] = {"samples": point.samples, "runs": point.runs}
+    if point.nonfinite:
+        found["nonfinite"] = {
+            name: dict(zip(("nan", "+inf", "-inf"), counts, strict=True))
+            for name, counts in sorted(point.nonfinite.items())
+        }
+    return found
 
 
 def document(
@@ -112,7 +128,7 @@ def document(
                 "kind": p.kind,
                 "trigger": p.trigger,
                 "condition": p.condition,
-                "support": {"samples": p.samples, "runs": p.runs},
+                "support": _support(p),
                 "variables": [_variable(v) for v in p.variables],
                 **_json_safe(dict(p.sources or {})),
             }

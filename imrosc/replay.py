@@ -20,9 +20,10 @@ from typing import Any
 import numpy as np
 
 from imrosc import records
-from imrosc.bags import BagError, MessageError, open_bag
+from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
+from imrosc.progress import Progress
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, alarms_json
 from imrosc.runtime.flatten import make_flattener
@@ -48,6 +49,11 @@ class RunResult:
     """What the run could not check: topics of the invariants missing from the bag."""
     checked: dict[str, int] = field(default_factory=dict)
     """Per value point (publish, call, parameter), the samples it checked."""
+    recovered: str | None = None
+    """What was recovered of a ROS 1 bag cut short or never indexed (also a warning)."""
+    unchecked: list[str] = field(default_factory=list)
+    """The unconditional publish points that checked no sample: their invariants were not
+    checked in this run (``imrosc replay`` and ``classify`` exit with their own status)."""
 
     @property
     def violated(self) -> set[str]:
@@ -116,6 +122,19 @@ def _unchecked(
     return found
 
 
+def no_samples(document: Mapping[str, Any], checked: Mapping[str, int]) -> list[str]:
+    """The unconditional publish points that checked no sample (a conditional point whose
+    condition never held is a state the run did not visit, not a gap in the check)."""
+    points = document["points"]
+    return [
+        key
+        for key, count in sorted(checked.items())
+        if not count
+        and points.get(key, {}).get("kind") == "publish"
+        and not points.get(key, {}).get("condition")
+    ]
+
+
 def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str, str]:
     """Per topic whose type in the bag is not the one the invariants were learnt on, a
     warning naming both: its messages are not read (its fields may mean other things)."""
@@ -149,6 +168,8 @@ class Replayer:
         try:
             with open_bag(bag) as reader, np.errstate(all="ignore"):
                 result.start, result.end = reader.start_time / 1e9, reader.end_time / 1e9
+                result.recovered = recovered(reader)
+                result.warnings += filter(None, [result.recovered])
                 drifted = _drifted(self.document["topics"], reader.connections)
                 result.warnings += drifted.values()
                 wanted = [
@@ -181,6 +202,7 @@ class Replayer:
                         found += self._record(topic, time, message)
                 found += publishers.until(engine, reader.end_time)
                 result.checked = engine.checked()
+                result.unchecked = no_samples(self.document, result.checked)
                 result.warnings += _unchecked(self.document, result.checked, present)
                 withdrawn = {id(v) for v in engine.end_run()}
                 if withdrawn:
@@ -331,10 +353,15 @@ class PlotTrace:
 
 
 def replay_document(
-    inv: Path, document: Mapping[str, Any], bags: Iterable[Path], *, plots: bool = True
+    inv: Path,
+    document: Mapping[str, Any],
+    bags: Iterable[Path],
+    *,
+    plots: bool = True,
+    progress: Progress | None = None,
 ) -> tuple[dict[str, Any], list[RunResult]]:
     """Replay ``bags`` and describe each run: its timeline and, with ``plots``, the data
-    of its violated polygons and frequencies."""
+    of its violated polygons and frequencies; ``progress`` hears of each bag done."""
     trace = PlotTrace(document) if plots else None
     replayer = Replayer(document, Engine(document, trace))
     runs: list[dict[str, Any]] = []
@@ -344,6 +371,8 @@ def replay_document(
             trace.reset()
         result = replayer.run(bag)
         results.append(result)
+        if progress is not None:
+            progress(bag, result.messages)
         runs.append(
             {
                 "bag": str(bag),
@@ -354,6 +383,7 @@ def replay_document(
                 "error": result.error,
                 "warnings": list(result.warnings),
                 "checked": dict(result.checked),
+                "unchecked": list(result.unchecked),
                 "violations": len(result.violations),
                 "alarms": alarms_json(result.alarms),
                 "episodes": episodes(result.violations),

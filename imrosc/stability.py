@@ -17,6 +17,7 @@ from imrosc.classify import CheckStageError, bags_of, load_project, observe_runs
 from imrosc.detect import run_detect
 from imrosc.diagnostics import Diagnostic, has_errors
 from imrosc.outputs import REPORT, mark
+from imrosc.progress import ProgressFactory, shared
 
 
 def folds_of(bags: Sequence[Path], folds: int) -> list[list[Path]]:
@@ -40,9 +41,10 @@ def run_stability(
     folds: int | None = None,
     workers: int | None = None,
     bags: Sequence[Path] | None = None,
+    progress_factory: ProgressFactory | None = None,
 ) -> tuple[dict[str, Any] | None, list[Diagnostic]]:
     """The stability report of ``config_path``'s detect bags, or of ``bags`` (``folds``
-    None: leave-one-out)."""
+    None: leave-one-out); one progress over every round's training and held-out bags."""
     project, problems = load_project(config_path)
     if project is None:
         return None, problems
@@ -63,21 +65,27 @@ def run_stability(
             f"{config_path}: {found_text}; stability needs at least 2 bags and "
             f"2 <= folds <= bags (folds: {count})"
         )
+    progress = progress_factory(count * len(bags)) if progress_factory is not None else None
     rounds: list[dict[str, Any]] = []
     totals: dict[str, list[int]] = {}
     violations: dict[str, list[int]] = {}
     for held_out in folds_of(bags, count):
         train = [b for b in bags if b not in held_out]
-        detected = run_detect(config_path, workers=workers, bags=train)
+        detected = run_detect(
+            config_path,
+            workers=workers,
+            bags=train,
+            progress_factory=shared(progress) if progress is not None else None,
+        )
         for found_problem in detected.diagnostics:
-            bag_level = found_problem.code in ("bag-error", "bag-empty", "bag-type-drift")
+            bag_level = found_problem.code.startswith("bag-")
             if bag_level and found_problem not in problems:  # each round sees the same bags
                 problems.append(found_problem)
         document = detected.document
         if document is None or has_errors(detected.diagnostics):
             problems += detected.diagnostics
             return None, problems
-        outcomes = observe_runs(document, held_out, workers)
+        outcomes = observe_runs(document, held_out, workers, progress=progress)
         violated = {bag: (o.violated, o.error) for bag, o in outcomes.items()}
         broken = set().union(*(ids for ids, _ in violated.values()))
         alarmed = sorted(str(bag) for bag, o in outcomes.items() if o.alarms)

@@ -8,7 +8,14 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag1 import Writer as Ros1Writer
 
-from imrosc.bags import BagError, MessageError, discover_bags, open_bag, time_text
+from imrosc.bags import (
+    BagError,
+    MessageError,
+    discover_bags,
+    open_bag,
+    recovered_diagnostic,
+    time_text,
+)
 from imrosc.codes import Severity
 from tests.graph import SECOND, Message, write_ros1_bag, write_ros2_bag
 
@@ -205,3 +212,17 @@ def test_bag_error_fixture_points_where_it_says() -> None:
     diagnostic = raised.value.diagnostic()
     got = [f"{diagnostic.line}:", f"{diagnostic.severity.value}:", f"[{diagnostic.code}]"]
     assert got == expected
+
+
+def test_bag_recovered_fixture_points_where_it_says() -> None:
+    """A bag cut in its index (the fixture: 100 bytes short) is read with a warning."""
+    fixture = Path(__file__).parent / "fixtures" / "bags" / "bag-recovered.bag"
+    expected = fixture.with_suffix(".expect").read_text().split()
+    with open_bag(fixture) as reader:
+        diagnostic = recovered_diagnostic(fixture, reader)
+        assert sum(1 for _ in reader.messages()) == 20
+    assert diagnostic is not None
+    got = [f"{diagnostic.line}:", f"{diagnostic.severity.value}:", f"[{diagnostic.code}]"]
+    assert got == expected
+    assert diagnostic.message.startswith("truncated at byte ")
+    assert "recovered 20 messages of the first 1.900 s" in diagnostic.message

@@ -69,9 +69,10 @@ def documents(draw: st.DrawFn) -> bytes:
     return f'<{root} project="p">{body}</{root}>'.encode()
 
 
-@st.composite
-def mutated_examples(draw: st.DrawFn) -> bytes:
-    data = bytearray(draw(st.sampled_from(EXAMPLES)))
+def mutate(draw: st.DrawFn, source: bytes) -> bytes:
+    """``source`` with 1 to 6 random edits: bytes deleted, inserted, duplicated or replaced
+    by markup characters and invalid UTF-8."""
+    data = bytearray(source)
     for _ in range(draw(st.integers(1, 6))):
         where = draw(st.integers(0, len(data)))
         kind = draw(st.sampled_from(["delete", "insert", "duplicate", "replace"]))
@@ -85,6 +86,11 @@ def mutated_examples(draw: st.DrawFn) -> bytes:
         else:
             data[where : where + 1] = draw(st.sampled_from([b"<", b">", b"&", b'"', b"\xff", b""]))
     return bytes(data)
+
+
+@st.composite
+def mutated_examples(draw: st.DrawFn) -> bytes:
+    return mutate(draw, draw(st.sampled_from(EXAMPLES)))
 
 
 def assert_only_diagnostics(data: bytes) -> None:

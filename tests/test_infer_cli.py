@@ -64,7 +64,7 @@ def project(tmp_path: Path) -> Path:
     good_run(bags / "run1.bag", 0.0)
     good_run(bags / "run2.bag", 100.0, odd=True)
     whole = good_run(tmp_path / "whole.bag", 200.0).read_bytes()
-    (bags / "truncated.bag").write_bytes(whole[: len(whole) // 2])
+    (bags / "truncated.bag").write_bytes(whole[:4200])  # before its first message
     (bags / "notes.txt").write_text("not a bag\n")
     shutil.copyfile(FIXTURES / "bags" / "bag-empty.bag", bags / "empty.bag")
     unknown_type_bag(bags / "unknown_types")
@@ -98,6 +98,14 @@ def test_bad_bags_are_reported_by_name_and_the_good_ones_still_used(project: Pat
     assert document["points"]["a"]["support"]["samples"] == 80
     bounds = [i for i in document["invariants"] if i["kind"] == "upper" or i["kind"] == "range"]
     assert bounds, "NaN and inf did not stop inference"
+    # ... and they are reported, not skipped silently (issue 18, item 2)
+    assert "non-finite values left out of point a (of 80 samples): out.data: 1 NaN, 1 +inf\n" in (
+        result.stdout
+    )
+    assert document["points"]["a"]["support"]["nonfinite"] == {
+        "out.data": {"nan": 1, "+inf": 1, "-inf": 0}
+    }
+    assert all("nonfinite" not in p["support"] for k, p in document["points"].items() if k != "a")
 
 
 def test_show_filters_by_family_and_point(project: Path) -> None:

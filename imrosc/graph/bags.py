@@ -19,9 +19,17 @@ from pathlib import Path
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Connection, ConnectionExtRosbag1
 
-from imrosc.bags import BagError, MessageError, discover_bags, open_bag, time_text
+from imrosc.bags import (
+    BagError,
+    MessageError,
+    discover_bags,
+    open_bag,
+    recovered_diagnostic,
+    time_text,
+)
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.graph.model import SOURCE_CALLERID, SOURCE_RECORDS, Graph, Node
+from imrosc.progress import ProgressFactory
 from imrosc.records import ARCH_TOPIC, RECORD_PREFIX, RECORD_TYPE, RecordError, decode_arch
 
 __all__ = [
@@ -134,6 +142,9 @@ def graph_from_bag(path: Path) -> tuple[Graph, list[Diagnostic]]:
     """The graph one bag records: raises :class:`imrosc.bags.BagError` if it is unreadable."""
     found = _BagGraph()
     with open_bag(path) as reader:
+        warning = recovered_diagnostic(path, reader)
+        if warning is not None:
+            found.problems.append(warning)
         found.callers = _callers(reader)
         _records(reader, path, found)
     callers = Graph.build(found.callers, [SOURCE_CALLERID] if found.callers else [], False)
@@ -149,7 +160,9 @@ class BagGraphs:
     read: tuple[Path, ...]
 
 
-def read_bag_graphs(paths: Sequence[Path]) -> BagGraphs:
+def read_bag_graphs(
+    paths: Sequence[Path], progress_factory: ProgressFactory | None = None
+) -> BagGraphs:
     """Discover the bags under the paths and merge the graphs of those that can be read.
 
     Records come first in the merged graph's sources, callerids second.
@@ -162,12 +175,17 @@ def read_bag_graphs(paths: Sequence[Path]) -> BagGraphs:
         problems += reported
     graphs: list[Graph] = []
     read: list[Path] = []
-    for bag in sorted(set(bags)):
+    ordered = sorted(set(bags))
+    progress = progress_factory(len(ordered)) if progress_factory is not None else None
+    for bag in ordered:
         try:
             graph, reported = graph_from_bag(bag)
         except BagError as error:
             problems.append(error.diagnostic())
             continue
+        finally:
+            if progress is not None:
+                progress(bag, 0)
         graphs.append(graph)
         read.append(bag)
         problems += reported

@@ -16,6 +16,7 @@ import click
 from imrosc.diagnostics import Diagnostic, finalize, has_errors
 from imrosc.graph.file import load_graph_file
 from imrosc.graph.model import Graph
+from imrosc.progress import ProgressFactory, bag_progress, quiet_option
 
 __all__ = [
     "EXIT_CLEAN",
@@ -36,7 +37,9 @@ def is_graph_file(path: Path) -> bool:
     return path.suffix in _GRAPH_SUFFIXES and path.name != _ROS2_METADATA
 
 
-def collect_graph(inputs: tuple[Path, ...]) -> tuple[Graph | None, list[Diagnostic]]:
+def collect_graph(
+    inputs: tuple[Path, ...], progress_factory: ProgressFactory | None = None
+) -> tuple[Graph | None, list[Diagnostic]]:
     """The merged graph of the inputs (None when none could be read) and every diagnostic."""
     from imrosc.graph.bags import read_bag_graphs  # rosbags is slow to import
 
@@ -45,7 +48,7 @@ def collect_graph(inputs: tuple[Path, ...]) -> tuple[Graph | None, list[Diagnost
     graphs: list[Graph] = []
     problems: list[Diagnostic] = []
     if bag_paths:
-        bags = read_bag_graphs(bag_paths)
+        bags = read_bag_graphs(bag_paths, progress_factory)
         problems += bags.diagnostics
         if bags.read:
             graphs.append(bags.graph)
@@ -69,7 +72,8 @@ def collect_graph(inputs: tuple[Path, ...]) -> tuple[Graph | None, list[Diagnost
     show_default=True,
     help="text: one line per edge; yaml: a graph file that imrosc reads back.",
 )
-def graph_command(inputs: tuple[Path, ...], output_format: str) -> None:
+@quiet_option
+def graph_command(inputs: tuple[Path, ...], output_format: str, quiet: bool) -> None:
     """Print the node graph recorded in bags and given in graph files.
 
     BAG_OR_FILE is a ROS 1 .bag, a ROS 2 bag directory, a directory of bags, or a graph file
@@ -78,7 +82,8 @@ def graph_command(inputs: tuple[Path, ...], output_format: str) -> None:
 
     Exit status: 0 when clean, 1 when an input has errors, 2 when no input could be read.
     """
-    graph, problems = collect_graph(inputs)
+    with bag_progress("reading", quiet) as factory:
+        graph, problems = collect_graph(inputs, factory)
     for problem in problems:
         click.echo(problem.as_text(), err=True)
     if graph is None:

@@ -76,11 +76,15 @@ class PointState:
     samples: int = 0
     runs: int = 0
     discrete: DiscreteValues | None = None
+    nonfinite: dict[str, list[int]] = field(default_factory=dict)
+    """Per numeric variable that had some, its NaN (or missing), +inf and -inf values: the
+    families leave them out, ``imrosc infer`` says how many there were."""
     _in_run: bool = False
 
     def update(self, samples: Samples) -> None:
         self.samples += len(samples)
         self._in_run = True
+        count_nonfinite(self.nonfinite, samples)
         for state in self.states:
             state.update(samples)
         if self.discrete is not None:
@@ -95,6 +99,9 @@ class PointState:
     def merge(self, other: PointState) -> None:
         self.samples += other.samples
         self.runs += other.runs
+        for name, counts in other.nonfinite.items():
+            sums = self.nonfinite.setdefault(name, [0, 0, 0])
+            sums[:] = [a + b for a, b in zip(sums, counts, strict=True)]
         for mine, theirs in zip(self.states, other.states, strict=True):
             mine.merge(theirs)
         if self.discrete is not None and other.discrete is not None:
@@ -108,6 +115,25 @@ class PointState:
         for state in self.states:
             found += state.finalize(context)
         return suppress_implied(found)
+
+
+def count_nonfinite(counts: dict[str, list[int]], samples: Samples) -> None:
+    """Add the NaN, +inf and -inf values of each numeric variable of ``samples`` (not the
+    statistics of arrays) to ``counts``."""
+    for variable in samples.variables:
+        if not variable.numeric or variable.derived is not None:
+            continue
+        column = samples.column(variable.name)
+        finite = np.isfinite(column)
+        if finite.all():
+            continue
+        bad = column[~finite]
+        nan = int(np.isnan(bad).sum())
+        positive = int((bad > 0).sum())
+        found = counts.setdefault(variable.name, [0, 0, 0])
+        found[0] += nan
+        found[1] += positive
+        found[2] += len(bad) - nan - positive
 
 
 def suppress_implied(found: list[Invariant]) -> list[Invariant]:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from imrosc import records
-from imrosc.bags import BagError, MessageError, discover_bags, open_bag
+from imrosc.bags import BagError, MessageError, discover_bags, open_bag, recovered_diagnostic
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.msgtypes import FieldSpec, flatten
 
@@ -125,6 +125,9 @@ def _observed_lengths(
 
 def _note_bag(catalog: Catalog, bag: Path) -> None:
     with open_bag(bag) as reader:
+        warning = recovered_diagnostic(bag, reader)
+        if warning is not None:
+            catalog.diagnostics.append(warning)
         count = 0
         for connection in reader.connections:
             count += connection.msgcount

@@ -132,12 +132,12 @@ def test_warnings_reach_every_report(document: dict[str, Any], tmp_path: Path) -
     other = write_bag(tmp_path / "other.bag", [msg("/u", 0.0, FLOAT, "/u", data=1.0)])
     runner = CliRunner()
     text = runner.invoke(main, ["replay", str(inv), str(other)])
-    assert text.exit_code == 0, text.output
+    assert text.exit_code == 5, text.output  # its points checked no sample (README)
     assert "warning: none of the invariants' topics is in this bag (/t): not read" in text.stdout
     as_json = runner.invoke(main, ["replay", "--format", "json", str(inv), str(other)])
     (run_,) = json.loads(as_json.stdout)["runs"]
     assert run_["warnings"] == ["none of the invariants' topics is in this bag (/t): not read"]
-    assert run_["messages"] == 0
+    assert run_["messages"] == 0 and run_["unchecked"] == ["t"]
     html = runner.invoke(main, ["replay", "--format", "html", str(inv), str(other)])
     assert "none of the invariants&#39; topics is in this bag (/t): not read" in html.stdout
 
@@ -185,3 +185,45 @@ def test_replay_says_how_many_samples_each_point_checked(tmp_path: Path) -> None
     assert "point t checked no sample: a topic or parameter it pairs /t with never came" in (
         result.warnings
     )
+
+
+def test_a_point_that_checked_no_sample_has_its_own_exit_status(tmp_path: Path) -> None:
+    """replay and classify exit 5 when a point checked no sample and nothing worse happened;
+    violations (3) and alarms (1) come first (README, "Exit status")."""
+    both = [msg("/t", 1 + k / 10, FLOAT, "/a", data=1.0) for k in range(50)]
+    both += [msg("/u", 1 + k / 10 - 0.05, FLOAT, "/b", data=2.0) for k in range(50)]
+    write_bag(tmp_path / "train.bag", both)
+    (tmp_path / "p.xml").write_text(PAIRED)
+    runner = CliRunner()
+    learnt = runner.invoke(main, ["infer", str(tmp_path / "p.xml"), "-j", "1", "-q"])
+    assert learnt.exit_code == 0, learnt.output
+    inv = str(tmp_path / "p.inv")
+    alone = write_bag(tmp_path / "alone.bag", [m for m in both if m.topic == "/t"])
+    broken = [msg("/t", 1 + k / 10, FLOAT, "/a", data=9.0) for k in range(50)]
+    bad = write_bag(tmp_path / "bad.bag", broken + [m for m in both if m.topic == "/u"])
+    statuses = {
+        name: runner.invoke(main, ["replay", inv, *map(str, bags)]).exit_code
+        for name, bags in {
+            "clean": [tmp_path / "train.bag"],
+            "unchecked": [alone],
+            "unchecked and violated": [alone, bad],
+        }.items()
+    }
+    assert statuses["clean"] == 0 and statuses["unchecked"] == 5
+    assert statuses["unchecked and violated"] in (1, 3)
+    (tmp_path / "c.xml").write_text(
+        PAIRED.replace(
+            "</detect>",
+            '</detect>\n  <check inv="p.inv"><success>alone.bag</success>'
+            "<fail>bad.bag</fail></check>",
+        )
+    )
+    scored = runner.invoke(main, ["classify", str(tmp_path / "c.xml"), "-j", "1"])
+    assert scored.exit_code == 5, scored.output
+    assert "point t checked no sample" in scored.stderr
+    (tmp_path / "d.xml").write_text(
+        PAIRED.replace("</detect>", '</detect>\n  <check inv="p.inv"><bag>alone.bag</bag></check>')
+    )
+    compared = runner.invoke(main, ["classify", str(tmp_path / "d.xml"), "--format", "json"])
+    assert compared.exit_code == 5, compared.output
+    assert json.loads(compared.stdout)["unchecked"] == {str(alone): ["t"]}

@@ -147,16 +147,30 @@ def test_a_record_topic_of_another_type_is_reported_once(tmp_path: Path) -> None
     assert graph.publishers("/chatter") == ("/talker",)
 
 
-def test_a_truncated_bag_is_reported_and_the_others_used(tmp_path: Path) -> None:
+def test_a_bag_cut_before_its_first_message_is_reported_and_the_others_used(
+    tmp_path: Path,
+) -> None:
     good = write_ros1_bag(tmp_path / "good.bag", TALK)
     bad = write_ros1_bag(tmp_path / "bad.bag", [arch_message(1.0, FIRST)])
-    bad.write_bytes(bad.read_bytes()[:-40])
+    bad.write_bytes(bad.read_bytes()[:4200])
     result = read_bag_graphs([tmp_path])
     assert result.read == (good,)
     assert [(d.path, d.code) for d in result.diagnostics] == [(str(bad), "bag-error")]
-    assert result.diagnostics[0].message.startswith("cannot open bag")
+    assert result.diagnostics[0].message.startswith("cannot open bag: truncated at byte 4,200")
     assert result.graph.publishers("/chatter") == ("/talker", "/talker2")
     assert not result.graph.knows_subscriptions
+
+
+def test_a_bag_cut_in_its_index_is_read_with_a_warning(tmp_path: Path) -> None:
+    cut = write_ros1_bag(tmp_path / "cut.bag", [arch_message(1.0, FIRST)])
+    cut.write_bytes(cut.read_bytes()[:-40])
+    result = read_bag_graphs([tmp_path])
+    assert result.read == (cut,)
+    (warning,) = result.diagnostics
+    assert (warning.code, warning.severity.value) == ("bag-recovered", "warning")
+    assert warning.message.startswith("truncated at byte ")
+    assert "recovered 1 message of the first 0.000 s" in warning.message
+    assert result.graph.publishers("/chatter") == ("/talker",)
 
 
 def test_a_non_bag_file_and_a_missing_path_are_reported(tmp_path: Path) -> None:

@@ -1,0 +1,135 @@
+"""Bad bags in the catalogue of bad inputs (issue 18, item 5): ROS 1 bags cut short at
+several byte offsets or never indexed, read by every command that reads bags.
+
+A bag cut after some whole messages is read up to its last whole record, with one warning
+naming the bag, where it ends and how much was recovered; a bag cut before its first whole
+message, or a file that is not a bag, is one error line naming it. No traceback, and no
+file that was there before changes (the bag itself included).
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from imrosc.cli import main
+from tests.bad_input.test_catalogue import project, snapshot, template
+
+__all__ = ["project", "template"]
+
+RECOVERED = "recovered"
+
+
+def cut(bag: Path, fraction: float) -> int:
+    """Cut ``bag`` to ``fraction`` of its bytes (past its 4 KiB header); the new size."""
+    data = bag.read_bytes()
+    size = 4200 + int((len(data) - 4200) * fraction)
+    bag.write_bytes(data[:size])
+    return size
+
+
+def unindex(bag: Path) -> None:
+    """Drop the index, as a recording killed before ``rosbag record`` closed it leaves it:
+    ``index_pos`` 0 and nothing after the last chunk."""
+    data = bytearray(bag.read_bytes())
+    field = data.index(b"index_pos=") + len(b"index_pos=")
+    (index_pos,) = struct.unpack_from("<Q", data, field)
+    data[field : field + 8] = bytes(8)
+    bag.write_bytes(bytes(data[:index_pos]))
+
+
+COMMANDS: dict[str, tuple[tuple[str, ...], str, set[int]]] = {
+    # the command, the bag it reads that is damaged, the statuses it may give (a run cut
+    # short may break what the whole run kept: replay's 1 and 3)
+    "infer": (("infer", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r2.bag", {0}),
+    "replay": (("replay", "{d}/p.inv", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
+    "classify": (("classify", "{d}/p.xml", "-j", "1"), "bags/bad/f1.bag", {0}),
+    "stability": (("stability", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r1.bag", {0}),
+    "info": (("info", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
+    "export-daikon": (
+        ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon", "-q"),
+        "bags/train/r1.bag",
+        {0},
+    ),
+}
+
+
+def run(project: Path, args: tuple[str, ...]) -> tuple[int, str, str]:
+    result = CliRunner().invoke(main, [arg.replace("{d}", str(project)) for arg in args])
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.output
+    assert "Traceback" not in result.output
+    return result.exit_code, result.stdout, result.stderr
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.6, 0.95, 1.0])
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_a_bag_cut_short_is_read_up_to_its_last_whole_record(
+    command: str, fraction: float, project: Path
+) -> None:
+    args, damaged, statuses = COMMANDS[command]
+    bag = project / damaged
+    size = cut(bag, fraction) if fraction < 1 else len(bag.read_bytes()) - 40  # in the index
+    if fraction == 1:
+        bag.write_bytes(bag.read_bytes()[:size])
+    before = snapshot(project)
+    status, _, stderr = run(project, args)
+    assert status in statuses, (status, stderr)
+    lines = [line for line in stderr.splitlines() if RECOVERED in line]
+    assert len(lines) == 1, stderr
+    (line,) = lines
+    assert str(bag) in line and f"truncated at byte {size:,}; recovered " in line, line
+    assert re.search(r"messages? of the first \d+\.\d{3} s( \[bag-recovered\])?$", line), line
+    after = snapshot(project)
+    written = {"p.inv"} if command == "infer" else set()  # its own output, rewritten
+    assert {k: v for k, v in after.items() if k in before and k not in written} == {
+        k: v for k, v in before.items() if k not in written
+    }
+
+
+@pytest.mark.parametrize("command", ["infer", "replay", "info"])
+def test_a_bag_never_indexed_is_read_whole(command: str, project: Path) -> None:
+    args, damaged, statuses = COMMANDS[command]
+    unindex(project / damaged)
+    status, _, stderr = run(project, args)
+    assert status in statuses, (status, stderr)
+    (line,) = [line for line in stderr.splitlines() if RECOVERED in line]
+    assert "not indexed (the recording was interrupted); recovered 80 messages of the first " in (
+        line
+    )
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"", "the file is empty"),
+        (b"#ROSB", "truncated at byte 5, in its header"),
+        (bytes(range(256)) * 40, "not a ROS 1 bag: the file does not begin with #ROSBAG V2.0"),
+        (b"#ROSBAG V1.2\n" + bytes(300), "format 1.2 of ROS 1 bags is not supported (only 2.0)"),
+    ],
+    ids=["empty", "cut in its magic", "binary junk", "format 1.2"],
+)
+def test_a_file_that_is_not_a_bag_says_so_in_one_line(
+    content: bytes, message: str, project: Path
+) -> None:
+    bag = project / "bags" / "ok" / "s1.bag"
+    bag.write_bytes(content)
+    status, stdout, stderr = run(project, ("info", str(bag)))
+    assert status == 2 and stdout == ""
+    (line,) = stderr.splitlines()
+    assert line == f"imrosc info: {bag}:1:1: error: cannot open bag: {message} [bag-error]"
+    assert "\\x" not in line  # no bytes quoted
+
+
+def test_a_bag_cut_before_its_first_message_is_an_error(project: Path) -> None:
+    bag = project / "bags" / "train" / "r2.bag"
+    bag.write_bytes(bag.read_bytes()[:4200])
+    status, stdout, stderr = run(project, ("infer", str(project / "p.xml"), "-j", "1", "-q"))
+    assert status == 1  # a bag that cannot be read among good ones
+    assert f"{bag}:1:1: error: cannot open bag: truncated at byte 4,200, before its first " in (
+        stderr
+    )
+    assert "skipped 1 bag" in stdout

@@ -1,0 +1,101 @@
+"""Progress on every command that reads bags (issue 18, item 7): drawn on stderr only when it
+is a terminal, never with ``-q``; ``-q`` is accepted everywhere."""
+
+from __future__ import annotations
+
+import os
+import pty
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from imrosc.cli import main
+from imrosc.progress import BagProgress, wanted
+from tests.bad_input.test_catalogue import project, template
+
+__all__ = ["project", "template"]
+
+ROOT = Path(__file__).resolve().parent.parent
+BAGS = ("{d}/bags/train/r1.bag", "{d}/bags/ok/s1.bag", "{d}/bags/bad/f1.bag")
+COMMANDS: dict[str, tuple[str, ...]] = {
+    "infer": ("infer", "{d}/p.xml", "-j", "1"),
+    "replay": ("replay", "{d}/p.inv", *BAGS),
+    "classify": ("classify", "{d}/p.xml", "-j", "1"),
+    "stability": ("stability", "{d}/p.xml", "-j", "1"),
+    "info": ("info", *BAGS),
+    "export-daikon": ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon"),
+    "graph": ("graph", *BAGS),
+}
+LABELS = ("inferring", "replaying", "classifying", "cross-validating", "reading", "exporting")
+
+
+def args_of(command: str, folder: Path) -> list[str]:
+    return [arg.replace("{d}", str(folder)) for arg in COMMANDS[command]]
+
+
+@pytest.mark.parametrize("quiet", [True, False], ids=["-q", "no -q"])
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_no_progress_when_stderr_is_not_a_terminal(
+    command: str, quiet: bool, project: Path
+) -> None:
+    args = args_of(command, project) + (["-q"] if quiet else [])
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code in (0, 1, 3, 5), result.output  # -q is an option of each
+    assert "Traceback" not in result.output
+    assert not any(label in result.stderr for label in LABELS), result.stderr
+
+
+def on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
+    """Run ``imrosc ARGS`` with stderr on a pseudo-terminal; its status and stderr."""
+    master, slave = pty.openpty()
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "imrosc", *args],
+        stdout=subprocess.DEVNULL,
+        stderr=slave,
+        cwd=cwd,
+        env=env,
+    )
+    os.close(slave)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # the other end closed
+            break
+        if not chunk:
+            break
+        seen += chunk
+    os.close(master)
+    return process.wait(timeout=120), seen.decode(errors="replace")
+
+
+@pytest.mark.parametrize("command", ["replay", "info"])
+def test_progress_on_a_terminal_and_not_with_q(command: str, project: Path) -> None:
+    status, drawn = on_a_terminal(args_of(command, project), project)
+    assert status in (0, 1), drawn  # f1.bag is a failed run: replay may alarm
+    label = "replaying" if command == "replay" else "reading"
+    assert f"{label}: 240 messages (" in drawn and "3/3" in drawn, drawn
+    status, quiet = on_a_terminal([*args_of(command, project), "-q"], project)
+    assert status in (0, 1) and label not in quiet, quiet
+
+
+def test_a_bar_counts_bags_and_messages() -> None:
+    bar = BagProgress(2, "reading", enabled=False)
+    bar(Path("a.bag"), 10)
+    bar(Path("b.bag"), 5)
+    bar.close()
+    assert bar.messages == 15 and bar.bar is None
+
+
+def test_progress_is_wanted_only_on_a_terminal_without_q() -> None:
+    class Terminal:
+        def isatty(self) -> bool:
+            return True
+
+    assert wanted(False, Terminal())  # type: ignore[arg-type]
+    assert not wanted(True, Terminal())  # type: ignore[arg-type]
+    assert not wanted(False, open(os.devnull, "w"))  # noqa: SIM115
