@@ -22,12 +22,21 @@ from click.testing import CliRunner
 from imrosc.cli import main
 from imrosc.detect import run_detect
 from imrosc.invariants import dumps
-from tests.live.harness import HERE, Listener, Ros, live_config, record_nominal, wait_until
+from tests.live.harness import (
+    HERE,
+    Listener,
+    Proc,
+    Ros,
+    live_config,
+    record_nominal,
+    wait_until,
+)
 
 pytestmark = pytest.mark.live
 
 GRAPH = HERE / "landing_live.graph.yaml"
 BROKEN, POSE, RELAY = "/m/broken_inv", "/a/car_pose", "/m/a/cmd_subject_ctrl_state"
+STATE = "/a/subject_ctrl_state"
 CONDITION = """    <publish id="v" conds="1">/a/car_pose</publish>
     <condition id="1">
       <topic>/a/subject_ctrl_state</topic>
@@ -81,23 +90,34 @@ def reports(watch: Listener, since: float) -> list[dict[str, Any]]:
 
 
 def test_a_topic_operand_condition_is_checked_live(ros: Ros, built: Built) -> None:
-    watch = ros.listen(BROKEN)
+    watch = ros.listen(BROKEN, STATE)
     system = ros.start_system(built.package / "launch" / "system_monitored.launch")
-    ros.wait_subscriber(POSE, built.monitor, 30, (system,))
-    start = time.time()
-    for _ in range(2):  # the monitor checks the conditional point, and goes on checking it
-        since = time.time()
-        ros.inject("/a/car", "out_of_range:1")
+    try:
+        ros.wait_subscriber(POSE, built.monitor, 30, (system,))
+        start = time.time()
+        # the bad pose must come while the state is 3 (the condition), which it is once the
+        # controller's command has gone through the monitor's relay to the state machine
         wait_until(
-            lambda since=since: [r for r in reports(watch, since) if r["point"] == "v?1"],  # type: ignore[misc]
-            "a violation of the conditional point v?1",
-            15,
+            lambda: [m for m in watch.messages(STATE) if m["msg"]["data"] == 3],
+            "the state machine in state 3",
+            30,
             (system, watch.proc),
         )
-        time.sleep(2.0)
-    assert not [r for r in reports(watch, start) if r["kind"] == "failure"]
-    assert built.monitor in ros.subscribers(POSE)
-    ros.stop(system, watch.proc)
+        time.sleep(0.5)  # the monitor hears that state too
+        for _ in range(2):  # the monitor checks the conditional point, and goes on checking it
+            since = time.time()
+            ros.inject("/a/car", "out_of_range:1")
+            wait_until(
+                lambda since=since: [r for r in reports(watch, since) if r["point"] == "v?1"],  # type: ignore[misc]
+                "a violation of the conditional point v?1",
+                15,
+                (system, watch.proc),
+            )
+            time.sleep(2.0)
+        assert not [r for r in reports(watch, start) if r["kind"] == "failure"]
+        assert built.monitor in ros.subscribers(POSE)
+    finally:
+        ros.stop(system, watch.proc)
 
 
 def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
@@ -118,11 +138,14 @@ def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
     )
     assert broken != source
     runtime.write_text(broken, encoding="utf-8")
+    started: list[Proc] = []
     try:
         watch = ros.listen(BROKEN)
+        started.append(watch.proc)
         since = time.time()
         launch = built.package / "launch" / "system_monitored.launch"
         system = ros.start_system(launch, imrosc_fail_open="true")
+        started.append(system)
         ros.wait_subscriber(POSE, built.monitor, 30, (system,))
         wait_until(
             lambda: built.monitor in ros.publishers(BROKEN) and ros.subscribers(BROKEN),
@@ -153,7 +176,7 @@ def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
             15,
             (system,),
         )
-        ros.stop(system, watch.proc)
     finally:
+        ros.stop(*started)
         runtime.write_text(source, encoding="utf-8")
         trigger.unlink(missing_ok=True)
