@@ -60,6 +60,26 @@ _PROBE = (
 )
 
 
+def run_until(
+    stop: threading.Event,
+    duration: float | None,
+    started: float,
+    pump: Callable[[], None],
+    check: Callable[[], None],
+) -> None:
+    """A recording's loop, on either middleware: ``pump`` what its children said and
+    ``check`` they still run, ten times a second, until ``stop`` is set or ``duration``
+    seconds have passed since ``started`` (monotonic)."""
+    end = None if duration is None else started + duration
+    while not stop.is_set():
+        pump()
+        check()
+        now = time.monotonic()
+        if end is not None and now >= end:
+            return
+        stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
+
+
 class RecordError(Exception):
     """Recording cannot start or did not end well; the message is one line."""
 
@@ -364,14 +384,7 @@ class Recording:
 
     def run(self, stop: threading.Event, duration: float | None) -> None:
         """Record until ``stop`` is set or ``duration`` seconds have passed."""
-        end = None if duration is None else self.started + duration
-        while not stop.is_set():
-            self.pump()
-            self._check_children()
-            now = time.monotonic()
-            if end is not None and now >= end:
-                return
-            stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
+        run_until(stop, duration, self.started, self.pump, self._check_children)
 
     # -- stop -----------------------------------------------------------------------------
 

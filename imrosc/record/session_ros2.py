@@ -45,7 +45,7 @@ from rosbags.rosbag2 import WriterError
 from imrosc.record.mcap import BagSink, SinkError
 from imrosc.record.ros2 import wire
 from imrosc.record.scope import Scope
-from imrosc.record.session import STOP_GRACE, Outcome, RecordError, _Child
+from imrosc.record.session import STOP_GRACE, Outcome, RecordError, _Child, run_until
 
 __all__ = [
     "PYTHON_VARIABLE",
@@ -369,14 +369,7 @@ class TapRecording:
 
     def run(self, stop: threading.Event, duration: float | None) -> None:
         """Record until ``stop`` is set or ``duration`` seconds have passed."""
-        end = None if duration is None else self.started + duration
-        while not stop.is_set():
-            self.pump()
-            self._check_children()
-            now = time.monotonic()
-            if end is not None and now >= end:
-                return
-            stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
+        run_until(stop, duration, self.started, self.pump, self._check_children)
 
     # -- stop -----------------------------------------------------------------------------
 

@@ -202,19 +202,7 @@ class Recorder:
             topic = logic.event_topic(service)
             self.servers[service] = list(view.services.get(service, ()))
             self.event_publishers[service] = list(view.topics.get(topic, ((), ()))[0])
-            try:
-                writers = self.node.get_publishers_info_by_topic(
-                    logic.request_topic(service), no_mangle=True
-                )
-                self.writers[service] = [
-                    (
-                        logic.gid_bytes(getattr(info, "endpoint_gid", b"")),
-                        graph.node_name(info.node_namespace, info.node_name),
-                    )
-                    for info in writers
-                ]
-            except Exception:
-                self.writers[service] = []
+            self.read_writers(service)
             if service in self.events:
                 continue
             kinds = [k for k in view.types.get(topic, ()) if logic.event_service(k)]
@@ -252,15 +240,55 @@ class Recorder:
 
         return on_event
 
-    def flush(self, calls: List[logic.Call]) -> None:
-        """Publish paired calls."""
-        for call in calls:
+    def read_writers(self, service: str) -> None:
+        """Note who writes the requests of ``service`` (the graph as this node knows it now)."""
+        try:
+            writers = self.node.get_publishers_info_by_topic(
+                logic.request_topic(service), no_mangle=True
+            )
+            self.writers[service] = [
+                (
+                    logic.gid_bytes(getattr(info, "endpoint_gid", b"")),
+                    graph.node_name(info.node_namespace, info.node_name),
+                )
+                for info in writers
+            ]
+        except Exception:
+            self.writers[service] = []
+
+    def read_event_publishers(self, service: str) -> None:
+        """Note who publishes the events of ``service`` (the graph as this node knows it)."""
+        try:
+            found = self.node.get_publishers_info_by_topic(
+                logic.event_topic(service), no_mangle=True
+            )
+            self.event_publishers[service] = sorted(
+                {graph.node_name(info.node_namespace, info.node_name) for info in found}
+            )
+        except Exception:
+            pass
+
+    def client_of(self, call: logic.Call) -> str:
+        """The node that made ``call``; when the graph of the last poll does not know its
+        request writer yet (a client newer than the poll), the graph is read again."""
+        for attempt in range(2):
+            if attempt:
+                self.read_writers(call.service)
+                self.read_event_publishers(call.service)
             client = logic.client_node(
                 call.client_gid,
                 self.writers.get(call.service, []),
                 self.event_publishers.get(call.service, []),
                 self.servers.get(call.service, []),
             )
+            if client != logic.UNKNOWN_NODE:
+                break
+        return client
+
+    def flush(self, calls: List[logic.Call]) -> None:
+        """Publish paired calls."""
+        for call in calls:
+            client = self.client_of(call)
             server = logic.server_node(self.servers.get(call.service, []))
             self.publish(logic.SRVS_TOPIC, logic.call_record(call, client, server))
             self.counts[call.service] = self.counts.get(call.service, 0) + 1
