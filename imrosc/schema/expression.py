@@ -29,13 +29,10 @@ operands) and the alternative spellings ``&&``, ``||`` and ``!`` become ``and``,
 from __future__ import annotations
 
 import math
-import numbers
-import operator
 import re
 import string
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 from imrosc.schema.names import BAD_NAME, check_graph_name
 
@@ -54,9 +51,7 @@ __all__ = [
     "String",
     "Topic",
     "Unary",
-    "evaluate",
     "fields",
-    "from_json",
     "parse_expression",
     "to_json",
     "to_text",
@@ -564,68 +559,6 @@ def to_json(expr: Expr) -> dict[str, object]:
     return {"op": expr.op, "args": [to_json(operand) for operand in expr.operands]}
 
 
-def from_json(data: object) -> Expr:
-    """Rebuild an expression from :func:`to_json`'s form; raise :class:`ExpressionError`."""
-    return _from_json(data, 0)
-
-
-def _from_json(data: object, depth: int) -> Expr:
-    if depth >= MAX_HEIGHT:
-        raise ExpressionError(f"expression is nested deeper than {MAX_HEIGHT} levels")
-    if not isinstance(data, dict) or len(data) not in (1, 2):
-        raise ExpressionError("an expression node must be an object with one or two keys")
-    keys = set(data)
-    if keys == {"value"}:
-        value = data["value"]
-        if isinstance(value, bool):
-            return Bool(value)
-        if isinstance(value, (int, float)):
-            return Number(value)
-        if isinstance(value, str):
-            return String(value)
-        raise ExpressionError("a literal must be a number, a string or a boolean")
-    if keys == {"field"}:
-        return _field_from_json(data["field"])
-    if keys == {"topic"}:
-        name = data["topic"]
-        if not isinstance(name, str) or not name.startswith("/"):
-            raise ExpressionError("a topic must be a global name starting with '/'")
-        if any(problem.code == BAD_NAME for problem in check_graph_name(name, "topic")):
-            raise ExpressionError(f"{name!r} is not a valid topic name")
-        return Topic(name)
-    if keys != {"op", "args"}:
-        raise ExpressionError(f"unknown expression node with keys {sorted(map(str, keys))}")
-    op, args = data["op"], data["args"]
-    if not isinstance(op, str):
-        raise ExpressionError("'op' must be a string")
-    if not isinstance(args, list):
-        raise ExpressionError("'args' must be a list")
-    operands = [_from_json(arg, depth + 1) for arg in args]
-    if op in UNARY_OPS and len(operands) == 1:
-        return Unary(op, operands[0])
-    if (op in ARITHMETIC_OPS or op in COMPARISON_OPS) and len(operands) == 2:
-        return Binary(op, operands[0], operands[1])
-    if op in LOGICAL_OPS and len(operands) >= 2:
-        return Logical(op, tuple(operands))
-    raise ExpressionError(f"operator {op!r} does not take {len(operands)} arguments")
-
-
-def _field_from_json(path: object) -> Field:
-    if not isinstance(path, list) or not path:
-        raise ExpressionError("a field path must be a non-empty list")
-    segments: list[str | int] = []
-    for position, segment in enumerate(path):
-        if isinstance(segment, str) and _IDENT.fullmatch(segment) and segment not in _KEYWORDS:
-            segments.append(segment)
-        elif isinstance(segment, int) and not isinstance(segment, bool) and segment >= 0:
-            if position == 0:
-                raise ExpressionError("a field path must start with a name")
-            segments.append(segment)
-        else:
-            raise ExpressionError(f"invalid field path segment {segment!r}")
-    return Field(tuple(segments))
-
-
 _OR, _AND, _NOT, _COMPARE, _ADD, _MULTIPLY, _NEGATE, _ATOM = range(1, 9)
 _BINARY_PRECEDENCE = {
     **dict.fromkeys(COMPARISON_OPS, _COMPARE),
@@ -732,113 +665,3 @@ def to_text(expr: Expr) -> str:
         return to_text(expr.operands[0])
     level = _OR if expr.op == "or" else _AND
     return f" {expr.op} ".join(_wrapped(operand, level + 1) for operand in expr.operands)
-
-
-# --------------------------------------------------------------------------------------------
-# Evaluation
-
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, numbers.Real)
-
-
-_ARITHMETIC: dict[str, Callable[[Any, Any], object]] = {
-    "+": operator.add,
-    "-": operator.sub,
-    "*": operator.mul,
-    "/": operator.truediv,
-    "%": operator.mod,
-}
-_NEGATE_VALUE: Callable[[Any], object] = operator.neg
-_COMPARISON: dict[str, Callable[[Any, Any], object]] = {
-    "==": operator.eq,
-    "!=": operator.ne,
-    "<": operator.lt,
-    "<=": operator.le,
-    ">": operator.gt,
-    ">=": operator.ge,
-}
-
-
-def _type_name(value: object) -> str:
-    """The value's type with an article: 'an int', 'a str'."""
-    name = type(value).__name__
-    return f"an {name}" if name[:1].lower() in "aeiou" else f"a {name}"
-
-
-def _truth(value: object) -> bool:
-    try:
-        return bool(value)
-    except (TypeError, ValueError) as error:
-        raise ExpressionError(f"{_type_name(value)} has no truth value") from error
-
-
-def evaluate(
-    expr: Expr,
-    lookup: Callable[[tuple[str | int, ...]], object],
-    topic: Callable[[str], object] | None = None,
-) -> object:
-    """Evaluate an expression with Python's semantics.
-
-    ``lookup`` gives the value of a field path and ``topic`` the value of a topic operand (an
-    expression that names a topic needs it). ``and``/``or`` short-circuit and give the
-    deciding operand, as in Python. Arithmetic takes numbers (and ``+`` also two strings);
-    a type error, a division by zero or an overflow raises :class:`ExpressionError`.
-    Exceptions raised by ``lookup`` and ``topic`` themselves pass through unchanged.
-
-    This is not how conditions are checked: inference and the monitor share the semantics of
-    ``imrosc.runtime.conditions`` (every operand evaluated, integers as floats, a condition
-    that cannot be evaluated does not hold; docs/config.md).
-    """
-    if isinstance(expr, (Number, String, Bool)):
-        return expr.value
-    if isinstance(expr, Field):
-        return lookup(expr.path)
-    if isinstance(expr, Topic):
-        if topic is None:
-            raise ExpressionError(f"topic {expr.name} cannot be evaluated here")
-        return topic(expr.name)
-    if isinstance(expr, Unary):
-        value = evaluate(expr.operand, lookup, topic)
-        if expr.op == "not":
-            return not _truth(value)
-        if expr.op != "-" or not _is_number(value):
-            raise ExpressionError(f"cannot apply '{expr.op}' to {_type_name(value)}")
-        try:
-            return _NEGATE_VALUE(value)
-        except (TypeError, ValueError, ArithmeticError) as error:
-            raise ExpressionError(f"cannot negate {_type_name(value)}") from error
-    if isinstance(expr, Logical):
-        if expr.op not in LOGICAL_OPS:
-            raise ExpressionError(f"unknown operator '{expr.op}'")
-        result: object = None
-        for operand in expr.operands:
-            result = evaluate(operand, lookup, topic)
-            if _truth(result) == (expr.op == "or"):
-                return result
-        return result
-    left = evaluate(expr.left, lookup, topic)
-    right = evaluate(expr.right, lookup, topic)
-    return _binary(expr.op, left, right)
-
-
-def _binary(op: str, left: object, right: object) -> object:
-    function = _ARITHMETIC.get(op)
-    if function is not None:
-        both_strings = op == "+" and isinstance(left, str) and isinstance(right, str)
-        if not both_strings and not (_is_number(left) and _is_number(right)):
-            raise ExpressionError(
-                f"cannot apply '{op}' to {_type_name(left)} and {_type_name(right)}"
-            )
-    else:
-        function = _COMPARISON.get(op)
-        if function is None:
-            raise ExpressionError(f"unknown operator '{op}'")
-    try:
-        return function(left, right)
-    except ZeroDivisionError as error:
-        raise ExpressionError("division by zero") from error
-    except (TypeError, ValueError, ArithmeticError) as error:
-        raise ExpressionError(
-            f"cannot apply '{op}' to {_type_name(left)} and {_type_name(right)}"
-        ) from error

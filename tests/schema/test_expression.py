@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import string
 
@@ -23,9 +22,7 @@ from imrosc.schema.expression import (
     String,
     Topic,
     Unary,
-    evaluate,
     fields,
-    from_json,
     parse_expression,
     to_json,
     to_text,
@@ -34,10 +31,6 @@ from imrosc.schema.expression import (
 
 def f(*path: str | int) -> Field:
     return Field(path)
-
-
-def no_fields(path: tuple[str | int, ...]) -> object:
-    raise KeyError(path)
 
 
 @pytest.mark.parametrize(
@@ -217,114 +210,6 @@ def test_to_json_shapes() -> None:
     }
 
 
-@pytest.mark.parametrize(
-    "data",
-    [
-        None,
-        [],
-        "x",
-        {},
-        {"value": None},
-        {"value": [1]},
-        {"value": 1, "extra": 2},
-        {"field": []},
-        {"field": "a"},
-        {"field": [0]},
-        {"field": ["a", -1]},
-        {"field": ["a", True]},
-        {"field": ["a b"]},
-        {"field": ["and"]},
-        {"topic": "a"},
-        {"topic": "/a//b"},
-        {"topic": 3},
-        {"op": "+", "args": [{"value": 1}]},
-        {"op": "not", "args": [{"value": 1}, {"value": 2}]},
-        {"op": "and", "args": [{"value": 1}]},
-        {"op": "**", "args": [{"value": 1}, {"value": 2}]},
-        {"op": "+", "args": "ab"},
-        {"op": "+"},
-        {"op": ["+"], "args": [{"value": 1}, {"value": 2}]},
-        {"unknown": 1},
-    ],
-)
-def test_from_json_rejects_malformed_data(data: object) -> None:
-    with pytest.raises(ExpressionError):
-        from_json(data)
-
-
-def test_from_json_limits_depth() -> None:
-    data: dict[str, object] = {"value": 1}
-    for _ in range(10000):
-        data = {"op": "-", "args": [data]}
-    with pytest.raises(ExpressionError):
-        from_json(data)
-
-
-def test_evaluate_the_thesis_condition() -> None:
-    tree = parse_expression("pump_control==1")
-    message: dict[tuple[str | int, ...], object] = {("pump_control",): 1}
-    assert evaluate(tree, message.__getitem__) is True
-    assert evaluate(tree, lambda path: 0) is False
-
-
-def test_evaluate_python_semantics() -> None:
-    values: dict[tuple[str | int, ...], object] = {
-        ("pose", "x"): 2.0,
-        ("ranges", 0): 5,
-        ("name",): "uav",
-        ("armed",): False,
-    }
-    look = values.__getitem__
-    assert evaluate(parse_expression("pose.x * 2 + ranges[0] % 3"), look) == 6.0
-    assert evaluate(parse_expression("7 / 2"), look) == 3.5
-    assert evaluate(parse_expression("-7 % 3"), look) == 2
-    assert evaluate(parse_expression("name == 'uav' and not armed"), look) is True
-    assert evaluate(parse_expression("name + '1'"), look) == "uav1"
-    assert evaluate(parse_expression("0 or '' or 3 and 4"), look) == 4
-    assert evaluate(parse_expression("armed and missing"), look) is False  # short-circuit
-    assert evaluate(parse_expression("1 == '1'"), look) is False
-    assert evaluate(parse_expression("-true"), look) == -1
-    assert evaluate(parse_expression("/a/b > 2"), look, {"/a/b": 3}.__getitem__) is True
-
-
-@pytest.mark.parametrize(
-    ("text", "message"),
-    [
-        ("1 / 0", "division by zero"),
-        ("1 % 0", "division by zero"),
-        ("1.5 / 0", "division by zero"),
-        ("'a' < 1", "cannot apply '<' to a str and an int"),
-        ("'a' * 3", "cannot apply '*' to a str and an int"),
-        ("'a' - 'b'", "cannot apply '-'"),
-        ("-'a'", "cannot apply '-' to a str"),
-        ("/a/b == 1", "topic /a/b cannot be evaluated here"),
-    ],
-)
-def test_evaluate_errors(text: str, message: str) -> None:
-    with pytest.raises(ExpressionError) as caught:
-        evaluate(parse_expression(text), no_fields)
-    assert caught.value.message.startswith(message)
-
-
-def test_evaluate_overflow_and_truthiness_errors() -> None:
-    big = 10**400
-    with pytest.raises(ExpressionError):
-        evaluate(parse_expression("a / 3"), lambda path: big)
-
-    class NoTruth:
-        def __bool__(self) -> bool:
-            raise ValueError("ambiguous")
-
-    with pytest.raises(ExpressionError) as caught:
-        evaluate(parse_expression("a and true"), lambda path: NoTruth())
-    assert "truth value" in caught.value.message
-
-
-def test_evaluate_lets_lookup_errors_through() -> None:
-    with pytest.raises(KeyError):
-        evaluate(parse_expression("missing"), no_fields)
-
-
 # -- properties --------------------------------------------------------------------------------
 
 _KEYWORDS = {"and", "or", "not", "true", "false", "True", "False"}
@@ -389,7 +274,6 @@ def test_parse_never_raises_anything_else(text: str) -> None:
         assert error.message
     else:
         assert parse_expression(to_text(tree)) == tree
-        assert from_json(to_json(tree)) == tree
 
 
 @settings(deadline=None)
@@ -398,24 +282,6 @@ def test_generated_expressions_round_trip_through_text(tree: Expr) -> None:
     text = to_text(tree)
     assert parse_expression(text) == tree
     assert to_text(parse_expression(text)) == text
-
-
-@settings(deadline=None)
-@given(expressions)
-def test_generated_expressions_round_trip_through_json(tree: Expr) -> None:
-    data = json.loads(json.dumps(to_json(tree)))
-    rebuilt = from_json(data)
-    assert rebuilt == tree
-    assert to_json(rebuilt) == to_json(tree)
-
-
-@settings(deadline=None)
-@given(expressions, st.one_of(st.integers(-3, 3), st.floats(), st.text(max_size=2)))
-def test_evaluate_raises_only_expression_errors(tree: Expr, value: object) -> None:
-    try:
-        evaluate(tree, lambda path: value, lambda name: value)
-    except ExpressionError as error:
-        assert error.message
 
 
 def test_identifier_alphabet_is_ascii() -> None:
