@@ -1,6 +1,14 @@
-"""What the generated ROS 1 monitor adds to the latency of a relayed topic, on live ROS 1.
+"""What the generated monitor adds to the latency of a relayed topic, on live ROS 1 and ROS 2.
 
     python bench/monitor_latency.py [--rates 100,1000] [--seconds 5] [--invariants 1000]
+                                    [--rounds N] [--middleware ros1,ros2]
+
+Two tables, one per middleware (``--middleware`` chooses; both by default), each with the
+ratio of the monitor to a bare relay of that middleware. ROS 2 is described in
+``bench/latency_ros2.py``: the same paths with rclpy nodes on ROS 2 Jazzy (the virtualenv of
+``tools/ros2_venv.sh``, or ``IMROSC_ROS2_PYTHON``), the monitor package built with colcon, the
+message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants. What
+follows describes ROS 1.
 
 Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free port of
 127.0.0.1 (the live tests' harness, ``tests/live/harness.py``), rospy nodes under
