@@ -19,8 +19,10 @@ variables read from ``position[0]`` .. ``position[55]``.
 
 Every endpoint is reliable, volatile, keep-last 100 (the monitor's relay takes its source's
 QoS, depth 100). The source is started first and waits for a go file; the harness writes it
-once the sink matched a publisher (a matched event: a compatible QoS) and the monitor's polls
-(every second, as in the ROS 1 bench) had time to settle its QoS on the source's. Latency =
+once the sink matched a publisher (a matched event: a compatible QoS), a bare relay's
+writer matched the sink, and the monitor's polls (every second, as in the ROS 1 bench) had
+time to settle its QoS on the source's; the source then waits for its writer's side of the
+match. Each run has a DDS domain of its own. Latency =
 receipt (the sink's ``time.time()``) - ``header.stamp`` (the source's ``time.time()`` right
 before ``publish``).
 """
@@ -57,7 +59,7 @@ CONFIG = f"""<imROS project="{PROJECT}">
 """
 
 COMMON = r"""
-import json, os, signal, sys, time
+import json, os, signal, sys, threading, time
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -96,6 +98,10 @@ rows = np.load(args["rows"]).tolist()
 say("source up")
 while not os.path.exists(args["go"]):
     time.sleep(0.01)
+# the writer's side of the match (the readers may have matched it long before: DDS
+# discovery is asymmetric, and a volatile writer drops what it publishes before)
+while publisher.get_subscription_count() < 1:
+    time.sleep(0.01)
 message = JointState()
 period = 1.0 / args["rate"]
 start = time.monotonic()
@@ -127,6 +133,15 @@ raw = args["raw"]
 publisher = node.create_publisher(JointState, args["output"], QOS)
 node.create_subscription(JointState, args["input"], publisher.publish, QOS, raw=raw)
 say("relay up")
+
+
+def matched():
+    while publisher.get_subscription_count() < 1:
+        time.sleep(0.01)
+    say("relay matched")
+
+
+threading.Thread(target=matched, daemon=True).start()
 if os.environ.get("IMROSC_BENCH_RELAY_EXECUTOR") == "multi":  # as the monitor spins
     from rclpy.executors import MultiThreadedExecutor
 
@@ -203,6 +218,7 @@ class Ros2Bench:
         self.python = python
         self.bin = Path(python).parent
         self.rows = rows
+        self.runs = 0
         self.profile: Path | None = None
         """A folder: the monitor runs under cProfile, its statistics written there."""
         self.scripts: dict[str, Path] = {}
@@ -219,6 +235,7 @@ class Ros2Bench:
             PYTHONPATH=os.pathsep.join(site),
             OPENBLAS_NUM_THREADS="1",
         )
+        self.run_env = self.env
 
     def build_monitor(self, document: dict[str, Any]) -> Path:
         """``imrosc build --backend ros2``, then ``colcon build``; the package's prefix."""
@@ -253,7 +270,7 @@ class Ros2Bench:
 
     def node(self, name: str, **args: Any) -> Reader:
         command = [self.python, str(self.scripts[name]), json.dumps(args)]
-        return Reader(command, self.env)
+        return Reader(command, self.run_env)
 
     def measure(self, path: str, rate: float, seconds: float, warmup: float) -> dict[str, Any]:
         """One run of ``path`` at ``rate``: messages sent and received, latencies (ms) after
@@ -263,6 +280,11 @@ class Ros2Bench:
         out = self.folder / f"sink-{tag}.json"
         sent_file = self.folder / f"sent-{tag}"
         started: list[Reader] = []
+        # a DDS domain of its own: the endpoints of the previous run, which the others may
+        # still count until their lease ends, cost this run messages (a third of them)
+        self.runs += 1
+        domain = (int(self.env["ROS_DOMAIN_ID"]) + self.runs) % 200 + 1
+        self.run_env = {**self.env, "ROS_DOMAIN_ID": str(domain)}
         try:
             source = self.node(
                 "source",
@@ -287,13 +309,15 @@ class Ros2Bench:
                 if self.profile is not None:  # under cProfile, one file per run
                     stats = self.profile / f"monitor-{tag}.prof"
                     command = [self.python, "-m", "cProfile", "-o", str(stats), str(script)]
-                monitor = Reader(command, self.env)
+                monitor = Reader(command, self.run_env)
                 started.append(monitor)
                 monitor.wait_for(f"imrosc monitor /{MONITOR}: checking", 120)
                 sink_topic = "/m" + TOPIC
             sink = self.node("sink", topic=sink_topic, out=str(out))
             started.append(sink)
             sink.wait_for("sink matched 1", 60)  # a publisher of a compatible QoS
+            if path in ("plain relay", "raw relay"):
+                started[1].wait_for("relay matched", 60)  # and the relay's side of it
             time.sleep(2.5)  # the monitor's polls (its period: 1 s) settled its QoS
             if sink.lines[-1] != "sink matched 1":  # its relay was made anew: match again
                 _wait(lambda: sink.lines[-1] == "sink matched 1", 30)
