@@ -1,6 +1,14 @@
-"""What the generated ROS 1 monitor adds to the latency of a relayed topic, on live ROS 1.
+"""What the generated monitor adds to the latency of a relayed topic, on live ROS 1 and ROS 2.
 
     python bench/monitor_latency.py [--rates 100,1000] [--seconds 5] [--invariants 1000]
+                                    [--rounds N] [--middleware ros1,ros2]
+
+Two tables, one per middleware (``--middleware`` chooses; both by default), each with the
+ratio of the monitor to a bare relay of that middleware. ROS 2 is described in
+``bench/latency_ros2.py``: the same paths with rclpy nodes on ROS 2 Jazzy (the virtualenv of
+``tools/ros2_venv.sh``, or ``IMROSC_ROS2_PYTHON``), the monitor package built with colcon, the
+message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants. What
+follows describes ROS 1.
 
 Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free port of
 127.0.0.1 (the live tests' harness, ``tests/live/harness.py``), rospy nodes under
@@ -46,6 +54,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -74,6 +83,7 @@ PACKAGE = "imrosc_bench"
 MSGTYPE = f"{PACKAGE}/Wide"
 PROJECT = "bench_latency"
 MONITOR = f"{PROJECT}_monitor"
+PATHS = ("direct", "plain relay", "raw relay", "monitor")
 COLUMNS = 56
 WARMUP = 0.5
 HEADER_MSG = "uint32 seq\ntime stamp\nstring frame_id\n"  # std_msgs/Header, for genpy
@@ -206,50 +216,51 @@ def measure(
     return {"received": len(record["latency"]), "sent": sent, "latencies": kept}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rates", default="100,1000", help="Hz, comma-separated")
-    parser.add_argument("--seconds", type=float, default=5.0, help="per run, after warm-up")
-    parser.add_argument("--invariants", type=int, default=1000)
-    parser.add_argument("--rounds", type=int, default=1, help="runs of each path, interleaved")
-    args = parser.parse_args()
-    missing = ros_missing()
-    if missing:
-        sys.exit(f"no ROS 1 here: {missing}")
-    rates = [float(r) for r in args.rates.split(",")]
-    paths = ("direct", "plain relay", "raw relay", "monitor")
-    results = {
+Results = dict[tuple[float, str], dict[str, Any]]
+Measure = Callable[[str, float], dict[str, Any]]
+
+
+def run_rounds(rates: list[float], rounds: int, measure_one: Measure) -> Results:
+    """Every path at every rate, ``rounds`` times, interleaved (every other round in the
+    reverse order, so that no path always runs last)."""
+    results: Results = {
         (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": []}
         for rate in rates
-        for path in paths
+        for path in PATHS
     }
+    for round_ in range(rounds):
+        for rate in rates:
+            for path in PATHS if round_ % 2 == 0 else PATHS[::-1]:
+                run = measure_one(path, rate)
+                total = results[(rate, path)]
+                total["received"] += run["received"]
+                total["sent"] += run["sent"]
+                total["latencies"] += run["latencies"]
+                total["rounds"].append(
+                    float(np.median(run["latencies"])) if run["latencies"] else math.nan
+                )
+    return results
+
+
+def bench_ros1(args: argparse.Namespace, folder: Path, document: dict[str, Any]) -> None:
+    """The ROS 1 table."""
+    rates = [float(r) for r in args.rates.split(",")]
     load = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory(prefix="imrosc-latency-") as tmp:
-        folder = Path(tmp)
-        document, rows = invariants(args.invariants)
-        np.save(folder / "rows.npy", rows)
-        python = generate_type(folder)
-        build = build_monitor(folder, document)
-        ros = Ros(folder / "ros")
-        ros.env["PYTHONPATH"] = str(python)  # the message package, for every node
-        ros.add_package_path(build)
-        launch = build / MONITOR / "launch" / f"{MONITOR}.launch"
-        try:
-            ros.start()
-            for round_ in range(args.rounds):
-                for rate in rates:
-                    # every other round in the reverse order: no path always runs last
-                    for path in paths if round_ % 2 == 0 else paths[::-1]:
-                        run = measure(ros, path, rate, args.seconds, folder / "rows.npy", launch)
-                        total = results[(rate, path)]
-                        total["received"] += run["received"]
-                        total["sent"] += run["sent"]
-                        total["latencies"] += run["latencies"]
-                        total["rounds"].append(
-                            float(np.median(run["latencies"])) if run["latencies"] else math.nan
-                        )
-        finally:
-            ros.shutdown()
+    python = generate_type(folder)
+    build = build_monitor(folder, document)
+    ros = Ros(folder / "ros")
+    ros.env["PYTHONPATH"] = str(python)  # the message package, for every node
+    ros.add_package_path(build)
+    launch = build / MONITOR / "launch" / f"{MONITOR}.launch"
+    try:
+        ros.start()
+        results = run_rounds(
+            rates,
+            args.rounds,
+            lambda path, rate: measure(ros, path, rate, args.seconds, folder / "rows.npy", launch),
+        )
+    finally:
+        ros.shutdown()
     print(
         f"live ROS 1 (rospy, 127.0.0.1), {MSGTYPE}: a header and {COLUMNS} float64; "
         f"{len(document['invariants'])} invariants on the relayed topic; {args.rounds} x "
@@ -258,6 +269,78 @@ def main() -> None:
         f"the monitor's checks {checks_compiled()}"
     )
     report(results)
+
+
+def bench_ros2(
+    args: argparse.Namespace, folder: Path, document: dict[str, Any], python: str
+) -> None:
+    """The ROS 2 table (``bench/latency_ros2.py``)."""
+    from bench.latency_ros2 import MSGTYPE as ROS2_MSGTYPE
+    from bench.latency_ros2 import Ros2Bench, numba_of
+
+    rates = [float(r) for r in args.rates.split(",")]
+    load = os.getloadavg()[0]
+    (folder / "ros2").mkdir()
+    ros2 = Ros2Bench(folder / "ros2", python, document, folder / "rows.npy")
+    results = run_rounds(
+        rates,
+        args.rounds,
+        lambda path, rate: ros2.measure(path, rate, args.seconds, WARMUP),
+    )
+    numba = numba_of(python)
+    compiled = (
+        "not compiled (IMROSC_NUMBA=0: numpy alone)"
+        if os.environ.get("IMROSC_NUMBA", "1") == "0"
+        else f"compiled by numba {numba}"
+        if numba
+        else f"not compiled (no numba for {python}: numpy alone)"
+    )
+    print(
+        f"live ROS 2 Jazzy (rclpy, rmw_fastrtps, localhost), {ROS2_MSGTYPE}: a header and "
+        f"{COLUMNS} float64 in position; {len(document['invariants'])} invariants on the "
+        f"relayed topic; {args.rounds} x {args.seconds:g} s per path and rate after "
+        f"{WARMUP:g} s of warm-up; latency = receipt - header.stamp; load average {load:.1f} "
+        f"before, {os.getloadavg()[0]:.1f} after; the monitor's checks {compiled}"
+    )
+    report(results)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rates", default="100,1000", help="Hz, comma-separated")
+    parser.add_argument("--seconds", type=float, default=5.0, help="per run, after warm-up")
+    parser.add_argument("--invariants", type=int, default=1000)
+    parser.add_argument("--rounds", type=int, default=1, help="runs of each path, interleaved")
+    parser.add_argument(
+        "--middleware", default="ros1,ros2", help="ros1, ros2 or both (comma-separated)"
+    )
+    args = parser.parse_args()
+    chosen = [m.strip() for m in args.middleware.split(",") if m.strip()]
+    if not chosen or set(chosen) - {"ros1", "ros2"}:
+        sys.exit(f"--middleware: ros1, ros2 or both, not {args.middleware!r}")
+    missing = ros_missing() if "ros1" in chosen else None
+    if missing:
+        sys.exit(f"no ROS 1 here: {missing} (--middleware ros2 measures ROS 2 alone)")
+    python = None
+    if "ros2" in chosen:
+        from bench.latency_ros2 import ros2_python
+
+        python = ros2_python()
+        if python is None:
+            sys.exit(
+                "no ROS 2 here: set IMROSC_ROS2_PYTHON to a python with rclpy "
+                "(tools/ros2_venv.sh builds one; --middleware ros1 measures ROS 1 alone)"
+            )
+    with tempfile.TemporaryDirectory(prefix="imrosc-latency-") as tmp:
+        folder = Path(tmp)
+        document, rows = invariants(args.invariants)
+        np.save(folder / "rows.npy", rows)
+        if "ros1" in chosen:
+            bench_ros1(args, folder, document)
+        if python is not None:
+            if "ros1" in chosen:
+                print()
+            bench_ros2(args, folder, document, python)
 
 
 def checks_compiled() -> str:

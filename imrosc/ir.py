@@ -268,6 +268,7 @@ class Monitor:
     inv: str
     span: Span
     launch: str | None = None
+    launch_ros2: str | None = None
     period: float = 1.0
     block: tuple[str, ...] = ()
     actions: tuple[Action, ...] = ()

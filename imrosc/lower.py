@@ -202,6 +202,7 @@ def _monitor(config: LoadedConfig, element: etree._Element, fallback: str) -> ir
         inv=(element.get("inv") or fallback).strip(),
         span=_span(config, element),
         launch=(element.get("launch") or "").strip() or None,
+        launch_ros2=(element.get("launch_ros2") or "").strip() or None,
         period=_number(element, "period", 1.0),
         block=tuple(dict.fromkeys(block)),
         actions=tuple(_action(config, child) for child in children(element, "action")),

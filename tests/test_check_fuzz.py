@@ -21,7 +21,7 @@ TAGS = [
     *("monitor", "block", "action", "violation", "junk"),
 ]
 ATTRIBUTES = [
-    *("project", "id", "label", "relative", "conds", "events", "inv", "launch"),
+    *("project", "id", "label", "relative", "conds", "events", "inv", "launch", "launch_ros2"),
     *("threshold", "beta", "window", "confidence", "drop_ratio", "hull_chunk"),
     *("discrete", "budget", "max_interval", "max_events", "period", "bogus"),
     *("alarm_persist", "alarm_seconds", "alarm_distinct", "alarm_window"),

@@ -206,6 +206,9 @@ class MonitorSpec:
     alarms: Mapping[str, int | float] = field(default_factory=dict)
     """The ``<monitor>``'s overrides of the invariants file's alarm rule (``persist``,
     ``seconds``, ``distinct``, ``window``; only the given ones)."""
+    launch_ros2: str | None = None
+    """The ``<monitor>``'s ``launch_ros2``: the system's ROS 2 launch XML, which the ``ros2``
+    backend rewrites instead of ``launch``."""
 
     @property
     def topic_relays(self) -> dict[str, str]:
@@ -584,6 +587,7 @@ def _build(
         violations={key: tuple(ids) for key, ids in sorted(violations.items())},
         params=tuple(sorted(params)),
         launch=monitor.launch,
+        launch_ros2=monitor.launch_ros2,
         depends=tuple(depends),
         alarms=monitor.alarms.given(),
     )

@@ -69,6 +69,7 @@ try:  # only a ROS 2 system has these; the helpers above are usable without them
     )
     from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
         MultiThreadedExecutor,
+        SingleThreadedExecutor,
     )
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
@@ -77,8 +78,9 @@ except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
 
 QUEUE = plumbing.QUEUE
 THREADS = 4
-"""Executor threads: checks run in one mutually exclusive group (messages are checked and
-relayed in order); relayed service calls wait for the real service in the others."""
+"""Executor threads of a node that relays services: checks run in one mutually exclusive
+group (messages are checked and relayed in order); relayed service calls wait for the real
+service in the others. A node that relays no service spins one thread (:func:`executor_for`)."""
 SERVICE_TIMEOUT = 10.0
 Flatten = Callable[[Any], List[Any]]
 
@@ -491,6 +493,19 @@ class Monitor:
         plumbing.call(client, request, self.timeout)
 
 
+def executor_for(monitor: Monitor) -> Any:
+    """The executor the node spins: a ``MultiThreadedExecutor`` when it relays services (a
+    relayed call waits for the real service inside its callback, so another thread must take
+    the response), else a ``SingleThreadedExecutor``. rclpy's multi-threaded executor hands
+    every callback to a worker thread through a future and rebuilds its wait set for each,
+    which at 1 kHz cost several times the checks (bench/monitor_latency.py); without relayed
+    services nothing waits in a callback (actions run in their own thread, parameters are
+    asked asynchronously), and one thread keeps messages in order as the exclusive group did."""
+    if monitor.service_relays:
+        return MultiThreadedExecutor(num_threads=THREADS)
+    return SingleThreadedExecutor()
+
+
 def main(
     package: str,
     engine_class: Callable[[Mapping[str, Any]], Any],
@@ -519,7 +534,7 @@ def main(
         f"imrosc monitor {logic.node_name(node.get_namespace(), node.get_name())}: checking "
         f"{len(document['invariants'])} invariants from {path}"
     )
-    executor = MultiThreadedExecutor(num_threads=THREADS)
+    executor = executor_for(monitor)
     executor.add_node(node)
     try:
         executor.spin()

@@ -142,8 +142,9 @@ class CallTimeoutError(Exception):
 
 def call(client: Any, request: Any, timeout: float) -> Any:
     """Call a service and wait for its response (at most ``timeout`` seconds). The response
-    arrives in an executor thread: the caller must not hold the only one (the node spins a
-    ``MultiThreadedExecutor`` and puts clients in a reentrant callback group)."""
+    arrives in an executor thread: the caller must not hold the only one (a node that relays
+    services spins a ``MultiThreadedExecutor`` and puts clients in a reentrant callback group;
+    actions call from their own thread)."""
     future = client.call_async(request)
     done = threading.Event()
     future.add_done_callback(lambda _: done.set())

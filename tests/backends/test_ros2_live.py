@@ -521,3 +521,102 @@ def test_a_check_that_raises_stops_the_ros2_monitor(tmp_path: Path, ros2_python:
     assert out["relayed"] == [], context
     assert status == 1, context
     assert "checking failed" in log, context
+
+
+TOPIC_ONLY_SCOPE = '<publish id="a">/a/cmd</publish>'
+TOPIC_ONLY_MONITOR = """<monitor inv="demo.inv" period="0.2">
+    <block>/a/cmd</block>
+    <action id="f"><topic>/a/cmd</topic><value>{data: 0}</value></action>
+    <violation>a -> f</violation>
+  </monitor>"""
+TOPIC_ONLY_DRIVER = r"""
+import json, os, threading, time
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from std_msgs.msg import String, UInt8
+from builtin_interfaces.msg import Time
+
+rclpy.init()
+node = Node("driver", namespace="/a")
+executor = MultiThreadedExecutor(num_threads=2)
+executor.add_node(node)
+threading.Thread(target=executor.spin, daemon=True).start()
+out = {"relayed": [], "warnings": [], "beats": 0}
+node.create_subscription(UInt8, "/m/a/cmd", lambda m: out["relayed"].append(m.data), 1000)
+node.create_subscription(String, "/m/broken_inv", lambda m: out["warnings"].append(m.data), 100)
+
+def beat(message):
+    out["beats"] += 1
+
+node.create_subscription(Time, "/m/heartbeat", beat, 10)
+cmd = node.create_publisher(UInt8, "/a/cmd", 1000)
+
+def wait(what, timeout=30.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if what():
+            return True
+        time.sleep(0.05)
+    return False
+
+out["ready"] = wait(
+    lambda: node.count_subscribers("/a/cmd") > 0 and node.count_publishers("/m/a/cmd") > 0, 60
+)
+time.sleep(1.0)  # matching both ways
+for value in (1, 2, 9):
+    cmd.publish(UInt8(data=value))
+    time.sleep(0.3)
+wait(lambda: 0 in out["relayed"], 10.0)
+for k in range(300):  # a burst: every message relayed, in order
+    cmd.publish(UInt8(data=1 + k % 3))
+    time.sleep(0.001)
+wait(lambda: len(out["relayed"]) >= 303, 20.0)
+wait(lambda: out["beats"] > 0, 10.0)
+print(json.dumps(out), flush=True)
+os._exit(0)
+"""
+
+
+def test_a_node_that_relays_no_service_checks_relays_and_acts_in_one_thread(
+    tmp_path: Path, ros2_python: str
+) -> None:
+    """Without relayed services the node spins a SingleThreadedExecutor (``executor_for``):
+    it still checks and relays in order, acts (its action's publisher, the action thread)
+    and beats."""
+    document = ros2_document({"/a/cmd": "std_msgs/msg/UInt8"})
+    document["invariants"] = [
+        _invariant("cmd_range", "a", "bounds", "range", variables=["cmd.data"], min=0.0, max=3.0)
+    ]
+    config = write_case(
+        tmp_path, config_text(scope=TOPIC_ONLY_SCOPE, monitor=TOPIC_ONLY_MONITOR), document
+    )
+    result = build_ros2(config)
+    assert result.ok, [d.as_text() for d in result.diagnostics]
+    package = write_package(result.files, tmp_path / "out")
+    environment = ros2_environment(tmp_path, PYTHONPATH=str(package))
+    monitor = start_monitor(ros2_python, package, environment)
+    try:
+        driver = drive(ros2_python, TOPIC_ONLY_DRIVER, environment, 180)
+    finally:
+        monitor.send_signal(signal.SIGINT)
+        try:
+            log, _ = monitor.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            monitor.kill()
+            log, _ = monitor.communicate()
+    assert driver.returncode == 0, driver.stdout + driver.stderr + log
+    out = json.loads(driver.stdout.strip().splitlines()[-1])
+    context = json.dumps(out)[:3000] + "\n" + log
+    assert out["ready"] and out["beats"] > 0, context
+    relayed = out["relayed"]
+    assert relayed[:2] == [1, 2] and 9 not in relayed, context
+    assert relayed[2] == 0, context  # action f, on the relay
+    assert relayed[3:] == [1 + k % 3 for k in range(300)], context  # in order, none lost
+    (warning,) = [json.loads(w) for w in out["warnings"]]
+    assert (warning["invariant"], warning["observed"], warning["actions"]) == (
+        "cmd_range",
+        9.0,
+        ["f"],
+    ), context
+    assert monitor.returncode == 0, context

@@ -15,7 +15,8 @@ The package ``<project>_monitor`` (under ``-o DIR``) holds
   middleware-neutral half of the ROS 1 adapter it builds on (``logic.py`` and ``flat.py`` of
   ``imrosc/monitor_ros1``), each copied unchanged below a banner;
 * ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
-* ``launch/<package>.launch.xml`` and, with ``<monitor launch="....launch.xml">``,
+* ``launch/<package>.launch.xml`` and, with ``<monitor launch="....launch.xml">`` (or
+  ``launch_ros2="....launch.xml"`` beside a roslaunch ``launch``),
   ``launch/system_monitored.launch.xml``: the system's ROS 2 launch XML rewritten
   (:func:`imrosc.backends.launch.rewrite_ros2`).
 
@@ -283,10 +284,13 @@ def render_package(
 
 
 def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -> dict[str, bytes]:
-    """``launch/system_monitored.launch.xml`` when the ``<monitor>`` names a launch file."""
+    """``launch/system_monitored.launch.xml`` when the ``<monitor>`` names a launch file:
+    its ``launch_ros2`` when given (a configuration shared with ROS 1, whose ``launch`` is a
+    roslaunch file), else its ``launch``."""
     project = inputs.project
     monitor = project.monitor
-    if spec.launch is None or monitor is None:
+    source = spec.launch_ros2 or spec.launch
+    if source is None or monitor is None:
         return {}
 
     def problem(code: str, message: str) -> dict[str, bytes]:
@@ -295,12 +299,19 @@ def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -
         )
         return {}
 
-    if not spec.launch.endswith(LAUNCH_SUFFIXES):
+    if not source.endswith(LAUNCH_SUFFIXES):
+        attribute = "launch_ros2" if spec.launch_ros2 else "launch"
+        hint = (
+            ""
+            if spec.launch_ros2
+            else "; name the ROS 2 launch XML of the system in <monitor launch_ros2=...>, or"
+        )
         return problem(
             "launch-error",
-            f"the ros2 backend rewrites ROS 2 launch XML (*.launch.xml), not {spec.launch!r}: "
-            f"include launch/{spec.package}.launch.xml from your launch file and remap the "
-            "subscribers of the blocked topics to /m/<topic> yourself (see docs/monitor.md)",
+            f"the ros2 backend rewrites ROS 2 launch XML (*.launch.xml), not "
+            f"{attribute}={source!r}{hint}: include launch/{spec.package}.launch.xml from your "
+            "launch file and remap the subscribers of the blocked topics to /m/<topic> "
+            "yourself (see docs/monitor.md)",
         )
     interception = launch.Interception(spec.topic_relays, spec.service_relays)
     graph = inputs.graph
@@ -311,7 +322,7 @@ def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -
             "and who serves the relayed services: pass --graph FILE or --bags with "
             "architecture records",
         )
-    path = Path(project.source).parent / spec.launch
+    path = Path(project.source).parent / source
     rewritten = launch.REWRITERS[BACKEND](
         path,
         interception=interception,
