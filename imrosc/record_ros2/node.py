@@ -285,11 +285,33 @@ class Recorder:
                 break
         return client
 
+    def read_servers(self, service: str) -> None:
+        """Note who serves ``service``: the readers of its requests (the graph as this node
+        knows it now), when there are any."""
+        try:
+            readers = self.node.get_subscriptions_info_by_topic(
+                logic.request_topic(service), no_mangle=True
+            )
+        except Exception:
+            return
+        found = sorted({graph.node_name(info.node_namespace, info.node_name) for info in readers})
+        if found:
+            self.servers[service] = found
+
+    def server_of(self, call: logic.Call) -> str:
+        """The node that served ``call``; when the last poll knew no server, the graph is
+        read again."""
+        server = logic.server_node(self.servers.get(call.service, []))
+        if server == logic.UNKNOWN_NODE:
+            self.read_servers(call.service)
+            server = logic.server_node(self.servers.get(call.service, []))
+        return server
+
     def flush(self, calls: List[logic.Call]) -> None:
         """Publish paired calls."""
         for call in calls:
             client = self.client_of(call)
-            server = logic.server_node(self.servers.get(call.service, []))
+            server = self.server_of(call)
             self.publish(logic.SRVS_TOPIC, logic.call_record(call, client, server))
             self.counts[call.service] = self.counts.get(call.service, 0) + 1
 
