@@ -132,12 +132,12 @@ def child_environment(environment: Mapping[str, str], uri: str) -> dict[str, str
     return env
 
 
-def find_rosbag_record(python: str, env: Mapping[str, str]) -> str:
-    """The ``rosbag record`` program, as the ROS Python finds it (which also proves that
-    rospy is importable there)."""
+def probe(python: str, env: Mapping[str, str], code: str, what: str, module: str) -> str:
+    """What ``code`` prints when ``python`` (``what``: "the ROS Python") runs it, or
+    :class:`RecordError` in one line: it cannot be run, or it cannot import ``module``."""
     try:
         done = subprocess.run(
-            [python, "-c", _PROBE],
+            [python, "-c", code],
             env=dict(env),
             capture_output=True,
             text=True,
@@ -145,11 +145,17 @@ def find_rosbag_record(python: str, env: Mapping[str, str]) -> str:
             check=False,
         )
     except (OSError, subprocess.TimeoutExpired) as error:
-        raise RecordError(f"cannot run the ROS Python {python}: {error}") from None
+        raise RecordError(f"cannot run {what} {python}: {error}") from None
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["it failed"])[-1]
-        raise RecordError(f"the ROS Python {python} cannot import rospy: {last}")
-    found = done.stdout.strip()
+        raise RecordError(f"{what} {python} cannot import {module}: {last}")
+    return done.stdout
+
+
+def find_rosbag_record(python: str, env: Mapping[str, str]) -> str:
+    """The ``rosbag record`` program, as the ROS Python finds it (which also proves that
+    rospy is importable there)."""
+    found = probe(python, env, _PROBE, "the ROS Python", "rospy").strip()
     if not found:
         raise RecordError(f"the ROS Python {python} finds no 'rosbag record' (rosbag missing?)")
     return found

@@ -45,7 +45,7 @@ from rosbags.rosbag2 import WriterError
 from imrosc.record.mcap import BagSink, SinkError
 from imrosc.record.ros2 import wire
 from imrosc.record.scope import Scope
-from imrosc.record.session import STOP_GRACE, Outcome, RecordError, _Child, run_until
+from imrosc.record.session import STOP_GRACE, Outcome, RecordError, _Child, probe, run_until
 
 __all__ = [
     "PYTHON_VARIABLE",
@@ -108,20 +108,7 @@ def choose_python(given: str | None, environment: Mapping[str, str]) -> str:
 
 def check_python(python: str, env: Mapping[str, str]) -> None:
     """:class:`RecordError` unless ``python`` runs and imports rclpy and std_msgs."""
-    try:
-        done = subprocess.run(
-            [python, "-c", _PROBE],
-            env=dict(env),
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
-    except (OSError, subprocess.TimeoutExpired) as error:
-        raise RecordError(f"cannot run the ROS 2 Python {python}: {error}") from None
-    if done.returncode != 0:
-        last = (done.stderr.strip().splitlines() or ["it failed"])[-1]
-        raise RecordError(f"the ROS 2 Python {python} cannot import rclpy: {last}")
+    probe(python, env, _PROBE, "the ROS 2 Python", "rclpy")
 
 
 def ros2_environment(environment: Mapping[str, str], path_folder: Path) -> dict[str, str]:
