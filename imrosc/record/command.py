@@ -19,6 +19,7 @@ from imrosc.graph.model import Graph
 
 if TYPE_CHECKING:
     from imrosc.record.master import SystemState
+    from imrosc.record.scope import CompiledScope, Scope
     from imrosc.record.session import Outcome
 
 EXIT_CLEAN, EXIT_ERRORS = 0, 1
@@ -110,6 +111,23 @@ def stop_on_signals() -> Iterator[threading.Event]:
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+
+
+def _scope(config: Path, graph: Graph | None, name: str | None) -> tuple[Scope, CompiledScope, str]:
+    """The configuration's scope (compiled with ``graph``) and the bag's name (``name``, else
+    the project's, made a file name); a configuration with errors or nothing to record ends
+    the command (on either middleware)."""
+    from imrosc.record.scope import compile_scope
+
+    compiled = compile_scope(config, graph)
+    _report(compiled.diagnostics)
+    if compiled.scope is None or compiled.project is None:
+        sys.exit(EXIT_ERRORS)
+    scope, project = compiled.scope, compiled.project
+    if scope.empty:
+        _fail(f"{config}: the scope has nothing to record (no <publish>, <call>, <param>, <arch>)")
+    bag_name = name or "".join(c if c.isalnum() or c in "-_." else "_" for c in project.name)
+    return scope, compiled, bag_name
 
 
 def _report(diagnostics: list[Diagnostic]) -> None:
@@ -350,7 +368,6 @@ def _record_ros1(
 ) -> None:
     from imrosc.build import load_graph
     from imrosc.record.master import MasterError, master_uri, system_state
-    from imrosc.record.scope import compile_scope
     from imrosc.record.session import (
         RecordError,
         Recording,
@@ -372,14 +389,7 @@ def _record_ros1(
     if state is not None:
         live = state.graph(hidden={n for n in _all_nodes(state) if n.startswith("/imrosc_")})
         graph = live if graph is None else Graph.merge(graph, live)
-    compiled = compile_scope(config, graph)
-    _report(compiled.diagnostics)
-    if compiled.scope is None or compiled.project is None:
-        sys.exit(EXIT_ERRORS)
-    scope, project = compiled.scope, compiled.project
-    if scope.empty:
-        _fail(f"{config}: the scope has nothing to record (no <publish>, <call>, <param>, <arch>)")
-    bag_name = name or "".join(c if c.isalnum() or c in "-_." else "_" for c in project.name)
+    scope, compiled, bag_name = _scope(config, graph, name)
     if output.exists() and not output.is_dir():
         _fail(f"{output}: exists and is not a folder")
     existing = _existing_bags(output)

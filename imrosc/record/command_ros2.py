@@ -14,10 +14,10 @@ from imrosc.bags import ROS2_METADATA, ROS2_STORAGE_SUFFIXES
 from imrosc.graph.model import Graph
 from imrosc.record.command import (
     EXIT_CLEAN,
-    EXIT_ERRORS,
     _existing_bags,
     _fail,
     _report,
+    _scope,
     _summary,
     _warn,
     stop_on_signals,
@@ -94,14 +94,7 @@ def record_ros2(
 
     files, problems = load_graph(graph_files, ())
     _report(problems)
-    compiled = compile_scope(config, files)
-    _report(compiled.diagnostics)
-    if compiled.scope is None or compiled.project is None:
-        sys.exit(EXIT_ERRORS)
-    scope, project = compiled.scope, compiled.project
-    if scope.empty:
-        _fail(f"{config}: the scope has nothing to record (no <publish>, <call>, <param>, <arch>)")
-    bag_name = name or "".join(c if c.isalnum() or c in "-_." else "_" for c in project.name)
+    scope, _, bag_name = _scope(config, files, name)
     _check_output(output, output / bag_name, force)
     try:
         interpreter = choose_python(python, os.environ)
