@@ -32,8 +32,10 @@ Parts:
   2. *classified*: ``imrosc.classify.run_check`` (the Python API of ``imrosc classify``) on a
      configuration whose <detect> lists the same bags and whose <check> has them as
      <success> runs and the other folds' fault flights, whole, as
-     ``<fail onset_topic="/failure_status">`` runs: the inferred document refined (invariants
-     below the F-score threshold dropped, the alarm rule set again for the kept ones from
+     ``<fail onset_topic="/failure_status">`` runs: the inferred document refined (the
+     invariants ``<check select>`` keeps: imrosc's default, the set whose union detects the
+     most failed runs minus its expected false alarms, or with ``--select fscore`` those whose
+     F-score reaches the threshold; the alarm rule set again for the kept ones from
      calibration's held-out traces). The <success> runs are the <detect> runs: run_check
      scores them from what each broke when calibration held it out (cross-validated false
      positives, blocked by recording time), not from a replay against what they taught. The
