@@ -435,7 +435,11 @@ def classify(
             scores[-1]["delay_mean"] = _number(sum(waits) / len(waits)) if waits else None
     chosen = None
     if select == "cover":
-        by_delay = sorted(scores, key=lambda s: s.get("delay_mean") or 0.0)
+        unknown = math.inf  # no measured delay: after every invariant that has one
+        by_delay = sorted(
+            scores,
+            key=lambda s: unknown if s.get("delay_mean") is None else s["delay_mean"],
+        )
         chosen = cover(
             nominal,
             fail,
