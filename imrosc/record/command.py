@@ -7,10 +7,10 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, NoReturn, Protocol
 
 import click
 
@@ -91,6 +91,37 @@ def _fail(message: str) -> NoReturn:
 
 def _warn(message: str) -> None:
     click.echo(f"imrosc record: warning: {message}", err=True)
+
+
+class _Session(Protocol):
+    def run(self, stop: threading.Event, duration: float | None) -> None: ...
+    def finish(self) -> Outcome: ...
+
+
+def drive(
+    session: _Session,
+    start: Callable[[threading.Event], bool],
+    heading: Callable[[str], str],
+    duration: float | None,
+) -> tuple[Outcome, str | None]:
+    """A recording on either middleware, until ``duration`` or Ctrl-C: ``start`` it, print
+    ``heading(how long)``, run it and finish it; its outcome and what failed while it ran
+    (the bag then holds what was recorded until then). A failure to finish ends the command."""
+    from imrosc.record.session import RecordError
+
+    failure: str | None = None
+    with stop_on_signals() as stop:
+        try:
+            if start(stop):
+                click.echo(heading(f"for {duration:g} s" if duration else "until Ctrl-C"))
+                session.run(stop, duration)
+        except RecordError as error:
+            failure = str(error)
+        try:
+            outcome = session.finish()
+        except RecordError as error:
+            _fail(f"{failure}; {error}" if failure else str(error))
+    return outcome, failure
 
 
 @contextlib.contextmanager
@@ -418,19 +449,12 @@ def _record_ros1(
         if stale.exists():
             stale.unlink()
     session = Recording(scope, settings, env, uri, say=click.echo, warn=_warn)
-    failure: str | None = None
-    with stop_on_signals() as stop:
-        try:
-            if session.start(program, stop):
-                length = f"for {duration:g} s" if duration else "until Ctrl-C"
-                click.echo(f"recording {scope.describe()} into {settings.bag} {length}")
-                session.run(stop, duration)
-        except RecordError as error:
-            failure = str(error)
-        try:
-            outcome = session.finish()
-        except RecordError as error:
-            _fail(f"{failure}; {error}" if failure else str(error))
+    outcome, failure = drive(
+        session,
+        lambda stop: session.start(program, stop),
+        lambda length: f"recording {scope.describe()} into {settings.bag} {length}",
+        duration,
+    )
     _summary(outcome, scope.topics if not all_topics else (), scope.services)
     if failure is not None:
         _fail(failure)  # the bag holds what was recorded until then

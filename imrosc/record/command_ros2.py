@@ -20,7 +20,7 @@ from imrosc.record.command import (
     _scope,
     _summary,
     _warn,
-    stop_on_signals,
+    drive,
 )
 
 __all__ = ["record_ros2"]
@@ -127,20 +127,14 @@ def record_ros2(
         return final[0].topics
 
     session = TapRecording(scope, settings, os.environ, choose, say=click.echo, warn=_warn)
-    failure: str | None = None
-    with stop_on_signals() as stop:
-        try:
-            if session.start(stop):
-                length = f"for {duration:g} s" if duration else "until Ctrl-C"
-                described = final[0].describe()
-                click.echo(f"recording {described} into {settings.bag} (ROS 2, MCAP) {length}")
-                session.run(stop, duration)
-        except RecordError as error:
-            failure = str(error)
-        try:
-            outcome = session.finish()
-        except RecordError as error:
-            _fail(f"{failure}; {error}" if failure else str(error))
+    outcome, failure = drive(
+        session,
+        session.start,
+        lambda length: (
+            f"recording {final[0].describe()} into {settings.bag} (ROS 2, MCAP) {length}"
+        ),
+        duration,
+    )
     _summary(outcome, final[0].topics if not all_topics else (), scope.services, ros2=True)
     if failure is not None:
         _fail(failure)  # the bag holds what was recorded until then
