@@ -35,6 +35,7 @@ __all__ = [
     "BagError",
     "MessageError",
     "discover_bags",
+    "is_unfinished",
     "open_bag",
     "recovered",
     "recovered_diagnostic",
@@ -42,6 +43,7 @@ __all__ = [
 ]
 
 ROS1_SUFFIX = ".bag"
+ACTIVE_SUFFIX = ".active"
 ROS2_METADATA = "metadata.yaml"
 ROS2_STORAGE_SUFFIXES = (".db3", ".mcap")
 
@@ -96,11 +98,28 @@ def _fallback_typestore() -> Typestore:
     return get_typestore(Stores.LATEST)
 
 
+def is_unfinished(path: Path) -> bool:
+    """Whether ``path`` names an unfinished ROS 1 bag: ``rosbag record`` writes
+    ``NAME.bag.active`` and renames it ``NAME.bag`` when it closes it; interrupted, it
+    leaves the ``.active`` file, unindexed (read up to its last whole record)."""
+    return path.name.endswith(ROS1_SUFFIX + ACTIVE_SUFFIX)
+
+
+class _AsRos1(type(Path())):  # type: ignore[misc]
+    """A path AnyReader takes for a ROS 1 bag whatever its name ends with (it tells the two
+    formats apart by the suffix ``.bag`` alone)."""
+
+    @property
+    def suffix(self) -> str:
+        return ROS1_SUFFIX
+
+
 class _SafeReader(AnyReader):
     """An AnyReader whose reading methods raise only :class:`BagError` on a broken bag."""
 
     def __init__(self, path: Path) -> None:
-        super().__init__([path], default_typestore=_fallback_typestore())
+        named = _AsRos1(path) if is_unfinished(path) else path
+        super().__init__([named], default_typestore=_fallback_typestore())
         self.bag_path = path
         if not self.is2:  # a ROS 1 bag cut short or never indexed is scanned instead
             self.readers = [RecoveringReader(path)]
@@ -183,12 +202,7 @@ def _is_ros2_bag(directory: Path) -> bool:
 
 
 def _not_a_bag(path: Path) -> Diagnostic:
-    if path.name.endswith(ROS1_SUFFIX + ".active"):
-        reason = (
-            "an unfinished ROS 1 bag (rosbag record was interrupted): named .bag, it is read "
-            "up to its last whole record; or run rosbag reindex"
-        )
-    elif path.suffix in ROS2_STORAGE_SUFFIXES:
+    if path.suffix in ROS2_STORAGE_SUFFIXES:
         reason = f"a ROS 2 storage file without {ROS2_METADATA} beside it (try ros2 bag reindex)"
     else:
         reason = f"not a bag: expected a {ROS1_SUFFIX} file or a directory holding {ROS2_METADATA}"
@@ -216,7 +230,7 @@ def _search(directory: Path, bags: list[Path], found: list[Diagnostic], seen: se
                 bags.append(child)
             else:
                 _search(child, bags, found, seen)
-        elif child.suffix == ROS1_SUFFIX and child.is_file():
+        elif (child.suffix == ROS1_SUFFIX or is_unfinished(child)) and child.is_file():
             bags.append(child)
         else:
             found.append(_not_a_bag(child))
@@ -225,7 +239,8 @@ def _search(directory: Path, bags: list[Path], found: list[Diagnostic], seen: se
 def discover_bags(path: Path) -> tuple[list[Path], list[Diagnostic]]:
     """The bags a path names, sorted, and a ``bag-error`` for everything else.
 
-    * a ``.bag`` file is a ROS 1 bag;
+    * a ``.bag`` file is a ROS 1 bag, and so is a ``.bag.active`` file (an unfinished one,
+      :func:`is_unfinished`);
     * a directory holding ``metadata.yaml`` is a ROS 2 bag; its ``metadata.yaml`` or one of
       its storage files stands for it too;
     * any other directory is searched recursively: each ``.bag`` file and ROS 2 bag directory
@@ -249,7 +264,7 @@ def discover_bags(path: Path) -> tuple[list[Path], list[Diagnostic]]:
         if not bags and not found:
             found.append(make(str(path), 1, 1, "bag-error", "directory holds no bag"))
         return sorted(set(bags)), found
-    if path.suffix == ROS1_SUFFIX:
+    if path.suffix == ROS1_SUFFIX or is_unfinished(path):
         return [path], []
     is_ros2_part = path.name == ROS2_METADATA or path.suffix in ROS2_STORAGE_SUFFIXES
     if is_ros2_part and _is_ros2_bag(path.parent):

@@ -13,6 +13,7 @@ from imrosc.bags import (
     MessageError,
     discover_bags,
     open_bag,
+    recovered,
     recovered_diagnostic,
     time_text,
 )
@@ -62,17 +63,35 @@ def test_directories_are_searched_recursively_and_sorted(tmp_path: Path) -> None
 def test_a_file_that_is_not_a_bag_is_reported_and_the_bags_still_found(tmp_path: Path) -> None:
     bag = ros1(tmp_path / "a.bag")
     (tmp_path / "notes.txt").write_text("not a bag")
-    (tmp_path / "run.bag.active").write_bytes(b"#ROSBAG V2.0\n")
     (tmp_path / "orphan.db3").write_bytes(b"")
     bags, problems = discover_bags(tmp_path)
     assert bags == [bag]
     by_path = {Path(d.path).name: d for d in problems}
-    assert sorted(by_path) == ["notes.txt", "orphan.db3", "run.bag.active"]
+    assert sorted(by_path) == ["notes.txt", "orphan.db3"]
     assert all(d.code == "bag-error" and d.severity is Severity.ERROR for d in problems)
     assert all((d.line, d.column) == (1, 1) for d in problems)
     assert "not a bag" in by_path["notes.txt"].message
-    assert "reindex" in by_path["run.bag.active"].message
     assert "metadata.yaml" in by_path["orphan.db3"].message
+
+
+def test_an_unfinished_recording_is_a_ros1_bag_read_up_to_its_last_whole_record(
+    tmp_path: Path,
+) -> None:
+    many = [Message("/t", i * SECOND // 10, f"m{i}", "/talker") for i in range(1, 400)]
+    whole = write_ros1_bag(tmp_path / "whole.bag", many)
+    data = whole.read_bytes()
+    (tmp_path / "rec").mkdir()
+    active = tmp_path / "rec" / "run.bag.active"
+    active.write_bytes(data[: len(data) * 3 // 4])  # rosbag record killed: no index
+    assert discover_bags(active) == ([active], [])
+    assert discover_bags(tmp_path / "rec") == ([active], [])
+    with open_bag(whole) as reader:
+        total = sum(1 for _ in reader.messages())
+    with open_bag(active) as reader:
+        kept = sum(1 for _ in reader.messages())
+        note = recovered(reader)
+    assert 0 < kept < total
+    assert note is not None and note.startswith(f"truncated at byte {active.stat().st_size:,}")
 
 
 def test_a_missing_path_is_reported(tmp_path: Path) -> None:

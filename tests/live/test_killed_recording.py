@@ -1,7 +1,7 @@
 """A real ``rosbag record`` killed (SIGKILL) mid-recording leaves ``NAME.bag.active``: no
-index, its last chunk open (its sizes are written when it closes). imrosc reads it up to its
-last whole record, with one warning, and keeps at least what ``rosbag reindex`` keeps
-(issue 18, item 5)."""
+index, its last chunk open (its sizes are written when it closes). imrosc reads it, as it is
+or renamed ``.bag``, up to its last whole record, with one warning, and keeps at least what
+``rosbag reindex`` keeps (issue 18, item 5)."""
 
 from __future__ import annotations
 
@@ -49,6 +49,7 @@ def test_a_killed_recording_is_read_up_to_its_last_whole_record(ros: Ros, tmp_pa
     shutil.copyfile(active, bag)
     messages, note = count(bag)
     assert messages > 100 and note is not None
+    assert count(active) == (messages, note)  # as it is, not renamed
     assert note.startswith(f"truncated at byte {bag.stat().st_size:,}; recovered {messages:,} ")
     result = CliRunner().invoke(main, ["info", str(bag)])
     assert result.exit_code == 0, result.output
