@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from imrosc import ir
@@ -23,7 +23,7 @@ from imrosc.backends.registry import (
 from imrosc.bags import BagError, discover_bags, open_bag
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
-from imrosc.graph.bags import graph_from_bags
+from imrosc.graph.bags import read_bag_graphs
 from imrosc.graph.file import load_graph_file
 from imrosc.graph.model import Graph
 from imrosc.lower import lower
@@ -31,6 +31,7 @@ from imrosc.msgtypes import flatten
 from imrosc.outputs import OutputRefusedError, file_kind, target, write_atomic
 from imrosc.passes.context import PassContext
 from imrosc.passes.pipeline import run_passes
+from imrosc.progress import ProgressFactory
 from imrosc.schema.loader import load_config
 
 
@@ -49,7 +50,9 @@ class BuildResult:
 
 
 def load_graph(
-    graph_files: Sequence[Path], bags: Sequence[Path]
+    graph_files: Sequence[Path],
+    bags: Sequence[Path],
+    progress_factory: ProgressFactory | None = None,
 ) -> tuple[Graph | None, list[Diagnostic]]:
     """Merge the graph of every graph file and bag given; None if there is none."""
     graphs: list[Graph] = []
@@ -60,10 +63,10 @@ def load_graph(
         if graph is not None:
             graphs.append(graph)
     if bags:
-        graph, found = graph_from_bags(bags)
-        problems += found
-        if graph.nodes:
-            graphs.append(graph)
+        read = read_bag_graphs(bags, progress_factory)
+        problems += read.diagnostics
+        if read.graph.nodes:
+            graphs.append(read.graph)
     return (Graph.merge(*graphs) if graphs else None), problems
 
 
@@ -92,19 +95,27 @@ def build(
     *,
     graph_files: Sequence[Path] = (),
     bags: Sequence[Path] = (),
+    inv: Path | None = None,
+    progress_factory: ProgressFactory | None = None,
 ) -> BuildResult:
-    """Run the compiler up to the backend's files (nothing is written)."""
+    """Run the compiler up to the backend's files (nothing is written). ``inv`` is the
+    invariants file the monitor deploys instead of its ``<monitor inv>`` (a refined file
+    of ``imrosc classify``, say)."""
     config, problems = load_config(config_path)
     if config is None:
         return BuildResult(None, problems)
     problems += check_loaded(config)
     if has_errors(problems):
         return BuildResult(None, finalize(problems))
-    graph, found = load_graph(graph_files, bags)
+    graph, found = load_graph(graph_files, bags, progress_factory)
     types, found_types = topic_types(bags)
     problems += found + found_types
     context = PassContext(path=config.path, graph=graph)
     project = run_passes(lower(config), context)
+    if inv is not None and project.monitor is not None:
+        base = Path(project.source).parent.absolute()
+        deployed = os.path.relpath(inv.absolute(), base)
+        project = replace(project, monitor=replace(project.monitor, inv=deployed))
     problems += context.diagnostics
     inputs = BuildInputs(project, tuple(str(b) for b in bags), types, graph)
     renderer = available()[backend]

@@ -144,6 +144,12 @@ def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
 )
 @graph_option
 @bags_option
+@click.option(
+    "--inv",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="The invariants file the monitor deploys instead of its <monitor inv> "
+    "(e.g. classify's refined file).",
+)
 @click.option("--emit-ir", is_flag=True, help="Print the IR after the passes; write nothing.")
 @click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
 @click.option(
@@ -153,15 +159,18 @@ def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
     default="text",
     help="How to print diagnostics.",
 )
+@quiet_option
 def build(
     config: Path,
     backend: str,
     output: Path | None,
     graph_files: tuple[Path, ...],
     bags: tuple[Path, ...],
+    inv: Path | None,
     emit_ir: bool,
     force: bool,
     output_format: str,
+    quiet: bool,
 ) -> None:
     """Compile CONFIG and render a backend's files."""
     import json
@@ -173,7 +182,14 @@ def build(
 
     if backend not in available():
         raise click.UsageError(f"backend {backend!r} is not available yet")
-    result = run_build(config, backend, graph_files=graph_files, bags=bags)
+    if inv is not None and backend == "plan":
+        raise click.UsageError(
+            "--inv names the invariants a monitor deploys: use it with ros1 or ros2"
+        )
+    with bag_progress("reading", quiet) as factory:
+        result = run_build(
+            config, backend, graph_files=graph_files, bags=bags, inv=inv, progress_factory=factory
+        )
     _report(result.diagnostics, output_format)
     if not result.ok or result.project is None:
         sys.exit(
@@ -185,7 +201,11 @@ def build(
     out = output or Path("build") / f"{folder_name(result.project.name)}-{backend}"
     try:
         written = write_files(
-            out, result.files, force=force, kind=BUILD, inputs=(config, *graph_files, *bags)
+            out,
+            result.files,
+            force=force,
+            kind=BUILD,
+            inputs=(config, *graph_files, *bags, *([inv] if inv is not None else [])),
         )
     except OutputRefusedError as refused:
         fail("build", str(refused), EXIT_USAGE)
@@ -400,11 +420,12 @@ def show(inv: Path, families: tuple[str, ...], points: tuple[str, ...], ids: boo
 )
 @click.option("--runs", type=click.IntRange(min=2), default=6, show_default=True)
 @click.option("-j", "--jobs", type=click.IntRange(min=1), help="Worker processes [default: cores].")
-def demo(output: Path, runs: int, jobs: int | None) -> None:
+@quiet_option
+def demo(output: Path, runs: int, jobs: int | None, quiet: bool) -> None:
     """Run the pipeline on the embedded example: a simulated UAV landing system."""
     from imrosc.demo import run_demo
 
-    sys.exit(run_demo(output, runs, jobs))
+    sys.exit(run_demo(output, runs, jobs, quiet))
 
 
 format_option = click.option(

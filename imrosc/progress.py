@@ -52,6 +52,8 @@ class BagProgress:
                 rate = self.messages / max(self.clock() - self.started, 1e-9)
                 self.bar.label = f"{self.label}: {self.messages:,} messages ({rate:,.0f} msg/s)"
             self.bar.update(1)
+            if self.bar.pos >= self.bar.length:  # done: the next stage's output starts below
+                self.close()
 
     def close(self) -> None:
         if self.bar is not None:

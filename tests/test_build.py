@@ -1,4 +1,5 @@
-"""``imrosc build --bags``: architecture records drive relative grouping, bags give types."""
+"""``imrosc build``: architecture records in ``--bags`` drive relative grouping and bags give
+types; ``--inv`` deploys another invariants file."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from click.testing import CliRunner
 
 from imrosc.cli import main
 from tests.graph import SECOND, Message, arch, arch_message, write_ros1_bag
+from tests.test_infer_cli import good_run
 
 CONFIG = """<imROS project="recorded">
   <scope>
@@ -58,3 +60,38 @@ def test_a_bad_bag_is_reported_by_name(tmp_path: Path) -> None:
     assert f"{broken}:1:1: error:" in result.output
     assert "[bag-error]" in result.output
     assert "[relative-without-graph]" in result.output
+
+
+MONITORED = """<imROS project="p">
+  <scope>
+    <publish id="a"><topic>/out</topic><topic>/in</topic></publish>
+  </scope>
+  <detect inv="p.inv" budget="0"><bag>bags</bag></detect>
+  <monitor inv="p.inv"/>
+</imROS>
+"""
+
+
+def test_inv_deploys_another_invariants_file_than_the_monitors(tmp_path: Path) -> None:
+    (tmp_path / "p.xml").write_text(MONITORED)
+    (tmp_path / "bags").mkdir()
+    good_run(tmp_path / "bags" / "r1.bag", 0.0)
+    good_run(tmp_path / "bags" / "r2.bag", 10.0)
+    runner = CliRunner()
+    done = runner.invoke(main, ["infer", str(tmp_path / "p.xml"), "-q", "-j", "1"])
+    assert done.exit_code == 0, done.output
+    learnt = json.loads((tmp_path / "p.inv").read_text())
+    kept = {**learnt, "invariants": learnt["invariants"][:1]}
+    (tmp_path / "kept.inv").write_text(json.dumps(kept))
+    args = ["build", str(tmp_path / "p.xml"), "--backend", "ros1", "-q"]
+    for inv, out, expected in ((None, "all", learnt), ("kept.inv", "kept", kept)):
+        extra = ["--inv", str(tmp_path / inv)] if inv else []
+        done = runner.invoke(main, [*args, *extra, "-o", str(tmp_path / out)])
+        assert done.exit_code == 0, done.output
+        deployed = tmp_path / out / "p_monitor" / "config" / "invariants.json"
+        assert json.loads(deployed.read_text())["invariants"] == expected["invariants"]
+    assert f"copied from {tmp_path / 'kept.inv'}\"" in deployed.read_text()
+    plan = runner.invoke(main, ["build", str(tmp_path / "p.xml"), "--inv", "kept.inv"])
+    assert plan.exit_code == 2 and "use it with ros1 or ros2" in plan.output
+    onto = ["--inv", str(tmp_path / "kept.inv"), "-o", str(tmp_path / "kept"), "--force"]
+    assert runner.invoke(main, [*args, *onto]).exit_code == 0  # its own outputs, again

@@ -28,6 +28,7 @@ COMMANDS: dict[str, tuple[str, ...]] = {
     "info": ("info", *BAGS),
     "export-daikon": ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon"),
     "graph": ("graph", *BAGS),
+    "build": ("build", "{d}/p.xml", "--bags", "{d}/bags/train", "-o", "{d}/build", "--force"),
 }
 LABELS = ("inferring", "replaying", "classifying", "cross-validating", "reading", "exporting")
 
@@ -73,12 +74,15 @@ def on_a_terminal(args: list[str], cwd: Path) -> tuple[int, str]:
     return process.wait(timeout=120), seen.decode(errors="replace")
 
 
-@pytest.mark.parametrize("command", ["replay", "info"])
+@pytest.mark.parametrize("command", ["replay", "info", "build"])
 def test_progress_on_a_terminal_and_not_with_q(command: str, project: Path) -> None:
     status, drawn = on_a_terminal(args_of(command, project), project)
     assert status in (0, 1), drawn  # f1.bag is a failed run: replay may alarm
     label = "replaying" if command == "replay" else "reading"
-    assert f"{label}: 240 messages (" in drawn and "3/3" in drawn, drawn
+    if command == "build":  # the graph of the bags: callerids, no message read
+        assert label in drawn and "2/2" in drawn, drawn
+    else:
+        assert f"{label}: 240 messages (" in drawn and "3/3" in drawn, drawn
     status, quiet = on_a_terminal([*args_of(command, project), "-q"], project)
     assert status in (0, 1) and label not in quiet, quiet
 

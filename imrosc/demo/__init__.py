@@ -2,8 +2,9 @@
 
 The example is the thesis' landing system (section 5.1), simulated by :mod:`imrosc.sim`: the
 demo writes nominal runs as bags (ROS 1, and one as a ROS 2 MCAP bag), runs that succeed and
-runs with a fault for the check stage, then runs ``check``, ``build --backend plan`` and
-``infer`` on ``examples/landing_sim.xml``, and says where each output is.
+runs with a fault for the check stage, then runs ``check``, ``build --backend plan``,
+``infer``, ``classify`` and ``replay`` on ``examples/landing_sim.xml`` and builds the ROS 1
+and ROS 2 monitors of the invariants classification kept, and says where each output is.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from imrosc.diagnostics import has_errors, render_text
 from imrosc.infer.engine import default_workers
 from imrosc.invariants import dumps
 from imrosc.outputs import write_atomic
+from imrosc.progress import ProgressFactory, bag_progress
 from imrosc.show import render
 from imrosc.sim import ScenarioKind
 
@@ -69,21 +71,24 @@ def _write_bags(out: Path, runs: int) -> None:
         )
 
 
-def _check_stage(out: Path, config: Path, workers: int | None) -> bool:
-    """Classify the invariants, then replay a faulty run with the refined ones."""
+def _check_stage(
+    out: Path, config: Path, workers: int | None, progress: ProgressFactory
+) -> Path | None:
+    """Classify the invariants, then replay a faulty run with the refined ones; the refined
+    invariants file (None: the stage failed)."""
     from imrosc.classify import CheckStageError, run_check
     from imrosc.replay import replay_document
     from imrosc.report import render as render_report
 
     click.echo(f"\n5. imrosc classify {config}")
     try:
-        checked = run_check(config, workers=workers or default_workers())
+        checked = run_check(config, workers=workers or default_workers(), progress_factory=progress)
     except CheckStageError as error:
         click.echo(f"   {error}", err=True)
-        return False
+        return None
     if checked.refined is None or checked.output is None:
         click.echo(render_text(checked.diagnostics, 1), nl=False)
-        return False
+        return None
     write_files(
         checked.output.parent, {checked.output.name: dumps(checked.refined).encode()}, force=True
     )
@@ -113,19 +118,21 @@ def _check_stage(out: Path, config: Path, workers: int | None) -> bool:
     )
     for line in render_report(document, "text").splitlines()[1:7]:
         click.echo("   " + line)
-    return True
+    return checked.output
 
 
-def _monitors(out: Path, config: Path) -> bool:
-    """Build the ROS 1 and ROS 2 monitor packages of the demo's <monitor>."""
+def _monitors(out: Path, config: Path, inv: Path) -> bool:
+    """Build the ROS 1 and ROS 2 monitor packages of the demo's <monitor>, deploying the
+    invariants ``inv`` (those classification kept)."""
     graph = out / "landing_sim.graph.yaml"
     for backend in ("ros1", "ros2"):
         target = out / "build" / backend
         step = 7 if backend == "ros1" else 8
         click.echo(
-            f"\n{step}. imrosc build {config} --backend {backend} -o {target} --graph {graph}"
+            f"\n{step}. imrosc build {config} --backend {backend} --inv {inv} -o {target} "
+            f"--graph {graph}"
         )
-        built = build(config, backend, graph_files=[graph])
+        built = build(config, backend, graph_files=[graph], inv=inv)
         if not built.ok:
             click.echo(render_text(built.diagnostics, 1), nl=False)
             return False
@@ -140,8 +147,19 @@ def _monitors(out: Path, config: Path) -> bool:
     return True
 
 
-def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None = None) -> int:
-    """Simulate, check, build and infer; return the exit status."""
+def run_demo(
+    out: Path = Path("imrosc-demo"),
+    runs: int = 6,
+    workers: int | None = None,
+    quiet: bool = False,
+) -> int:
+    """Simulate, check, build, infer, classify, replay and build the monitors; return the
+    exit status. Stages that read bags show their progress unless ``quiet``."""
+    with bag_progress("reading", quiet) as progress:
+        return _run(out, runs, workers, progress)
+
+
+def _run(out: Path, runs: int, workers: int | None, progress: ProgressFactory) -> int:
     if not _prepare(out):
         return 2
     source = next(p for p in example_configs() if p.name == CONFIG)
@@ -164,7 +182,7 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
         return 1
 
     click.echo(f"\n3. imrosc build {config} --backend plan --bags {out / 'bags' / 'nominal'}")
-    built = build(config, "plan", bags=[out / "bags" / "nominal"])
+    built = build(config, "plan", bags=[out / "bags" / "nominal"], progress_factory=progress)
     if not built.ok:
         click.echo(render_text(built.diagnostics, 1), nl=False)
         return 1
@@ -172,7 +190,7 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
         click.echo(f"   wrote {path}")
 
     click.echo(f"\n4. imrosc infer {config}")
-    result = run_detect(config, workers=workers or default_workers())
+    result = run_detect(config, workers=workers or default_workers(), progress_factory=progress)
     if result.document is None or result.output is None:
         click.echo(render_text(result.diagnostics, 1), nl=False)
         return 1
@@ -187,9 +205,8 @@ def run_demo(out: Path = Path("imrosc-demo"), runs: int = 6, workers: int | None
         click.echo(f"   {result.calibration.summary()}")
     sample = render(result.document, points=["v"]).splitlines()[:12]
     click.echo("\n".join("   " + line for line in sample))
-    if not _check_stage(out, config, workers):
-        return 1
-    if not _monitors(out, config):
+    refined = _check_stage(out, config, workers, progress)
+    if refined is None or not _monitors(out, config, refined):
         return 1
     if COMING:
         click.echo("\nComing in later stages:")
