@@ -15,6 +15,7 @@ from typing import Any, NoReturn
 import click
 
 from imrosc import __version__
+from imrosc.backends.registry import names as backend_names
 from imrosc.check import check_files
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
@@ -131,10 +132,11 @@ def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
 @click.argument("config", type=click.Path(path_type=Path))
 @click.option(
     "--backend",
-    type=click.Choice(["plan", "ros1", "ros2"]),
+    type=click.Choice(backend_names()),
     default="plan",
     show_default=True,
-    help="plan: translator plan and inference job; ros1/ros2: a monitor package.",
+    help="plan: translator plan and inference job; ros1/ros2: a monitor package; or a "
+    "backend another package registers (entry points imrosc.backends).",
 )
 @click.option(
     "-o",
@@ -176,15 +178,17 @@ def build(
     import json
 
     from imrosc import ir
-    from imrosc.backends.registry import available
+    from imrosc.backends.registry import BackendError, available, is_monitor
     from imrosc.build import build as run_build
     from imrosc.build import write_files
 
-    if backend not in available():
-        raise click.UsageError(f"backend {backend!r} is not available yet")
-    if inv is not None and backend == "plan":
+    try:
+        monitor = backend in available() and is_monitor(backend)
+    except BackendError as error:
+        fail("build", str(error), EXIT_USAGE)
+    if inv is not None and not monitor:
         raise click.UsageError(
-            "--inv names the invariants a monitor deploys: use it with ros1 or ros2"
+            f"--inv names the invariants a monitor deploys: backend {backend} renders none"
         )
     with bag_progress("reading", quiet) as factory:
         result = run_build(
@@ -211,7 +215,7 @@ def build(
         fail("build", str(refused), EXIT_USAGE)
     for path in written:
         click.echo(f"wrote {path}")
-    if backend in ("ros1", "ros2") and result.files:
+    if monitor and result.files:
         package = out / next(iter(result.files)).split("/", 1)[0]
         click.echo(f"monitor package {package} (see docs/monitor.md)")
 

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from imrosc.backends.families import DAIKON, TIME
 from imrosc.infer.core import Invariant, Variable
 from imrosc.outputs import INVARIANTS, mark
+from imrosc.runtime.families import NAMES
 
 FORMAT = "imrosc-invariants"
 VERSION = 1
@@ -215,7 +215,7 @@ def _walk(value: Any, where: str, depth: int) -> str | None:
     return None
 
 
-KNOWN_FAMILIES = frozenset((*DAIKON, *TIME, "polygon", "architecture", "interval", "pattern"))
+KNOWN_FAMILIES = frozenset(NAMES)
 """Every family inference writes and the runtime engine checks."""
 
 _TOP = {"topics": dict, "points": dict, "invariants": list}

@@ -1,34 +1,20 @@
-"""Which invariant template families apply to which kind of program point (thesis 3.4)."""
+"""Which invariant template families apply to which kind of program point (thesis 3.4):
+the family catalog's (:mod:`imrosc.runtime.families`) for the IR's points."""
 
 from __future__ import annotations
 
 from imrosc import ir
-
-DAIKON = (
-    "bounds",
-    "one-of",
-    "non-zero",
-    "equality",
-    "order",
-    "linear",
-    "ternary",
-    "string-one-of",
-    "array",
-)
-"""Daikon's default families (thesis 3.4), plus the array average/std extension."""
-
-TIME = ("frequency", "variance", "rate")
-"""Time-related families (thesis 3.4.1)."""
+from imrosc.runtime.families import ARCH, CALL, PARAM, PUBLISH, TEMPORAL, for_point
 
 
 def families(point: ir.Point) -> tuple[str, ...]:
     """The template families inference instantiates at ``point``."""
     if isinstance(point, ir.PublishPoint):
-        return (*DAIKON, *TIME, "polygon")
+        return for_point(PUBLISH)
     if isinstance(point, ir.CallPoint):
-        return (*DAIKON, "polygon")
+        return for_point(CALL)
     if isinstance(point, ir.ParamPoint):
-        return ("bounds", "one-of", "string-one-of")
+        return for_point(PARAM)
     if isinstance(point, ir.ArchPoint):
-        return ("architecture",)
-    return ("interval", "pattern") if point.patterns else ("interval",)
+        return for_point(ARCH)
+    return for_point(TEMPORAL, patterns=bool(point.patterns))

@@ -1,10 +1,12 @@
 """Backends by name: each renders the passed IR into files (name -> bytes).
 
-``plan``, ``ros1`` and ``ros2`` are registered here (each module registers itself when
-imported), so adding a backend never touches the passes. A renderer reports problems it
-finds (a bad invariants file, a launch file it cannot rewrite) by appending diagnostics to
-:attr:`BuildInputs.diagnostics`; with an error among them nothing it returns is written. A
-file whose content is :class:`Executable` is written with its execute bits set.
+A backend is a module found by its entry point (group :data:`GROUP`; imrosc's own are
+``plan``, ``ros1`` and ``ros2``) that registers its renderer when imported
+(:func:`register`), so adding a backend touches neither the passes nor the command line.
+A renderer reports problems it finds (a bad invariants file, a launch file it cannot
+rewrite) by appending diagnostics to :attr:`BuildInputs.diagnostics`; with an error among
+them nothing it returns is written. A file whose content is :class:`Executable` is written
+with its execute bits set.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from importlib import metadata
 
 from imrosc import __version__, ir
 from imrosc.diagnostics import Diagnostic
@@ -22,11 +25,14 @@ from imrosc.outputs import GENERATED_MARK
 __all__ = [
     "BACKENDS",
     "GENERATED_MARK",
+    "BackendError",
     "BuildInputs",
     "Executable",
     "Renderer",
     "TopicType",
     "available",
+    "is_monitor",
+    "names",
     "register",
 ]
 
@@ -67,23 +73,59 @@ class BuildInputs:
 
 Renderer = Callable[[BuildInputs], dict[str, bytes]]
 BACKENDS: dict[str, Renderer] = {}
+MONITORS: set[str] = set()
+"""The backends that render a monitor package (of the configuration's ``<monitor>``)."""
+
+GROUP = "imrosc.backends"
+"""The entry-point group a backend's module is found by (``pyproject.toml``:
+``[project.entry-points."imrosc.backends"] NAME = "package.module"``); importing the module
+registers its renderer."""
+_BUILTIN = {name: f"imrosc.backends.{name}" for name in ("plan", "ros1", "ros2")}
+"""imrosc's own backends, also found when imrosc runs from a source tree (no metadata)."""
 
 
-def register(name: str) -> Callable[[Renderer], Renderer]:
-    """Register a renderer under ``name``."""
+def register(name: str, *, monitor: bool = False) -> Callable[[Renderer], Renderer]:
+    """Register a renderer under ``name`` (``monitor``: it renders a monitor package)."""
 
     def add(renderer: Renderer) -> Renderer:
         BACKENDS[name] = renderer
+        if monitor:
+            MONITORS.add(name)
         return renderer
 
     return add
 
 
-_BUILTIN_MODULES = ("imrosc.backends.plan", "imrosc.backends.ros1", "imrosc.backends.ros2")
+def _entry_points() -> dict[str, str]:
+    """Backend name to module: the entry points of :data:`GROUP`, over the built-in ones."""
+    found = dict(_BUILTIN)
+    for point in metadata.entry_points(group=GROUP):
+        found[point.name] = point.value
+    return found
+
+
+def names() -> list[str]:
+    """The backends' names, without importing them (the command line's choices)."""
+    return sorted(_entry_points())
+
+
+class BackendError(Exception):
+    """A backend's module that cannot be imported, or registers no renderer of its name."""
 
 
 def available() -> dict[str, Renderer]:
-    """Every backend, the built-in ones imported (and so registered) first."""
-    for module in _BUILTIN_MODULES:
-        importlib.import_module(module)
+    """Every backend, its module imported (and so its renderer registered)."""
+    for name, module in _entry_points().items():
+        try:
+            importlib.import_module(module)
+        except Exception as error:  # a third-party backend may raise anything
+            raise BackendError(f"backend {name}: cannot import {module}: {error}") from error
+        if name not in BACKENDS:
+            raise BackendError(f"backend {name}: {module} registers no renderer named {name}")
     return dict(sorted(BACKENDS.items()))
+
+
+def is_monitor(name: str) -> bool:
+    """Whether backend ``name`` renders a monitor package."""
+    available()
+    return name in MONITORS

@@ -31,11 +31,24 @@ from typing import Any, Literal
 
 import numpy as np
 
+from imrosc.runtime.families import (
+    ARCHITECTURE,
+    ARRAY,
+    BOUNDS,
+    FREQUENCY,
+    INTERVAL,
+    ONE_OF,
+    POLYGON,
+    RATE,
+    STRING_ONE_OF,
+    VARIANCE,
+)
+
 Scale = Literal["add", "log", "count"]
 
-WIDENED = frozenset({"bounds", "array", "rate", "variance", "frequency", "interval", "polygon"})
+WIDENED = frozenset({BOUNDS, ARRAY, RATE, VARIANCE, FREQUENCY, INTERVAL, POLYGON})
 """Families whose limits calibration widens."""
-SETS = frozenset({"one-of", "string-one-of", "architecture"})
+SETS = frozenset({ONE_OF, STRING_ONE_OF, ARCHITECTURE})
 """Families calibration keeps or drops whole."""
 
 

@@ -2,30 +2,18 @@
 
 from __future__ import annotations
 
-from imrosc.backends.families import DAIKON, TIME
 from imrosc.infer import arch, daikon, polygon, temporal, timed
 from imrosc.infer.core import FamilyState
 from imrosc.ir import Tunables
+from imrosc.runtime.families import GROUPS, POLYGON, group_of, in_group
 from imrosc.translate.points import PointSpec
 
-DAIKON_FAMILIES = frozenset(DAIKON)
-TIME_FAMILIES = frozenset(TIME)
-FAMILY_GROUPS = {
-    "default": DAIKON_FAMILIES,
-    "time-related": TIME_FAMILIES,
-    "polygon": frozenset({"polygon"}),
-    "architecture": frozenset({"architecture"}),
-    "temporal": frozenset({"interval", "pattern"}),
-}
-"""How summaries group families, as the thesis counts them (465 default, 362 time-related, ...)."""
+__all__ = ["DAIKON_FAMILIES", "FAMILY_GROUPS", "TIME_FAMILIES", "group_of", "make_point_states"]
 
-
-def group_of(family: str) -> str:
-    """The summary group of a family."""
-    for group, members in FAMILY_GROUPS.items():
-        if family in members:
-            return group
-    return family
+FAMILY_GROUPS = {group: frozenset(in_group(group)) for group in GROUPS}
+"""How summaries group families (:data:`imrosc.runtime.families.GROUPS`)."""
+DAIKON_FAMILIES = FAMILY_GROUPS["default"]
+TIME_FAMILIES = FAMILY_GROUPS["time-related"]
 
 
 def make_point_states(spec: PointSpec, tunables: Tunables) -> list[FamilyState]:
@@ -44,5 +32,5 @@ def make_point_states(spec: PointSpec, tunables: Tunables) -> list[FamilyState]:
     states: list[FamilyState] = []
     states += daikon.make_states(spec.variables, tunables, enabled & DAIKON_FAMILIES)
     states += timed.make_states(spec.variables, tunables, enabled & TIME_FAMILIES)
-    states += polygon.make_states(spec.variables, tunables, enabled & {"polygon"})
+    states += polygon.make_states(spec.variables, tunables, enabled & {POLYGON})
     return states

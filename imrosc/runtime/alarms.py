@@ -37,11 +37,12 @@ from __future__ import annotations
 from collections import deque
 from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
+from .families import RANGED
 from .violation import Violation, json_safe
 
 Fed = Tuple[float, str, str, int, bool, float]
 """A violating sample as calibration keeps it (:attr:`AlarmTracker.fed`)."""
-RANGES = frozenset({"bounds", "array"})
+RANGES = RANGED
 """Families whose invariants are the range of one variable."""
 
 

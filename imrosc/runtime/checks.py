@@ -28,6 +28,22 @@ from typing import Any, Callable, Dict, FrozenSet, List, Mapping, Optional, Sequ
 import numpy as np
 
 from .compiled import Kernel, Tables, compile_checks, numba_module, pack
+from .families import (
+    ARRAY,
+    BOUNDS,
+    COMPILED,
+    EQUALITY,
+    FREQUENCY,
+    LINEAR,
+    NON_ZERO,
+    ONE_OF,
+    ORDER,
+    POLYGON,
+    RATE,
+    STRING_ONE_OF,
+    TERNARY,
+    VARIANCE,
+)
 from .fast import count_nonzero as _count
 from .polygons import PolygonChecks
 from .violation import Violation, show
@@ -88,26 +104,26 @@ class Checks:
                 inv["variables"],
                 inv["params"],
             )
-            if family in ("bounds", "array") and names[0] in index:
+            if family in (BOUNDS, ARRAY) and names[0] in index:
                 lo = _number(params.get("min", "-inf"))
                 hi = _number(params.get("max", "inf"))
                 if names[0] in slack:
                     lo -= abs(lo) * _STAT_SLACK
                     hi += abs(hi) * _STAT_SLACK
                 bounds.append((index[names[0]], lo, hi, inv))
-                if params.get("finite") and family == "bounds":
+                if params.get("finite") and family == BOUNDS:
                     finite.append((index[names[0]], inv))
-            elif family == "one-of" and names[0] in index:
+            elif family == ONE_OF and names[0] in index:
                 one_of.append((index[names[0]], [_number(v) for v in params["values"]], inv))
-            elif family == "non-zero" and names[0] in index:
+            elif family == NON_ZERO and names[0] in index:
                 nonzero.append((index[names[0]], inv))
-            elif family in ("equality", "order") and all(n in index for n in names):
+            elif family in (EQUALITY, ORDER) and all(n in index for n in names):
                 for other in names[1:]:
                     pairs[kind].append((index[names[0]], index[other], inv))
-            elif family in ("linear", "ternary") and all(n in index for n in names):
+            elif family in (LINEAR, TERNARY) and all(n in index for n in names):
                 coefficients = (
                     (params["a"], params["b"])
-                    if family == "linear"
+                    if family == LINEAR
                     else (params["a"], params["b"], params["c"])
                 )
                 # the tolerance covers inference's data (its rounding term is 1e-14 of the
@@ -120,12 +136,12 @@ class Checks:
                         inv,
                     )
                 )
-            elif family == "polygon" and all(n in index for n in names):
+            elif family == POLYGON and all(n in index for n in names):
                 owner = len(self.polygons)
                 self.polygons.append(inv)
                 for (a, b), c in zip(params["A"], params["b"]):
                     edges.append((index[names[0]], index[names[1]], a, b, c, owner))
-            elif family == "string-one-of" and names[0] in strings:
+            elif family == STRING_ONE_OF and names[0] in strings:
                 self.string_sets.append((strings[names[0]], frozenset(params["values"]), inv))
         self.finite_at = _ints([f[0] for f in finite])
         """Variables whose bounds say they are never NaN nor infinite."""
@@ -189,9 +205,17 @@ class Checks:
         """The checks compiled by numba (:mod:`.compiled`): whether a sample breaks
         nothing; ``None`` without numba."""
         self._tables = Tables(None, None, None)
-        if numba_module() is not None:
+        if numba_module() is not None and self.numeric_families() <= COMPILED:
             self._tables = self.tables()
             self._clears = compile_checks(self._tables, len(self.index))
+
+    def numeric_families(self) -> Set[str]:
+        """The families of the invariants :meth:`_numeric` checks. The compiled kernel
+        clears a sample only where it knows them all (a family it does not know would be
+        cleared unchecked): else numpy checks every sample."""
+        held = list(self.bounds_inv) + self.one_of_inv + self.nonzero_inv + self.polygons
+        held += [inv for inv, _ in self.forms.owners]
+        return {inv["family"] for inv in held}
 
     def tables(self) -> Tables:
         """These checks as the compiled kernel reads them (:func:`.compiled.pack`)."""
@@ -430,12 +454,12 @@ class _Forms:
                 continue
             seen.add(id(inv))
             values = tuple(float(z[i]) for i, w in zip(self.at[k], self.weights[k]) if w != 0)
-            if inv["family"] in ("bounds", "array"):
+            if inv["family"] in (BOUNDS, ARRAY):
                 observed: Any = values[0]
                 lo = inv["params"].get("min", "-inf")
                 hi = inv["params"].get("max", "inf")
                 expected = f"[{show(_number(lo))}, {show(_number(hi))}]"
-            elif inv["family"] in ("linear", "ternary"):
+            elif inv["family"] in (LINEAR, TERNARY):
                 observed = tuple(float(z[i]) for i in self.at[k][: len(inv["variables"])])
             else:
                 observed = values[:2]
@@ -465,13 +489,13 @@ class WindowChecks:
         position = {name: k for k, name in enumerate(tracked)}
         self.frequency: List[Mapping[str, Any]] = []
         self.per_variable: Dict[str, List[Tuple[int, Mapping[str, Any]]]] = {
-            "variance": [],
-            "rate": [],
+            VARIANCE: [],
+            RATE: [],
         }
         self.window = 0.0
         for inv in invariants:
             family = inv["family"]
-            if family == "frequency":
+            if family == FREQUENCY:
                 self.frequency.append(inv)
             elif family in self.per_variable and inv["variables"][0] in position:
                 self.per_variable[family].append((position[inv["variables"][0]], inv))

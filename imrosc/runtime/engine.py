@@ -22,6 +22,7 @@ from .alarms import Alarm, AlarmRule, AlarmTracker, shapes_of
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
 from .conditions import holds
+from .families import INTERVAL, PATTERN, VARIANCE
 from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
 from .windows import Windows
@@ -117,9 +118,9 @@ class _Point:
         self.intervals: List[IntervalMachine] = []
         self.patterns: List[PatternMachine] = []
         for inv in invariants:
-            if inv["family"] == "interval":
+            if inv["family"] == INTERVAL:
                 self.intervals.append(IntervalMachine(inv, key))
-            elif inv["family"] == "pattern":
+            elif inv["family"] == PATTERN:
                 self.patterns.append(PatternMachine(inv, key))
         self.events: Dict[Tuple[str, str], str] = {
             (kind, name): ident for ident, kind, name in info.get("events", ())
@@ -176,7 +177,7 @@ class _Point:
                 self.silent = self.silent and frequency < self.window_checks.recovered
 
                 def derived(family: str) -> Any:
-                    return windows.variance() if family == "variance" else windows.rate()
+                    return windows.variance() if family == VARIANCE else windows.rate()
 
                 found += self.window_checks.check(
                     time, self.key, frequency, derived, self.checks.cleared, self.silent

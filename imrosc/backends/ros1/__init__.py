@@ -27,21 +27,18 @@ package and the node.
 
 from __future__ import annotations
 
-import json
-import math
 import re
-import textwrap
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
-from markupsafe import Markup
 
 from imrosc import __version__
 from imrosc.backends import launch
 from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
+from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, Executable, register
+from imrosc.backends.vendor import copied_modules
 from imrosc.diagnostics import make
 from imrosc.monitor_ros1.logic import WARM
 
@@ -61,39 +58,10 @@ EXEC_DEPENDS = (
 """The node's run-time dependencies (rosdep keys). ``python3-numba`` compiles the checks
 (``imrosc/runtime/compiled.py``; the node runs without it, slower): its rosdep key resolves on
 Debian and on Noetic's Ubuntu (focal)."""
+__all__ = ["hash_comment", "py_literal", "render_package", "xml_comment_filter"]
+
 _CMAKE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+")
-
-
-def py_literal(value: Any) -> str:
-    """A Python literal of a str, int, finite float, bool or None, on one line, that Python
-    reads back as the same value whatever the text holds: JSON for a string (ASCII, every
-    quote and control character escaped), ``repr`` for the rest."""
-    if isinstance(value, str):
-        return json.dumps(value)
-    if value is None or isinstance(value, bool | int):
-        return repr(value)
-    if isinstance(value, float) and math.isfinite(value):
-        return repr(value)
-    raise ValueError(f"no literal for {value!r}")
-
-
-COMMENT_WIDTH = 96
-
-
-def hash_comment(text: Any) -> str:
-    """``text`` as ``#`` comment lines: non-printable and non-ASCII characters escaped (so no
-    text can end the comment), wrapped to the line length (a long path is cut)."""
-    shown = str(text).encode("unicode_escape").decode("ascii")
-    lines = textwrap.wrap(shown, COMMENT_WIDTH, break_long_words=True, break_on_hyphens=False) or [
-        ""
-    ]
-    return "\n".join(["# " + lines[0], *("#   " + line for line in lines[1:])])
-
-
-def xml_comment_filter(text: Any) -> Markup:
-    """The body of an XML comment (already safe: no ``--``, one line)."""
-    return Markup(launch.xml_comment(str(text)))
 
 
 def cmake_name(text: Any) -> str:
@@ -118,16 +86,6 @@ def environment() -> Environment:
     env.filters["xml_comment"] = xml_comment_filter
     env.filters["cmake_name"] = cmake_name
     return env
-
-
-def _copies(package: str, folder: str, banner: str) -> dict[str, bytes]:
-    """The ``.py`` files of an imrosc package, each under ``folder`` with the banner first."""
-    files: dict[str, bytes] = {}
-    for item in sorted(resources.files(package).iterdir(), key=lambda i: i.name):
-        if item.is_file() and item.name.endswith(".py"):
-            text = item.read_text(encoding="utf-8")
-            files[f"{folder}/{item.name}"] = f"{hash_comment(banner)}\n{text}".encode()
-    return files
 
 
 def _helpers(spec: MonitorSpec) -> list[str]:
@@ -162,8 +120,8 @@ def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
         spec.invariants_path: invariants_copy(spec, banner),
         f"launch/{spec.package}.launch": render("monitor.launch.j2", warm=WARM),
     }
-    files.update(_copies("imrosc.monitor_ros1", ADAPTER_DIR, banner))
-    files.update(_copies("imrosc.runtime", RUNTIME_DIR, banner))
+    files.update(copied_modules("imrosc.monitor_ros1", ADAPTER_DIR, BACKEND))
+    files.update(copied_modules("imrosc.runtime", RUNTIME_DIR, BACKEND))
     return dict(sorted(files.items()))
 
 
@@ -202,7 +160,7 @@ def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -
     return {SYSTEM_LAUNCH: rewritten.content}
 
 
-@register(BACKEND)
+@register(BACKEND, monitor=True)
 def render(inputs: BuildInputs) -> dict[str, bytes]:
     """The monitor package, each path under ``<package>/``."""
     spec = monitor_spec(inputs)

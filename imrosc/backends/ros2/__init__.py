@@ -38,7 +38,6 @@ from __future__ import annotations
 import re
 import textwrap
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -47,8 +46,9 @@ from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescap
 from imrosc import __version__
 from imrosc.backends import launch
 from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
+from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, register
-from imrosc.backends.ros1 import hash_comment, py_literal, xml_comment_filter
+from imrosc.backends.vendor import copied_modules
 from imrosc.diagnostics import make
 
 if TYPE_CHECKING:
@@ -140,17 +140,6 @@ def environment() -> Environment:
     env.filters["hash_comment"] = hash_comment
     env.filters["xml_comment"] = xml_comment_filter
     return env
-
-
-def _copies(package: str, folder: str, banner: str, only: tuple[str, ...] = ()) -> dict[str, bytes]:
-    """The ``.py`` files of an imrosc package (or ``only`` those), each under ``folder``
-    with the banner first."""
-    files: dict[str, bytes] = {}
-    for item in sorted(resources.files(package).iterdir(), key=lambda i: i.name):
-        if item.is_file() and item.name.endswith(".py") and (not only or item.name in only):
-            text = item.read_text(encoding="utf-8")
-            files[f"{folder}/{item.name}"] = f"{hash_comment(banner)}\n{text}".encode()
-    return files
 
 
 def _helpers(spec: MonitorSpec) -> list[str]:
@@ -270,16 +259,18 @@ def render_package(
         monitor_launch: render("monitor.launch.xml.j2"),
     }
     vendor = f"{root}/{VENDOR}"
-    files.update(_copies("imrosc.runtime", f"{vendor}/runtime", banner))
-    files.update(_copies("imrosc.monitor_ros2", f"{vendor}/monitor_ros2", banner))
+    files.update(copied_modules("imrosc.runtime", f"{vendor}/runtime", BACKEND))
+    files.update(copied_modules("imrosc.monitor_ros2", f"{vendor}/monitor_ros2", BACKEND))
     files.update(
-        _copies("imrosc.monitor_ros1", f"{vendor}/monitor_ros1", banner, only=SHARED_ADAPTER)
+        copied_modules(
+            "imrosc.monitor_ros1", f"{vendor}/monitor_ros1", BACKEND, only=SHARED_ADAPTER
+        )
     )
     if recorder is not None:
         files[f"{root}/recorder.py"] = render("recorder.py.j2")
         files[f"{root}/{RECORDER_SPEC}"] = dumps(recorder.document(spec, banner))
         files[recorder_launch(spec)] = render("recorder.launch.xml.j2")
-        files.update(_copies("imrosc.record_ros2", f"{vendor}/record_ros2", banner))
+        files.update(copied_modules("imrosc.record_ros2", f"{vendor}/record_ros2", BACKEND))
     return dict(sorted(files.items()))
 
 
@@ -336,7 +327,7 @@ def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -
     return {SYSTEM_LAUNCH: rewritten.content}
 
 
-@register(BACKEND)
+@register(BACKEND, monitor=True)
 def render(inputs: BuildInputs) -> dict[str, bytes]:
     """The monitor package, each path under ``<package>/``."""
     spec = monitor_spec(inputs)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from imrosc.backends.families import DAIKON
 from imrosc.infer.core import FamilyState, Variable
 from imrosc.infer.daikon.array import ArrayState
 from imrosc.infer.daikon.bounds import BoundsState
@@ -32,8 +31,9 @@ from imrosc.infer.daikon.order import OrderState
 from imrosc.infer.daikon.string_one_of import StringOneOfState
 from imrosc.infer.daikon.ternary import TernaryState
 from imrosc.ir import Tunables
+from imrosc.runtime.families import in_group
 
-FAMILIES = DAIKON
+FAMILIES = in_group("default")
 """The families this package builds, in the order ``make_states`` returns them."""
 
 __all__ = ["FAMILIES", "make_states"]

@@ -1,0 +1,119 @@
+"""The invariant families: one record each, the one place that names them.
+
+Every stage speaks of a family by the constants below, never by a bare string: the job
+schema's list (a test holds them equal), which families inference instantiates at which
+kind of program point (:func:`for_point`), how summaries group them (:func:`in_group`), how
+the runtime checks them (:attr:`Family.check`) and whether its compiled kernel does
+(:attr:`Family.compiled`; a point holding a value family the kernel does not know is
+checked by numpy alone, never cleared unchecked).
+
+Adding a value family is one row here, one state module in ``imrosc/infer``, its check in
+:mod:`.checks`, tests and docs (``docs/architecture.md``).
+
+Python 3.8 syntax, standard library only: this module is copied into generated packages.
+
+>>> for_point(CALL)[:3], in_group("time-related")
+(('bounds', 'one-of', 'non-zero'), ('frequency', 'variance', 'rate'))
+>>> FAMILIES[POLYGON].check, FAMILIES[INTERVAL].check
+('value', 'event')
+"""
+
+from typing import Dict, FrozenSet, NamedTuple, Tuple
+
+BOUNDS = "bounds"
+ONE_OF = "one-of"
+NON_ZERO = "non-zero"
+EQUALITY = "equality"
+ORDER = "order"
+LINEAR = "linear"
+TERNARY = "ternary"
+STRING_ONE_OF = "string-one-of"
+ARRAY = "array"
+FREQUENCY = "frequency"
+VARIANCE = "variance"
+RATE = "rate"
+POLYGON = "polygon"
+ARCHITECTURE = "architecture"
+INTERVAL = "interval"
+PATTERN = "pattern"
+
+PUBLISH = "publish"
+CALL = "call"
+PARAM = "param"
+ARCH = "arch"
+TEMPORAL = "temporal"
+POINT_KINDS = (PUBLISH, CALL, PARAM, ARCH, TEMPORAL)
+"""The kinds of program point (``plan.json``'s and the IR's)."""
+
+GROUPS = ("default", "time-related", "polygon", "architecture", "temporal")
+"""How summaries group families, as the thesis counts them (465 default, 362
+time-related, ...)."""
+
+
+class Family(NamedTuple):
+    """One invariant family."""
+
+    name: str
+    group: str
+    """Its summary group (:data:`GROUPS`)."""
+    points: FrozenSet[str]
+    """The kinds of program point inference instantiates it at."""
+    check: str
+    """How the runtime checks it: ``value`` (each sample's values), ``window`` (the
+    point's values over its time window), ``event`` (timers, the graph, orderings: each
+    violation an alarm)."""
+    compiled: bool = False
+    """Whether the compiled kernel (:mod:`.compiled`) checks it (value families)."""
+    ranged: bool = False
+    """A range of one variable (the alarm rule's agreement does not count a relation broken
+    in a sample that also breaks such a range of one of its variables)."""
+
+
+_VALUES = frozenset({PUBLISH, CALL})
+_PARAMS = frozenset({PUBLISH, CALL, PARAM})
+
+CATALOG: Tuple[Family, ...] = (
+    Family(BOUNDS, "default", _PARAMS, "value", compiled=True, ranged=True),
+    Family(ONE_OF, "default", _PARAMS, "value", compiled=True),
+    Family(NON_ZERO, "default", _VALUES, "value", compiled=True),
+    Family(EQUALITY, "default", _VALUES, "value", compiled=True),
+    Family(ORDER, "default", _VALUES, "value", compiled=True),
+    Family(LINEAR, "default", _VALUES, "value", compiled=True),
+    Family(TERNARY, "default", _VALUES, "value", compiled=True),
+    Family(STRING_ONE_OF, "default", _PARAMS, "value"),
+    Family(ARRAY, "default", _VALUES, "value", compiled=True, ranged=True),
+    Family(FREQUENCY, "time-related", frozenset({PUBLISH}), "window"),
+    Family(VARIANCE, "time-related", frozenset({PUBLISH}), "window"),
+    Family(RATE, "time-related", frozenset({PUBLISH}), "window"),
+    Family(POLYGON, "polygon", _VALUES, "value", compiled=True),
+    Family(ARCHITECTURE, "architecture", frozenset({ARCH}), "event"),
+    Family(INTERVAL, "temporal", frozenset({TEMPORAL}), "event"),
+    Family(PATTERN, "temporal", frozenset({TEMPORAL}), "event"),
+)
+"""Every family, in the order inference instantiates them and files list them."""
+
+FAMILIES: Dict[str, Family] = {family.name: family for family in CATALOG}
+NAMES: Tuple[str, ...] = tuple(family.name for family in CATALOG)
+WINDOW: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.check == "window")
+"""Families checked on window values (frequency, variance, change rate)."""
+EVENT: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.check == "event")
+"""Families whose violations are events (the graph, orderings)."""
+RANGED: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.ranged)
+COMPILED: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.compiled)
+
+
+def in_group(group: str) -> Tuple[str, ...]:
+    """The families of a summary group, in catalog order."""
+    return tuple(f.name for f in CATALOG if f.group == group)
+
+
+def group_of(name: str) -> str:
+    """The summary group of a family (its own name for one the catalog does not hold)."""
+    family = FAMILIES.get(name)
+    return family.group if family is not None else name
+
+
+def for_point(kind: str, patterns: bool = False) -> Tuple[str, ...]:
+    """The families inference instantiates at a point of ``kind``; ``patterns``: a
+    temporal point with event patterns (``<temporal>`` with ``pattern``)."""
+    return tuple(f.name for f in CATALOG if kind in f.points and (f.name != PATTERN or patterns))
