@@ -1,8 +1,9 @@
 """Conditions over columns: the ``<value>`` expression evaluated on a whole chunk at once.
 
 Names in a condition are field paths of the condition topic's message; the topic's last name
-segment stands for the message itself, or for its only field when it has one (DESIGN.md:
-``pump_control==1`` on ``/a/pump_control`` of type std_msgs/UInt8 means ``data == 1``).
+segment stands for the message itself, or for its only field when it has one
+(``pump_control==1`` on ``/a/pump_control`` of type std_msgs/UInt8 means ``data == 1``;
+docs/config.md, "Condition expressions").
 A topic operand may only name the condition's own topic, and stands for its message the same
 way. A row where the condition cannot be evaluated (a missing value) does not satisfy it; the
 semantics are those of the runtime engine's ``imrosc.runtime.conditions`` (one sample at a
