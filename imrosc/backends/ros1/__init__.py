@@ -28,18 +28,22 @@ package and the node.
 from __future__ import annotations
 
 import re
-from pathlib import Path
 from typing import Any
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
 from imrosc import __version__
-from imrosc.backends import launch
-from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
+from imrosc.backends.monitor import (
+    HELPERS,
+    MonitorSpec,
+    dumps,
+    invariants_copy,
+    monitor_spec,
+    system_launch,
+)
 from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, Executable, register
 from imrosc.backends.vendor import copied_modules
-from imrosc.diagnostics import make
 from imrosc.monitor_ros1.logic import WARM
 
 BACKEND = "ros1"
@@ -127,37 +131,17 @@ def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
 
 def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -> dict[str, bytes]:
     """``launch/system_monitored.launch`` when the ``<monitor>`` names a launch file."""
-    project = inputs.project
-    monitor = project.monitor
-    if spec.launch is None or monitor is None:
+    if spec.launch is None or inputs.project.monitor is None:
         return {}
-    interception = launch.Interception(spec.topic_relays, spec.service_relays)
-    graph = inputs.graph
-    if interception and (graph is None or not graph.knows_subscriptions):
-        inputs.diagnostics.append(
-            make(
-                project.source,
-                monitor.span.line,
-                monitor.span.column,
-                "launch-without-graph",
-                "rewriting the launch file needs to know who subscribes to the blocked topics "
-                "and who serves the relayed services: pass --graph FILE or --bags with "
-                "architecture records",
-            )
-        )
-        return {}
-    path = Path(project.source).parent / spec.launch
-    rewritten = launch.rewrite_ros1(
-        path,
-        interception=interception,
-        graph=graph,
-        monitor=launch.MonitorLaunch(spec.package, f"{spec.package}.launch"),
-        banner=banner,
+    return system_launch(
+        inputs,
+        spec,
+        banner,
+        flavour=BACKEND,
+        source=spec.launch,
+        included=f"{spec.package}.launch",
+        target=SYSTEM_LAUNCH,
     )
-    inputs.diagnostics.extend(rewritten.diagnostics)
-    if rewritten.content is None:
-        return {}
-    return {SYSTEM_LAUNCH: rewritten.content}
 
 
 @register(BACKEND, monitor=True)

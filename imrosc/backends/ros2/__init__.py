@@ -38,14 +38,19 @@ from __future__ import annotations
 import re
 import textwrap
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
 from imrosc import __version__
-from imrosc.backends import launch
-from imrosc.backends.monitor import HELPERS, MonitorSpec, dumps, invariants_copy, monitor_spec
+from imrosc.backends.monitor import (
+    HELPERS,
+    MonitorSpec,
+    dumps,
+    invariants_copy,
+    monitor_spec,
+    system_launch,
+)
 from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, register
 from imrosc.backends.vendor import copied_modules
@@ -304,27 +309,15 @@ def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -
             "launch file and remap the subscribers of the blocked topics to /m/<topic> "
             "yourself (see docs/monitor.md)",
         )
-    interception = launch.Interception(spec.topic_relays, spec.service_relays)
-    graph = inputs.graph
-    if interception and (graph is None or not graph.knows_subscriptions):
-        return problem(
-            "launch-without-graph",
-            "rewriting the launch file needs to know who subscribes to the blocked topics "
-            "and who serves the relayed services: pass --graph FILE or --bags with "
-            "architecture records",
-        )
-    path = Path(project.source).parent / source
-    rewritten = launch.REWRITERS[BACKEND](
-        path,
-        interception=interception,
-        graph=graph,
-        monitor=launch.MonitorLaunch(spec.package, f"{spec.package}.launch.xml"),
-        banner=banner,
+    return system_launch(
+        inputs,
+        spec,
+        banner,
+        flavour=BACKEND,
+        source=source,
+        included=f"{spec.package}.launch.xml",
+        target=SYSTEM_LAUNCH,
     )
-    inputs.diagnostics.extend(rewritten.diagnostics)
-    if rewritten.content is None:
-        return {}
-    return {SYSTEM_LAUNCH: rewritten.content}
 
 
 @register(BACKEND, monitor=True)
