@@ -85,6 +85,12 @@ CODES: tuple[Code, ...] = (
         "A name is given both as text and as child elements.",
     ),
     Code("bad-relative", _E, "semantic", "The relative hop count is negative."),
+    Code(
+        "unknown-family",
+        _E,
+        "semantic",
+        "A families attribute names no invariant family or group a publish point has.",
+    ),
     Code("bad-pattern", _E, "semantic", "A temporal pattern is not a valid regular expression."),
     Code(
         "pattern-unknown-event",

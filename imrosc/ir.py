@@ -62,6 +62,9 @@ class PublishPoint:
     conds: tuple[str, ...] = ()
     condition: str | None = None
     inputs: tuple[InputTopic, ...] = ()
+    families: tuple[str, ...] = ()
+    """The template families inference instantiates here (``<publish families>``, in catalog
+    order); empty: every family of a publish point."""
     kind: Literal["publish"] = "publish"
 
 

@@ -8,11 +8,13 @@ conditional points are not yet expanded, and events not yet labelled.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 
 from lxml import etree
 
 from imrosc import ir
+from imrosc.runtime.families import PUBLISH, select
 from imrosc.schema import expression, pattern
 from imrosc.schema.flowmap import parse_flow_mapping
 from imrosc.schema.loader import LoadedConfig
@@ -59,7 +61,16 @@ def _publish(config: LoadedConfig, element: etree._Element) -> ir.PublishPoint:
         explicit_topics=explicit,
         params=_texts(element, "param"),
         conds=_ids(element.get("conds")),
+        families=_families(element.get("families")),
     )
+
+
+def _families(value: str | None) -> tuple[str, ...]:
+    """The families a checked ``families`` attribute selects (none: every family)."""
+    if value is None:
+        return ()
+    chosen, _ = select(re.split(r"[,\s]+", value.strip()), PUBLISH)
+    return chosen
 
 
 def _call(config: LoadedConfig, element: etree._Element) -> ir.CallPoint:

@@ -10,7 +10,7 @@ from imrosc.runtime.families import ARCH, CALL, PARAM, PUBLISH, TEMPORAL, for_po
 def families(point: ir.Point) -> tuple[str, ...]:
     """The template families inference instantiates at ``point``."""
     if isinstance(point, ir.PublishPoint):
-        return for_point(PUBLISH)
+        return point.families or for_point(PUBLISH)
     if isinstance(point, ir.CallPoint):
         return for_point(CALL)
     if isinstance(point, ir.ParamPoint):

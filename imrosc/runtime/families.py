@@ -18,7 +18,7 @@ Python 3.8 syntax, standard library only: this module is copied into generated p
 ('value', 'event')
 """
 
-from typing import Dict, FrozenSet, NamedTuple, Tuple
+from typing import Dict, FrozenSet, Iterable, NamedTuple, Tuple
 
 BOUNDS = "bounds"
 ONE_OF = "one-of"
@@ -111,6 +111,27 @@ def group_of(name: str) -> str:
     """The summary group of a family (its own name for one the catalog does not hold)."""
     family = FAMILIES.get(name)
     return family.group if family is not None else name
+
+
+def select(words: Iterable[str], kind: str) -> Tuple[Tuple[str, ...], Tuple[str, ...]]:
+    """The families of a point of ``kind`` that ``words`` (family or group names) select,
+    in catalog order, and the words that name none of them.
+
+    >>> select(["default", "rate", "polygons"], PUBLISH)[1]
+    ('polygons',)
+    >>> select(["time-related", "bounds"], PUBLISH)[0]
+    ('bounds', 'frequency', 'variance', 'rate')
+    """
+    applicable = for_point(kind)
+    wanted = set()
+    unknown = []
+    for word in words:
+        found = [name for name in applicable if word in (name, FAMILIES[name].group)]
+        if found:
+            wanted.update(found)
+        else:
+            unknown.append(word)
+    return tuple(name for name in applicable if name in wanted), tuple(unknown)
 
 
 def for_point(kind: str, patterns: bool = False) -> Tuple[str, ...]:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from lxml import etree
 
 from imrosc.diagnostics import Diagnostic, make
+from imrosc.runtime.families import PUBLISH, select
 from imrosc.schema.expression import (
     Binary,
     Expr,
@@ -171,6 +172,7 @@ class _Pass:
         if element.tag == "publish":
             self.check_point_name(element, "topic")
             self.check_relative(element)
+            self.check_families(element)
         elif element.tag == "call":
             self.check_point_name(element, "service")
         elif element.tag == "param":
@@ -229,6 +231,24 @@ class _Pass:
         if hops < 0:
             message = f"relative={hops}: the number of publisher hops must be 0 or more"
             self.at_attribute(element, "relative", "bad-relative", message)
+
+    def check_families(self, element: etree._Element) -> None:
+        value = element.get("families")
+        if value is None:
+            return
+        tokens = [t for t in split_tokens(value, ", \t\n") if t.text]
+        if not tokens:
+            message = "families names no family: leave the attribute out for all of them"
+            self.at_attribute(element, "families", "unknown-family", message)
+            return
+        _, unknown = select([t.text for t in tokens], PUBLISH)
+        for token in tokens:
+            if token.text in unknown:
+                message = (
+                    f"{token.text!r} is no invariant family or group of a publish point "
+                    f"(groups: default, time-related, polygon)"
+                )
+                self.at_attribute(element, "families", "unknown-family", message, token.offset)
 
     def check_conds(self, element: etree._Element) -> None:
         value = element.get("conds")
