@@ -34,6 +34,7 @@ from .families import (
     COMPILED,
     EQUALITY,
     FREQUENCY,
+    FUNCTION,
     LINEAR,
     NON_ZERO,
     ONE_OF,
@@ -96,6 +97,8 @@ class Checks:
         edges: List[Tuple[int, int, float, float, float, int]] = []
         self.polygons: List[Mapping[str, Any]] = []
         self.string_sets: List[Tuple[int, FrozenSet[str], Mapping[str, Any]]] = []
+        self.functions: List[Tuple[str, Tuple[int, ...], Mapping[str, Any]]] = []
+        """``z == max(x, y)``, ``z == min(x, y)``, ``y == |x|``: kind, variables' places."""
         slack = set(stats)
         for inv in invariants:
             family, kind, names, params = (
@@ -143,6 +146,8 @@ class Checks:
                     edges.append((index[names[0]], index[names[1]], a, b, c, owner))
             elif family == STRING_ONE_OF and names[0] in strings:
                 self.string_sets.append((strings[names[0]], frozenset(params["values"]), inv))
+            elif family == FUNCTION and all(n in index for n in names):
+                self.functions.append((kind, tuple(index[n] for n in names), inv))
         self.finite_at = _ints([f[0] for f in finite])
         """Variables whose bounds say they are never NaN nor infinite."""
         self.finite_inv = [f[1] for f in finite]
@@ -244,6 +249,7 @@ class Checks:
             + self.pair_count
             + len(self.polygons)
             + len(self.string_sets)
+            + len(self.functions)
         )
 
     def check(self, time: float, point: str, row: Any, strings: Sequence[Any] = ()) -> Found:
@@ -268,6 +274,8 @@ class Checks:
             if value not in values:
                 expected = "one of " + ", ".join(sorted(f'"{v}"' for v in values))
                 found.append(_violation(time, point, inv, value, expected))
+        for kind, places, inv in self.functions:
+            found += _function(time, point, kind, [row.item(k) for k in places], inv)
         if found and self.cleared:
             found = [v for v in found if v.invariant not in self.cleared]
         return found
@@ -465,6 +473,24 @@ class _Forms:
                 observed = values[:2]
             found.append(_violation(time, point, inv, observed, expected))
         return found
+
+
+def _function(
+    time: float, point: str, kind: str, values: List[float], inv: Mapping[str, Any]
+) -> Found:
+    """The violation of ``z == max(x, y)`` (``min``; ``y == |x|``) by ``values`` (``[z, x,
+    y]``, ``[y, x]``), if any: the functions are exact in float64; NaN breaks nothing."""
+    if any(math.isnan(v) for v in values):
+        return []
+    if kind == "abs":
+        expected = abs(values[1])
+    else:
+        expected = max(values[1], values[2]) if kind == "max" else min(values[1], values[2])
+    if values[0] + 0.0 == expected + 0.0:
+        return []
+    names = inv["variables"]
+    shown = f"|{names[1]}|" if kind == "abs" else f"{kind}({names[1]}, {names[2]})"
+    return [_violation(time, point, inv, tuple(values), f"== {shown} = {show(expected)}")]
 
 
 def _violation(

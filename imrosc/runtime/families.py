@@ -27,6 +27,7 @@ EQUALITY = "equality"
 ORDER = "order"
 LINEAR = "linear"
 TERNARY = "ternary"
+FUNCTION = "function"
 STRING_ONE_OF = "string-one-of"
 ARRAY = "array"
 FREQUENCY = "frequency"
@@ -80,6 +81,7 @@ CATALOG: Tuple[Family, ...] = (
     Family(ORDER, "default", _VALUES, "value", compiled=True),
     Family(LINEAR, "default", _VALUES, "value", compiled=True),
     Family(TERNARY, "default", _VALUES, "value", compiled=True),
+    Family(FUNCTION, "default", _VALUES, "value"),
     Family(STRING_ONE_OF, "default", _PARAMS, "value"),
     Family(ARRAY, "default", _VALUES, "value", compiled=True, ranged=True),
     Family(FREQUENCY, "time-related", frozenset({PUBLISH}), "window"),

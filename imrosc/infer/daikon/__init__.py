@@ -24,6 +24,7 @@ from imrosc.infer.core import FamilyState, Variable
 from imrosc.infer.daikon.array import ArrayState
 from imrosc.infer.daikon.bounds import BoundsState
 from imrosc.infer.daikon.equality import EqualityState
+from imrosc.infer.daikon.function import FunctionState
 from imrosc.infer.daikon.linear import LinearState
 from imrosc.infer.daikon.non_zero import NonZeroState
 from imrosc.infer.daikon.one_of import OneOfState
@@ -53,6 +54,7 @@ def make_states(
         "order": lambda: OrderState(variables, bounds="bounds" in families),
         "linear": lambda: LinearState(variables),
         "ternary": lambda: TernaryState(variables),
+        "function": lambda: FunctionState(variables),
         "string-one-of": lambda: StringOneOfState(variables),
         "array": lambda: ArrayState(variables),
     }
