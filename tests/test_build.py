@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from imrosc.cli import main
 from tests.graph import SECOND, Message, arch, arch_message, write_ros1_bag
-from tests.test_infer_cli import good_run
+from tests.translate import good_run
 
 CONFIG = """<imROS project="recorded">
   <scope>

@@ -12,7 +12,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from imrosc.cli import main
-from tests.test_infer_cli import good_run
+from tests.translate import good_run
 
 CONFIG = """<imROS project="d">
   <scope>

@@ -15,7 +15,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from imrosc.cli import main
 from imrosc.detect import run_detect
-from tests.translate import msg, write_bag
+from tests.translate import good_run, msg, write_bag
 
 FIXTURES = Path(__file__).parent / "fixtures"
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
@@ -30,18 +30,6 @@ CONFIG = """<imROS project="bad">
   </detect>
 </imROS>
 """
-
-
-def good_run(path: Path, offset: float, odd: bool = False) -> Path:
-    messages = []
-    for i in range(40):
-        t = offset + i * 0.1
-        value = float(i % 5)
-        if odd and i in (3, 4):
-            value = [float("nan"), float("inf")][i - 3]
-        messages.append(msg("/in", t, "std_msgs/msg/Int32", "/src", data=i % 3))
-        messages.append(msg("/out", t + 0.01, "std_msgs/msg/Float64", "/ctl", data=value))
-    return write_bag(path, messages)
 
 
 def unknown_type_bag(path: Path) -> Path:

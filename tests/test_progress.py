@@ -14,7 +14,7 @@ from click.testing import CliRunner
 
 from imrosc.cli import main
 from imrosc.progress import BagProgress, wanted
-from tests.bad_input.test_catalogue import project, template
+from tests.bad_input.support import project, template
 
 __all__ = ["project", "template"]
 

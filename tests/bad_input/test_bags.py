@@ -19,7 +19,7 @@ import pytest
 from click.testing import CliRunner
 
 from imrosc.cli import main
-from tests.bad_input.test_catalogue import project, snapshot, template
+from tests.bad_input.support import project, snapshot, template
 from tests.graph import SECOND, Message, write_ros2_bag
 
 __all__ = ["project", "template"]

@@ -13,12 +13,11 @@ permission stops): the write of the temporary file raises the ``OSError`` the sy
 from __future__ import annotations
 
 import errno
-import hashlib
 import json
 import os
 import shutil
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,47 +27,11 @@ from click.testing import CliRunner
 
 from imrosc import outputs
 from imrosc.cli import main
-from tests.test_infer_cli import good_run
+from tests.bad_input.support import CONFIG, project, snapshot, template
 
-CONFIG = """<imROS project="p">
-  <scope>
-    <publish id="a"><topic>/out</topic><topic>/in</topic></publish>
-  </scope>
-  <detect inv="p.inv" budget="0"><bag>bags/train</bag></detect>
-  <check inv="p.inv">
-    <success>bags/ok</success>
-    <fail>bags/bad</fail>
-  </check>
-</imROS>
-"""
+__all__ = ["project", "template"]
+
 USAGE, ENVIRONMENT = 2, 4
-
-
-@pytest.fixture(scope="module")
-def template(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    folder = tmp_path_factory.mktemp("project")
-    (folder / "p.xml").write_text(CONFIG)
-    for name in ("train", "ok", "bad"):
-        (folder / "bags" / name).mkdir(parents=True)
-    good_run(folder / "bags" / "train" / "r1.bag", 0.0)
-    good_run(folder / "bags" / "train" / "r2.bag", 10.0)
-    good_run(folder / "bags" / "ok" / "s1.bag", 20.0)
-    good_run(folder / "bags" / "bad" / "f1.bag", 30.0, odd=True)
-    done = CliRunner().invoke(main, ["infer", str(folder / "p.xml"), "-j", "1", "-q"])
-    assert done.exit_code == 0, done.output
-    return folder
-
-
-def snapshot(folder: Path) -> dict[str, str]:
-    """Every file (and link) under ``folder``: its content's hash (a link: its target)."""
-    found: dict[str, str] = {}
-    for path in sorted(folder.rglob("*")):
-        key = str(path.relative_to(folder))
-        if path.is_symlink():
-            found[key] = "-> " + os.readlink(path)
-        elif path.is_file():
-            found[key] = hashlib.sha1(path.read_bytes()).hexdigest()
-    return found
 
 
 # -- setups: what a row does to the project before the command ------------------------------
@@ -411,13 +374,6 @@ for _name, (_setup, _message) in MALFORMED.items():
         _setup,
         absent=("r.inv",),
     )
-
-
-@pytest.fixture
-def project(template: Path, tmp_path: Path) -> Iterator[Path]:
-    folder = tmp_path / "project"
-    shutil.copytree(template, folder, symlinks=True)
-    yield folder
 
 
 @pytest.mark.parametrize("name", list(CASES))

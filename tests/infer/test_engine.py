@@ -21,8 +21,7 @@ from imrosc.infer.core import Invariant
 from imrosc.infer.engine import infer, new_states
 from imrosc.ir import Tunables
 from imrosc.translate.stream import BagTranslator
-from tests.translate import Msg, msg, write_bag
-from tests.translate.test_stream import specs_for
+from tests.translate import Msg, msg, specs_for, write_bag
 
 CONFIG = """<imROS project="t">
   <scope>

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from imrosc import ir
-from tests.passes.test_pass_fixtures import CASES, run_case
+from tests.passes.support import CASES, run_case
 
 
 def grouped(case: str) -> set[str]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from imrosc import ir
-from tests.passes.test_pass_fixtures import CASES, run_case
+from tests.passes.support import CASES, run_case
 
 
 def temporal(case: str) -> ir.TemporalPoint:

@@ -20,15 +20,7 @@ from click.testing import CliRunner, Result
 
 from imrosc.cli import main
 from imrosc.record.session import child_environment
-
-CONFIG = """<imROS project="small robot">
-  <scope>
-    <publish id="a" relative="1">/cmd</publish>
-    <call id="c">/task</call>
-    <param id="p">/gain</param>
-  </scope>
-</imROS>
-"""
+from tests.record.support import CONFIG, one_line_error
 
 LAUNCH = """<launch>
   <node pkg="robot" type="server" name="server" ns="a"/>
@@ -87,15 +79,6 @@ def config(tmp_path: Path) -> Path:
 def record(*args: str, uri: str = NO_MASTER) -> Result:
     env = {"ROS_MASTER_URI": uri, "ROS_VERSION": None}  # ROS 1, whatever the shell sourced
     return CliRunner().invoke(main, ["record", *args], env=env)
-
-
-def one_line_error(result: Result, status: int = 1) -> str:
-    assert result.exit_code == status, result.output
-    assert result.exception is None or isinstance(result.exception, SystemExit)
-    assert "Traceback" not in result.output
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1, result.stderr
-    return lines[0]
 
 
 def test_no_master_says_so(config: Path, tmp_path: Path) -> None:

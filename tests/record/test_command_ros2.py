@@ -13,7 +13,7 @@ from click.testing import CliRunner, Result
 
 from imrosc.cli import main
 from imrosc.record.command_ros2 import existing_ros2_bags, is_ros2_bag
-from tests.record.test_command import CONFIG, one_line_error
+from tests.record.support import CONFIG, one_line_error
 
 NO_RCLPY = importlib.util.find_spec("rclpy") is None
 

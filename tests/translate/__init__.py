@@ -12,6 +12,15 @@ from rosbags.rosbag1 import Writer
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
+from imrosc.backends.plan import render_job, render_plan
+from imrosc.backends.registry import BuildInputs, TopicType
+from imrosc.lower import lower
+from imrosc.passes.context import PassContext
+from imrosc.passes.pipeline import run_passes
+from imrosc.schema.loader import parse_config_bytes
+from imrosc.translate.catalog import build_catalog
+from imrosc.translate.points import PointSpec, point_specs
+
 SECOND = 1_000_000_000
 
 
@@ -67,3 +76,32 @@ def write_bag(path: Path, messages: Iterable[Msg]) -> Path:
             data = store().serialize_ros1(build(m.msgtype, dict(m.fields)), m.msgtype)
             writer.write(connections[key], int(m.time * SECOND), bytes(data))
     return path
+
+
+def good_run(path: Path, offset: float, odd: bool = False) -> Path:
+    """A ROS 1 bag of 40 pairs: ``/in`` (Int32 0, 1, 2, ...) then ``/out`` (Float64 0..4) 10 ms
+    later, every 0.1 s from ``offset``; ``odd``: ``/out`` is NaN and inf at the 4th and 5th."""
+    messages = []
+    for i in range(40):
+        t = offset + i * 0.1
+        value = float(i % 5)
+        if odd and i in (3, 4):
+            value = [float("nan"), float("inf")][i - 3]
+        messages.append(msg("/in", t, "std_msgs/msg/Int32", "/src", data=i % 3))
+        messages.append(msg("/out", t + 0.01, "std_msgs/msg/Float64", "/ctl", data=value))
+    return write_bag(path, messages)
+
+
+def specs_for(config: str, bags: list[Path]) -> tuple[list[PointSpec], Any, Any]:
+    """The point specs of ``config`` over ``bags`` (as ``imrosc infer`` compiles them), the
+    topics' layouts and the bags' catalog."""
+    loaded, problems = parse_config_bytes(config.encode(), "t.xml")
+    assert loaded is not None and not problems
+    catalog = build_catalog(bags)
+    assert not catalog.diagnostics, [d.as_text() for d in catalog.diagnostics]
+    project = run_passes(lower(loaded), PassContext())
+    types = {t: TopicType(m, f) for t, (m, f) in catalog.types.items()}
+    inputs = BuildInputs(project, (), types)
+    specs, skipped, layouts = point_specs(render_plan(inputs), render_job(inputs), catalog)
+    assert not skipped
+    return specs, layouts, catalog

@@ -10,17 +10,9 @@ import numpy as np
 import pytest
 
 from imrosc import records
-from imrosc.backends.plan import render_job, render_plan
-from imrosc.backends.registry import BuildInputs, TopicType
 from imrosc.infer.core import Samples
-from imrosc.lower import lower
-from imrosc.passes.context import PassContext
-from imrosc.passes.pipeline import run_passes
-from imrosc.schema.loader import parse_config_bytes
-from imrosc.translate.catalog import build_catalog
-from imrosc.translate.points import PointSpec, point_specs
 from imrosc.translate.stream import BagTranslator
-from tests.translate import Msg, msg, write_bag
+from tests.translate import Msg, msg, specs_for, write_bag
 
 CONFIG = """<imROS project="t">
   <scope>
@@ -34,19 +26,6 @@ CONFIG = """<imROS project="t">
   </scope>
 </imROS>
 """
-
-
-def specs_for(config: str, bags: list[Path]) -> tuple[list[PointSpec], Any, Any]:
-    loaded, problems = parse_config_bytes(config.encode(), "t.xml")
-    assert loaded is not None and not problems
-    catalog = build_catalog(bags)
-    assert not catalog.diagnostics, [d.as_text() for d in catalog.diagnostics]
-    project = run_passes(lower(loaded), PassContext())
-    types = {t: TopicType(m, f) for t, (m, f) in catalog.types.items()}
-    inputs = BuildInputs(project, (), types)
-    specs, skipped, layouts = point_specs(render_plan(inputs), render_job(inputs), catalog)
-    assert not skipped
-    return specs, layouts, catalog
 
 
 def record(topic: str, time: float, value: Any) -> Msg:
