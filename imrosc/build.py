@@ -21,7 +21,7 @@ from imrosc.backends.registry import (
     available,
 )
 from imrosc.bags import BagError, discover_bags, open_bag
-from imrosc.check import check_loaded
+from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.graph.bags import read_bag_graphs
 from imrosc.graph.file import load_graph_file
@@ -32,7 +32,6 @@ from imrosc.outputs import OutputRefusedError, file_kind, target, write_atomic
 from imrosc.passes.context import PassContext
 from imrosc.passes.pipeline import run_passes
 from imrosc.progress import ProgressFactory
-from imrosc.schema.loader import load_config
 
 
 @dataclass
@@ -101,11 +100,8 @@ def build(
     """Run the compiler up to the backend's files (nothing is written). ``inv`` is the
     invariants file the monitor deploys instead of its ``<monitor inv>`` (a refined file
     of ``imrosc classify``, say)."""
-    config, problems = load_config(config_path)
+    config, problems = load_checked(config_path)
     if config is None:
-        return BuildResult(None, problems)
-    problems += check_loaded(config)
-    if has_errors(problems):
         return BuildResult(None, finalize(problems))
     graph, found = load_graph(graph_files, bags, progress_factory)
     types, found_types = topic_types(bags)

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from imrosc.diagnostics import Diagnostic, finalize
+from imrosc.diagnostics import Diagnostic, finalize, has_errors
 from imrosc.schema.loader import MAX_CONFIG_BYTES, LoadedConfig, load_config, parse_config_bytes
 from imrosc.schema.semantics import check_semantics
 from imrosc.schema.validate import validate_structure
@@ -23,6 +23,19 @@ from imrosc.schema.validate import validate_structure
 def check_loaded(config: LoadedConfig) -> list[Diagnostic]:
     """Structure and semantics of a configuration already loaded."""
     return validate_structure(config) + check_semantics(config)
+
+
+def load_checked(config_path: Path) -> tuple[LoadedConfig | None, list[Diagnostic]]:
+    """The front door of every command that compiles a configuration: read and check it;
+    the loaded tree (``None`` when it has errors) and the diagnostics so far (not yet
+    finalized: the command adds its own). The command then lowers it (:func:`imrosc.lower.
+    lower`) and runs the passes with what it knows of the graph."""
+    config, problems = load_config(config_path)
+    if config is not None:
+        problems += check_loaded(config)
+    if config is None or has_errors(problems):
+        return None, problems
+    return config, problems
 
 
 def check_file(

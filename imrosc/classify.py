@@ -35,7 +35,7 @@ from typing import Any
 
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, held_out_runs
-from imrosc.check import check_loaded
+from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import default_workers
 from imrosc.infer.registry import group_of
@@ -46,7 +46,6 @@ from imrosc.outputs import INVARIANTS, REPORT, mark
 from imrosc.progress import Progress, ProgressFactory
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
-from imrosc.schema.loader import load_config
 from imrosc.schema.names import resolve_name
 from imrosc.selection import SELECTIONS, Cover, Nominal, cover
 
@@ -109,10 +108,8 @@ class Score:
 
 def load_project(config_path: Path) -> tuple[Project | None, list[Diagnostic]]:
     """Read, check and lower a configuration."""
-    config, problems = load_config(config_path)
-    if config is not None:
-        problems += check_loaded(config)
-    if config is None or has_errors(problems):
+    config, problems = load_checked(config_path)
+    if config is None:
         return None, finalize(problems)
     return lower(config), finalize(problems)
 

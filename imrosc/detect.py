@@ -19,7 +19,7 @@ from imrosc.backends.plan import render_job, render_plan
 from imrosc.backends.registry import BuildInputs, TopicType
 from imrosc.build import load_graph
 from imrosc.calibrate import Calibration, calibrate
-from imrosc.check import check_loaded
+from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import (
     Discovered,
@@ -33,7 +33,6 @@ from imrosc.invariants import PointInfo, document
 from imrosc.lower import lower
 from imrosc.passes.context import PassContext
 from imrosc.passes.pipeline import run_passes
-from imrosc.schema.loader import load_config
 from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
@@ -163,10 +162,8 @@ def prepare(
     config_path: Path, *, graph_files: Sequence[Path] = (), bags: Sequence[Path] | None = None
 ) -> tuple[Prepared | None, list[Diagnostic]]:
     """Check and compile the configuration against its bags (or ``bags``)."""
-    config, problems = load_config(config_path)
-    if config is not None:
-        problems += check_loaded(config)
-    if config is None or has_errors(problems):
+    config, problems = load_checked(config_path)
+    if config is None:
         return None, finalize(problems)
     lowered = lower(config)
     base = config_path.parent

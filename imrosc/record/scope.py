@@ -35,13 +35,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from imrosc import ir
-from imrosc.check import check_loaded
+from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors
 from imrosc.graph.model import Graph
 from imrosc.lower import lower
 from imrosc.passes.context import PassContext
 from imrosc.passes.pipeline import run_passes
-from imrosc.schema.loader import load_config
 
 __all__ = ["ARCH_KINDS", "CompiledScope", "Scope", "compile_scope", "scope_of"]
 
@@ -121,10 +120,8 @@ class CompiledScope:
 def compile_scope(config_path: Path, graph: Graph | None) -> CompiledScope:
     """Check and compile the configuration with ``graph``; its scope if it has no errors."""
     out = CompiledScope()
-    config, problems = load_config(config_path)
-    if config is not None:
-        problems += check_loaded(config)
-    if config is None or has_errors(problems):
+    config, problems = load_checked(config_path)
+    if config is None:
         out.diagnostics = finalize(problems)
         return out
     context = PassContext(path=config.path, graph=graph)
