@@ -9,7 +9,6 @@ import json
 import math
 import os
 import py_compile
-import re
 import shutil
 import stat
 import subprocess
@@ -26,7 +25,6 @@ from click.testing import CliRunner
 from lxml import etree
 from rosbags.interfaces import Nodetype
 
-from imrosc import __version__
 from imrosc.backends.registry import GENERATED_MARK, Executable
 from imrosc.cli import main
 from imrosc.monitor_ros1 import logic
@@ -35,6 +33,7 @@ from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import Scenario, write_runs
+from tests.backends.support import assert_every_file_names_its_source
 from tests.backends.test_monitor_spec import (
     ROOT,
     STORE,
@@ -116,21 +115,7 @@ def test_every_file_names_generator_version_and_its_source(
     landing_package: dict[str, bytes],
     landing_sim: Path,  # noqa: F811
 ) -> None:
-    source = "".join(str(landing_sim / "landing_sim.xml").split())
-    copies = 0
-    for name, content in landing_package.items():
-        head = content[:4096].decode("utf-8")
-        assert GENERATED_MARK in head, name
-        assert __version__ in head and "backend ros1" in head, name
-        flat = "".join(head.replace("#", "").split())  # comments wrap paths
-        copied = re.search(r"\):acopyof(imrosc/[a-z0-9_/]+\.py);donotedit", flat)
-        if copied is not None:  # imrosc's own module, copied: the banner names it
-            copies += 1
-            assert name.endswith("/" + copied.group(1).rsplit("/", 1)[1]), name
-            assert (ROOT / copied.group(1)).is_file() and source not in flat, name
-        else:
-            assert source in flat, name
-    assert copies > 10
+    assert_every_file_names_its_source(landing_package, landing_sim / "landing_sim.xml", "ros1")
 
 
 def test_package_xml_is_format_2_with_its_dependencies(landing_package: dict[str, bytes]) -> None:

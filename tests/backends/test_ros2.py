@@ -17,7 +17,6 @@ import json
 import math
 import os
 import py_compile
-import re
 import shutil
 import subprocess
 import sys
@@ -49,6 +48,7 @@ from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
 from imrosc.sim.recording import START_NS
 from imrosc.translate.layout import short_names, topic_layout
+from tests.backends.support import assert_every_file_names_its_source
 from tests.backends.test_monitor_spec import (
     EXAMPLES,
     ROOT,
@@ -189,21 +189,7 @@ def test_the_runtime_and_the_adapters_are_carried_unchanged(
 def test_every_file_names_generator_version_and_its_source(
     landing_package: dict[str, bytes], landing_ros2: Path
 ) -> None:
-    source = "".join(str(landing_ros2 / "landing_sim.xml").split())
-    copies = 0
-    for name, content in landing_package.items():
-        head = content[:4096].decode("utf-8")
-        assert GENERATED_MARK in head, name
-        assert __version__ in head and "backend ros2" in head, name
-        flat = "".join(head.replace("#", "").split())  # comments wrap paths
-        copied = re.search(r"\):acopyof(imrosc/[a-z0-9_/]+\.py);donotedit", flat)
-        if copied is not None:  # imrosc's own module, copied: the banner names it
-            copies += 1
-            assert name.endswith("/" + copied.group(1).rsplit("/", 1)[1]), name
-            assert (ROOT / copied.group(1)).is_file() and source not in flat, name
-        else:
-            assert source in flat, name
-    assert copies > 10
+    assert_every_file_names_its_source(landing_package, landing_ros2 / "landing_sim.xml", "ros2")
 
 
 def test_package_xml_is_format_3_for_ament_python(landing_package: dict[str, bytes]) -> None:
