@@ -26,7 +26,7 @@ from click.testing import CliRunner
 from hypothesis import strategies as st
 
 from imrosc.cli import main
-from tests.test_check_fuzz import mutate, text_values
+from tests.fuzz_support import mutate, text_values
 from tests.translate import Msg, msg, write_bag
 
 DOCUMENTED = {"check": {0, 1, 2}, "infer": {0, 1, 2}, "replay": {0, 1, 2, 3, 5}}

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from imrosc.check import check_bytes
 from imrosc.codes import BY_NAME
+from tests.fuzz_support import mutate, text_values
 
 EXAMPLES = [
     p.read_bytes() for p in sorted((Path(__file__).parent.parent / "examples").glob("*.xml"))
@@ -26,29 +27,6 @@ ATTRIBUTES = [
     *("discrete", "budget", "max_interval", "max_events", "period", "bogus"),
     *("alarm_persist", "alarm_seconds", "alarm_distinct", "alarm_window"),
 ]
-SNIPPETS = [
-    "/a/x",
-    "a,b",
-    "1",
-    "-1",
-    "(AB)*",
-    "((A|B)+C)*",
-    "a,c -> f",
-    "{data: 3}",
-    "pub,sub",
-    "x == 1 and y < 2",
-    "(",
-    "->",
-    "{a: [1, {b: }",
-    "/a//b",
-    "~p",
-    "0.5",
-    "",
-    " ",
-    "&amp;",
-]
-
-text_values = st.one_of(st.sampled_from(SNIPPETS), st.text(max_size=12))
 
 
 @st.composite
@@ -67,25 +45,6 @@ def documents(draw: st.DrawFn) -> bytes:
     body = "".join(draw(st.lists(elements(1), max_size=5)))
     root = draw(st.sampled_from(["imROS", "imROS", "config"]))
     return f'<{root} project="p">{body}</{root}>'.encode()
-
-
-def mutate(draw: st.DrawFn, source: bytes) -> bytes:
-    """``source`` with 1 to 6 random edits: bytes deleted, inserted, duplicated or replaced
-    by markup characters and invalid UTF-8."""
-    data = bytearray(source)
-    for _ in range(draw(st.integers(1, 6))):
-        where = draw(st.integers(0, len(data)))
-        kind = draw(st.sampled_from(["delete", "insert", "duplicate", "replace"]))
-        span = draw(st.integers(1, 40))
-        if kind == "delete":
-            del data[where : where + span]
-        elif kind == "insert":
-            data[where:where] = draw(st.binary(min_size=1, max_size=span))
-        elif kind == "duplicate":
-            data[where:where] = data[where : where + span]
-        else:
-            data[where : where + 1] = draw(st.sampled_from([b"<", b">", b"&", b'"', b"\xff", b""]))
-    return bytes(data)
 
 
 @st.composite

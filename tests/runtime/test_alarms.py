@@ -6,7 +6,8 @@ from typing import Any
 
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
-from tests.runtime.test_engine import inv, var
+from tests.runtime.support import point_inv as inv
+from tests.runtime.support import var
 
 
 def broken(ident: str, time: float, point: str = "p") -> Violation:

@@ -15,32 +15,16 @@ from hypothesis import strategies as st
 
 from imrosc.infer.core import FinalizeContext, Samples, Variable
 from imrosc.infer.polygon.state import PolygonState, half_planes
-from imrosc.infer.registry import DAIKON_FAMILIES, make_point_states
 from imrosc.invariants import document, dumps
 from imrosc.ir import Tunables
 from imrosc.runtime.checks import Checks, WindowChecks
 from imrosc.runtime.violation import Violation
-from imrosc.translate.points import PointSpec
+from tests.runtime.support import NUMERIC, POINT, infer, inv, on_the_tolerance, planted
 
-POINT = "p"
 NAN = math.nan
 NAMES = ["x", "y", "z", "w", "k", "avg(a)", "std(a)"]
 INDEX = {name: k for k, name in enumerate(NAMES)}
 STRINGS = {"mode": 0}
-
-
-def inv(
-    ident: str, family: str, kind: str, variables: Sequence[str], **params: Any
-) -> dict[str, Any]:
-    return {
-        "id": ident,
-        "family": family,
-        "kind": kind,
-        "point": POINT,
-        "variables": list(variables),
-        "params": params,
-        "text": f"{ident} text",
-    }
 
 
 def row(**values: float) -> npt.NDArray[np.float64]:
@@ -400,8 +384,6 @@ def test_an_infinite_sample_is_outside_no_polygon() -> None:
 
 # -- every inferred invariant holds on the rows it was inferred from --------------------------
 
-NUMERIC = ("x", "y", "z", "m", "k", "nz", "flag", "u", "v", "avg(a)")
-
 
 @st.composite
 def training(draw: st.DrawFn) -> dict[str, npt.NDArray[Any]]:
@@ -439,38 +421,6 @@ def training(draw: st.DrawFn) -> dict[str, npt.NDArray[Any]]:
     return columns
 
 
-def variables() -> tuple[Variable, ...]:
-    kinds = {"k": "int", "nz": "int", "flag": "bool", "mode": "string"}
-    found = [
-        Variable(name, kinds.get(name, "float"), topic="/t", path=name)  # type: ignore[arg-type]
-        for name in (*NUMERIC[:-1], "mode")
-    ]
-    found.append(Variable("avg(a)", "float", topic="/t", path="a", derived="avg"))
-    return tuple(found)
-
-
-def infer(columns: Mapping[str, npt.NDArray[Any]], chunk: int) -> list[dict[str, Any]]:
-    chosen = variables()
-    spec = PointSpec(POINT, "publish", chosen, (*sorted(DAIKON_FAMILIES), "polygon"), "/t")
-    states = make_point_states(spec, Tunables())
-    n = len(columns["x"])
-    for start in range(0, n, chunk):
-        part = {name: column[start : start + chunk] for name, column in columns.items()}
-        time = np.arange(start, start + len(part["x"]), dtype=np.float64) * 0.01
-        samples = Samples(POINT, 0, time, part, chosen)
-        for state in states:
-            state.update(samples)
-    for state in states:
-        state.end_run()
-    context = FinalizeContext(Tunables(), chosen, POINT)
-    found = [i for state in states for i in state.finalize(context)]
-    doc = document(
-        project="t", source="t.xml", bags=[], tunables={}, topics={}, points=[], invariants=found
-    )
-    loaded: list[dict[str, Any]] = json.loads(dumps(doc))["invariants"]
-    return loaded
-
-
 @settings(max_examples=30, deadline=None)
 @given(training(), st.sampled_from([1000, 13]))
 def test_training_rows_never_violate_inferred_invariants(
@@ -486,26 +436,6 @@ def test_training_rows_never_violate_inferred_invariants(
         for k in range(len(rows)):
             found += checks.check(float(k), POINT, rows[k], [str(columns["mode"][k])])
     assert found == []
-
-
-def planted(rng: np.random.Generator, n: int, scale: float = 1.0) -> dict[str, npt.NDArray[Any]]:
-    """``n`` rows of columns that give every family (``scale``: of ``x`` and the
-    relations on it)."""
-    x = rng.uniform(-5, 5, n) * scale
-    m = rng.uniform(0, 1, n)
-    return {
-        "x": x,
-        "y": 2.5 * x + 3,
-        "z": x - 2 * m + 1,
-        "m": m,
-        "k": rng.choice([1.0, 2.0, 3.0], n),
-        "nz": rng.choice([-3.0, -1.0, 2.0, 5.0], n),
-        "flag": rng.choice([0.0, 1.0], n),
-        "u": x + rng.uniform(0, 1, n),
-        "v": rng.uniform(0, 1, n) * (x - x.min() + 1),
-        "avg(a)": rng.uniform(1, 2, n),
-        "mode": rng.choice(np.array(["idle", "run"], dtype=object), n),
-    }
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -557,22 +487,3 @@ def test_the_dense_product_and_the_gathered_forms_find_the_same_violations(
             want = {(v.invariant, v.observed) for v in gathered.check(0.0, POINT, query, ["idle"])}
             for ident, _ in got ^ want:
                 assert on_the_tolerance(by_id[ident], query), (ident, got ^ want)
-
-
-def on_the_tolerance(inv: Mapping[str, Any], sample: npt.NDArray[np.float64]) -> bool:
-    """Whether a linear or ternary relation's residual on ``sample`` is within rounding of
-    the tolerance the check allows (1.25 times the stated one)."""
-    if inv["family"] not in ("linear", "ternary"):
-        return False
-    values = [float(sample[NUMERIC.index(n)]) for n in inv["variables"]]
-    params = inv["params"]
-    names = ("a", "b") if inv["family"] == "linear" else ("a", "b", "c")
-    coefficients = [float(params[n]) for n in names]
-    terms = (
-        [values[0]]
-        + [-c * v for c, v in zip(coefficients[:-1], values[1:], strict=True)]
-        + [-coefficients[-1]]
-    )
-    residual = math.fsum(terms)
-    limit = 1.25 * float(params["tolerance"])
-    return abs(abs(residual) - limit) <= 1e-14 * sum(abs(t) for t in terms)

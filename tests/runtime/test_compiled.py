@@ -26,8 +26,15 @@ from imrosc.runtime.checks import Checks
 from imrosc.runtime.compiled import clears as python_clears
 from imrosc.runtime.compiled import compile_checks, numba_module
 from tests.live.harness import ROS_PYTHON, _clean_environment, ros_python_version_of
-from tests.runtime.test_checks import NUMERIC, infer, inv, on_the_tolerance, planted
-from tests.runtime.test_polygons import clouds_over, hull_polygons
+from tests.runtime.support import (
+    NUMERIC,
+    clouds_over,
+    hull_polygons,
+    infer,
+    inv,
+    on_the_tolerance,
+    planted,
+)
 
 RUNTIME = Path(imrosc.runtime.__file__).parent
 

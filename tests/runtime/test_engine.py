@@ -11,26 +11,8 @@ import numpy as np
 
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.arch import Snapshot
-
-
-def var(name: str, path: str, kind: str = "float", trigger: bool = True) -> dict[str, Any]:
-    return {"name": name, "type": kind, "path": path, "derived": None, "trigger": trigger}
-
-
-def inv(
-    ident: str, point: str, family: str, kind: str, variables: Sequence[str], **params: Any
-) -> dict[str, Any]:
-    return {
-        "id": ident,
-        "family": family,
-        "kind": kind,
-        "point": point,
-        "condition": None,
-        "variables": list(variables),
-        "params": params,
-        "text": ident,
-    }
-
+from tests.runtime.support import point_inv as inv
+from tests.runtime.support import var
 
 POSE = [var("pose.x", "x"), var("pose.mode", "mode", "int"), var("pose.frame", "frame", "string")]
 CMD = [var("cmd.v", "v")]

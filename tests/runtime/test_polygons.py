@@ -12,49 +12,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from imrosc.infer.polygon.hull import GroupSet, hulls
-from imrosc.infer.polygon.state import half_planes
 from imrosc.runtime import polygons as module
 from imrosc.runtime.polygons import DECODE, PolygonChecks, grid_size
-
-
-def hull(points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Counter-clockwise convex hull, collinear points dropped (inference's exact hull)."""
-    n = len(points)
-    cloud = GroupSet(np.zeros(n, np.int64), points[:, 0], points[:, 1], np.arange(n))
-    found = hulls(cloud)
-    return np.stack([found.x, found.y], axis=1)
-
-
-def polygon(vertices: npt.NDArray[np.float64]) -> dict[str, Any]:
-    normals, offsets, _ = half_planes(vertices)
-    return {"params": {"vertices": vertices.tolist(), "A": normals.tolist(), "b": offsets.tolist()}}
-
-
-Plain = list[tuple[int, int, Any, Any, Any]]
-Edges = list[tuple[int, int, float, float, float, int]]
-
-
-def hull_polygons(
-    clouds: dict[tuple[int, int], npt.NDArray[np.float64]],
-) -> tuple[list[dict[str, Any]], Edges, Plain]:
-    """The polygon invariants of the hulls of ``clouds`` (keyed by the variables'
-    positions), their edges as ``PolygonChecks`` takes them, and each polygon's ``(x, y, a,
-    b, c)`` for the plain evaluation."""
-    invariants: list[dict[str, Any]] = []
-    edges: Edges = []
-    plain: Plain = []
-    for owner, ((x, y), cloud) in enumerate(clouds.items()):
-        inv = polygon(hull(cloud))
-        invariants.append(inv)
-        a, b = np.asarray(inv["params"]["A"]).T
-        c = np.asarray(inv["params"]["b"])
-        plain.append((x, y, a, b, c))
-        edges += [
-            (x, y, float(ai), float(bi), float(ci), owner)
-            for ai, bi, ci in zip(a, b, c, strict=True)
-        ]
-    return invariants, edges, plain
+from tests.runtime.support import Plain, clouds_over, hull_polygons
 
 
 def build(clouds: dict[tuple[int, int], npt.NDArray[np.float64]]) -> tuple[PolygonChecks, Plain]:
@@ -78,25 +38,6 @@ def answers(checks: PolygonChecks, sample: list[float]) -> list[int]:
         found = checks.broken(row)
         assert found == checks.broken(row, checks.in_range(row))
     return found
-
-
-def clouds_over(
-    rng: np.random.Generator, variables: int, n: int, shape: str
-) -> tuple[dict[tuple[int, int], npt.NDArray[np.float64]], npt.NDArray[np.float64]]:
-    """Samples of ``variables`` columns, and the clouds of every pair of them."""
-    if shape == "walk":
-        data = np.cumsum(rng.normal(0, 1, (n, variables)), axis=0)
-    elif shape == "ints":
-        data = rng.integers(0, 5, (n, variables)).astype(np.float64)
-    elif shape == "mixed":
-        data = rng.normal(0, 1, (n, variables))
-        data[:, 0] = np.abs(data[:, 0])
-        data[:, 1] = rng.integers(0, 3, n)
-        data[:, 2] = 2 * data[:, 3] + 1e6  # a line far from the origin
-    else:
-        data = rng.normal(0, 1, (n, variables)) * rng.uniform(1e-3, 1e3, variables)
-    pairs = [(i, j) for i in range(variables) for j in range(i + 1, variables)]
-    return {(i, j): data[:, [i, j]] for i, j in pairs}, data
 
 
 @settings(max_examples=30, deadline=None)
