@@ -342,10 +342,12 @@ def test_the_monitor_launch_file_starts_the_node_with_its_parameters(
         "namespace": "/m",
         "watchdog": f"{PACKAGE}_watchdog",
         "service_timeout": "$(var service_timeout)",
+        "warm": "$(var warm)",
     }
     args = {a.get("name"): a.get("default") for a in root.iter("arg")}
     assert args["invariants"] == f"$(find-pkg-share {PACKAGE})/config/invariants.json"
     assert args["period"] == "0.5" and args["fail_open"] == "false"
+    assert args["warm"] == "0.002"
     assert all(a.get("description") for a in root.iter("arg"))
     assert watchdog.get("if") == "$(var fail_open)"
     assert watchdog.get("exec") == f"{PACKAGE}_watchdog"

@@ -55,6 +55,7 @@ from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, register
 from imrosc.backends.vendor import copied_modules
 from imrosc.diagnostics import make
+from imrosc.monitor_ros1.logic import WARM
 
 if TYPE_CHECKING:
     from imrosc import ir
@@ -261,7 +262,7 @@ def render_package(
         f"{root}/{VENDOR}/__init__.py": init(VENDOR),
         f"{root}/{VENDOR}/monitor_ros1/__init__.py": init(f"{VENDOR}/monitor_ros1"),
         spec.invariants_path: invariants_copy(spec, banner),
-        monitor_launch: render("monitor.launch.xml.j2"),
+        monitor_launch: render("monitor.launch.xml.j2", warm=WARM),
     }
     vendor = f"{root}/{VENDOR}"
     files.update(copied_modules("imrosc.runtime", f"{vendor}/runtime", BACKEND))
