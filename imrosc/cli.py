@@ -6,11 +6,12 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # BLAS threads stall a loaded 2-core machine
 
+import contextlib
 import errno
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 
@@ -20,6 +21,9 @@ from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 from imrosc.progress import bag_progress, quiet_option
+
+if TYPE_CHECKING:
+    from imrosc.infer.engine import BagReducer
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 """0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
@@ -84,6 +88,31 @@ bags_option = click.option(
     type=click.Path(path_type=Path),
     help="Bags or folders to read (instead of the <detect> bags, where there are some).",
 )
+
+
+scheduler_option = click.option(
+    "--scheduler",
+    envvar="IMROSC_SCHEDULER",
+    metavar="ADDRESS",
+    help="A Dask scheduler (tcp://host:8786): each bag is a task on its cluster "
+    "(docs/fleet.md) [env: IMROSC_SCHEDULER].",
+)
+
+
+@contextlib.contextmanager
+def cluster(command: str, address: str | None) -> Iterator[BagReducer | None]:
+    """The bag reducer of the Dask cluster at ``address`` (none without one); a cluster
+    that cannot be used ends the command with one line and :data:`EXIT_USAGE`."""
+    if not address:
+        yield None
+        return
+    from imrosc.fleet import FleetError, connect
+
+    try:
+        with connect(address) as fleet:
+            yield fleet
+    except FleetError as error:
+        fail(command, str(error), EXIT_USAGE)
 
 
 @click.group(cls=_Main, context_settings={"help_option_names": ["-h", "--help"]})
@@ -217,6 +246,7 @@ main.add_command(graph_command)
     "alarm [default: detect/@budget, 0.05].",
 )
 @click.option("--force", is_flag=True, help="Overwrite an output file imrosc did not write.")
+@scheduler_option
 @quiet_option
 def infer(
     config: Path,
@@ -226,10 +256,12 @@ def infer(
     output: Path | None,
     budget: float | None,
     force: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
     """Infer the invariants of CONFIG's <detect> bags, calibrate them across the bags
-    (docs/calibration.md) and write the invariants file."""
+    (docs/calibration.md) and write the invariants file; with --scheduler, each bag is a
+    task on a Dask cluster (docs/fleet.md)."""
     from imrosc.build import write_files
     from imrosc.detect import run_detect
     from imrosc.invariants import dumps
@@ -240,7 +272,7 @@ def infer(
         target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
     try:
-        with bag_progress("inferring", quiet) as factory:
+        with cluster("infer", scheduler) as reducer, bag_progress("inferring", quiet) as factory:
             result = run_detect(
                 config,
                 workers=jobs,
@@ -249,6 +281,7 @@ def infer(
                 progress_factory=factory,
                 budget=budget,
                 before_work=before_work,
+                reducer=reducer,
             )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)
@@ -279,6 +312,8 @@ def infer(
         f"{result.seconds:.1f} s ({rate:,.0f} msg/s)"
         + (f", calibrated in {result.calibration_seconds:.1f} s" if result.calibration else "")
     )
+    if scheduler:
+        click.echo(f"on the Dask cluster at {scheduler}")
     skipped = sorted({d.path for d in result.diagnostics if d.code == "bag-error"})
     if skipped:
         click.echo(f"skipped {len(skipped)} bag{'s' * (len(skipped) != 1)}: {', '.join(skipped)}")

@@ -22,6 +22,7 @@ from imrosc.calibrate import Calibration, calibrate
 from imrosc.check import check_loaded
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import (
+    BagReducer,
     Discovered,
     InferenceResult,
     Progress,
@@ -206,12 +207,15 @@ def run_detect(
     progress_factory: Callable[[int], Progress] | None = None,
     budget: float | None = None,
     before_work: Callable[[Path, Sequence[Path]], None] | None = None,
+    reducer: BagReducer | None = None,
 ) -> DetectResult:
     """Run the detect stage; the invariants document is returned, not yet written.
     ``budget`` overrides the configuration's false-alarm budget (0: no calibration).
     ``before_work`` is called with the default invariants file (``<detect inv>``) and the
     bags, once the configuration is checked and before any bag is read (the command line
-    refuses an output there, not after minutes of work)."""
+    refuses an output there, not after minutes of work). ``reducer`` runs the bags elsewhere
+    (a Dask cluster, :mod:`imrosc.fleet`) instead of ``workers`` local processes; calibration
+    still replays its held-out folds in ``workers`` local processes."""
     started = time.monotonic()
     out = DetectResult()
     prepared, out.diagnostics = prepare(config_path, graph_files=graph_files, bags=bags)
@@ -240,6 +244,7 @@ def run_detect(
         workers=workers or default_workers(),
         progress=progress,
         calibrate=tunables.budget > 0,
+        reducer=reducer,
     )
     out.result = result
     for bag, reason in sorted(result.failed.items()):
