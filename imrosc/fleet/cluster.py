@@ -1,23 +1,24 @@
 """Bags as tasks on a Dask cluster (``imrosc infer --scheduler ADDRESS``).
 
-The client sends the compiled configuration once to every worker (one scattered job), then
-one task per bag: its path and run number. A worker reads the bag, updates fresh states of
-every point and sends back the bag's answer: the states (and, for calibration, the bag's own
-invariants), never its samples. The client joins the answers of adjacent bags as they arrive
-(:class:`~imrosc.fleet.tree.OrderedTree`), with the same exact merge as ``-j 1``, so the
-invariants file is byte for byte the one a single process writes.
+The client sends the compiled configuration once (one task whose answer every worker
+fetches once), then one task per bag: its path and run number. A worker reads the bag,
+updates fresh states of every point and sends back the bag's answer: the states (and, for
+calibration, the bag's own invariants), never its samples. The client joins the answers of
+adjacent bags as they arrive (:class:`~imrosc.fleet.tree.OrderedTree`), with the same exact
+merge as ``-j 1``, so the invariants file is byte for byte the one a single process writes.
 
 A bag that cannot be read is answered with its error, as in one process. A task whose worker
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
 3 by default); a task that raises is retried :data:`RETRIES` times. A bag that keeps killing
-its workers (one too big for their memory) is reported as a bag that could not be read.
+its workers (one too big for their memory) is tried once more alone on the cluster (so that
+the bags queued beside it are not blamed), then reported as a bag that could not be read.
 """
 
 from __future__ import annotations
 
 import importlib
 import uuid
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -33,6 +34,7 @@ RETRIES = 2
 CONNECT_TIMEOUT = 10.0
 """Seconds to reach the scheduler."""
 INSTALL = "pip install 'imrosc[fleet]'"
+KILLED = "its Dask workers died while reading it, on every try (a bag too big for their memory?)"
 
 
 class FleetError(Exception):
@@ -43,6 +45,10 @@ class FleetError(Exception):
 def run_remote(template: BagJob, bag: Path, run: int) -> BagResult:
     """A bag's task: the pass's job (scattered once per worker) for this bag."""
     return run_bag(replace(template, bag=bag, run=run))
+
+
+def _same(job: BagJob) -> BagJob:
+    return job
 
 
 def worker_version() -> str:
@@ -75,6 +81,8 @@ class Fleet:
     client: Any
     """A ``distributed.Client``."""
     address: str
+    task: Callable[[BagJob, Path, int], BagResult] = run_remote
+    """A bag's task (tests put in one that kills its worker)."""
 
     @property
     def workers(self) -> int:
@@ -104,47 +112,61 @@ class Fleet:
         if not jobs:
             return Merged()
         token = uuid.uuid4().hex[:12]
+        tree: OrderedTree[Merged] = OrderedTree(len(jobs), Merged.join)
+
+        def take(index: int, result: BagResult) -> None:
+            if progress is not None:
+                progress(result.bag, result.messages)
+            tree.add(index, Merged.of(result))
+
         try:
-            [template] = self.client.scatter([jobs[0]], broadcast=True, hash=False)
-            futures = [
-                self.client.submit(
-                    run_remote,
-                    template,
-                    job.bag.absolute(),  # the workers' own folder may differ from ours
-                    job.run,
-                    key=f"imrosc-bag-{token}-{index}",
-                    retries=RETRIES,
-                    pure=False,
-                )
-                for index, job in enumerate(jobs)
-            ]
+            # a task, not scattered data: the scheduler keeps it and computes it again when
+            # the workers that held it die
+            template = self.client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
+            futures = [self._submit(template, job, f"{token}-{i}") for i, job in enumerate(jobs)]
             position = {future.key: index for index, future in enumerate(futures)}
             completed = as_completed(futures, loop=self.client.loop)
             del futures  # a bag's answer is forgotten on the cluster once merged here
-            tree: OrderedTree[Merged] = OrderedTree(len(jobs), Merged.join)
+            doubtful = []
             for future in completed:
                 index = position[future.key]
                 result = self._answer(future, jobs[index].bag)
                 future.release()
-                if progress is not None:
-                    progress(result.bag, result.messages)
-                tree.add(index, Merged.of(result))
+                if result is None:
+                    doubtful.append(index)
+                else:
+                    take(index, result)
+            # a worker that dies takes the tasks queued on it along: each bag whose workers
+            # died is tried once more, alone on the cluster, before it is called bad
+            for index in doubtful:
+                future = self._submit(template, jobs[index], f"{token}-{index}-alone")
+                result = self._answer(future, jobs[index].bag)
+                future.release()
+                take(index, result or BagResult(jobs[index].bag, error=KILLED))
             template.release()
         except (OSError, TimeoutError) as error:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
         return tree.result()
 
-    def _answer(self, future: Any, bag: Path) -> BagResult:
-        """The bag's answer, with the bag named as the client names it."""
+    def _submit(self, template: Any, job: BagJob, key: str) -> Any:
+        return self.client.submit(
+            self.task,
+            template,
+            job.bag.absolute(),  # the workers' own folder may differ from ours
+            job.run,
+            key=f"imrosc-bag-{key}",
+            retries=RETRIES,
+            pure=False,
+        )
+
+    def _answer(self, future: Any, bag: Path) -> BagResult | None:
+        """The bag's answer, with the bag named as the client names it; ``None`` when its
+        workers died on every try (``distributed.scheduler.allowed-failures``)."""
         distributed = _distributed()
         try:
             result: BagResult = future.result()
         except distributed.KilledWorker:
-            return BagResult(
-                bag,
-                error="its Dask workers died while reading it, on every retry "
-                "(a bag too big for a worker's memory?)",
-            )
+            return None
         except distributed.client.FutureCancelledError:
             raise FleetError(f"{self.address}: lost the Dask scheduler") from None
         result.bag = bag
@@ -154,13 +176,15 @@ class Fleet:
 
 
 @contextmanager
-def connect(address: str, timeout: float = CONNECT_TIMEOUT) -> Iterator[Fleet]:
+def connect(address: str, timeout: float | None = None) -> Iterator[Fleet]:
     """A client of the Dask scheduler at ``address``, closed on leaving; :class:`FleetError`
     when Dask is missing, the scheduler cannot be reached or a worker cannot run imrosc."""
     distributed = _distributed()
     _check_address(distributed, address)
     try:
-        client = distributed.Client(address, timeout=timeout, set_as_default=False)
+        client = distributed.Client(
+            address, timeout=timeout or CONNECT_TIMEOUT, set_as_default=False
+        )
     except (OSError, TimeoutError) as error:
         raise FleetError(f"{address}: cannot reach the Dask scheduler: {error}") from None
     try:
