@@ -15,7 +15,7 @@ detect stage on ``examples/landing_sim.xml``'s configuration over them:
     them: a worker holds one bag's states at a time, so the peak does not grow with the bags.
 (c) what one bag's task sends back to the client (its pickled answer: the states of every
     point and its calibration invariants) against the samples it was made from (the
-    translated columns) and the bag file.
+    translated columns) and the bag file, for three of the bags and one ten times as long.
 
 Every case checks that the invariants are byte for byte those of ``-j 1``'s merge order
 (the cluster's and the pool's documents are compared).
@@ -105,8 +105,9 @@ def samples_bytes(job: BagJob) -> int:
     return total
 
 
-def sizes(config: Path, bags: Sequence[Path]) -> None:
-    """(c): per bag, what goes back to the client against the samples and the file."""
+def sizes(config: Path, bags: Sequence[Path], longer: Path) -> None:
+    """(c): per bag, what goes back to the client against the samples and the file; the
+    ``longer`` bag (ten times as long) shows what grows with the bag and what does not."""
     prepared, _ = prepare(config, bags=list(bags))
     assert prepared is not None
     project, catalog = prepared.project, prepared.catalog
@@ -125,7 +126,7 @@ def sizes(config: Path, bags: Sequence[Path]) -> None:
     job_kib = len(pickle.dumps(template, 5)) / 1024
     print(f"(c) sent once per worker: the pass's job, {job_kib:,.0f} KiB")
     print(f"    {'bag':<14}{'file':>10}{'samples':>11}{'answer':>10}{'states':>10}{'units':>9}")
-    for run, bag in enumerate(bags[:3]):
+    for run, bag in enumerate([*bags[:3], longer]):
         job = BagJob(
             bag, run, template.specs, template.layouts, frozen, template.tunables, units=units
         )
@@ -198,7 +199,10 @@ def main() -> None:
     for count in sorted(peaks):
         shown = ", ".join(f"{mb:,.0f} MB" for mb in peaks[count])
         print(f"    {count:>3} bags: {shown}")
-    sizes(config, bags)
+    longer = folder / "longer" / "run_longer.bag"
+    if not longer.exists():
+        write_run(longer, seed=len(bags), fmt="ros1", duration=10 * args.duration)
+    sizes(config, bags, longer)
 
 
 if __name__ == "__main__":
