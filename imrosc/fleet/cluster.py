@@ -1,11 +1,14 @@
 """Bags as tasks on a Dask cluster (``imrosc infer --scheduler ADDRESS``).
 
 The client sends the compiled configuration once (one task whose answer every worker
-fetches once), then one task per bag: its path and run number. A worker reads the bag,
-updates fresh states of every point and sends back the bag's answer: the states (and, for
-calibration, the bag's own invariants), never its samples. The client joins the answers of
-adjacent bags as they arrive (:class:`~imrosc.fleet.tree.OrderedTree`), with the same exact
-merge as ``-j 1``, so the invariants file is byte for byte the one a single process writes.
+fetches once), then one task per bag: its path and run number. A worker reads the bag and
+updates fresh states of every point: the bag's answer, which stays on the cluster. The client
+fetches of each answer only its summary (messages, and for calibration the bag's own
+invariants), and joins the answers of adjacent bags as they complete with join tasks
+(:class:`~imrosc.fleet.tree.OrderedTree` over futures: bags 0 and 1, 2 and 3, then 0-1 and
+2-3, ...), the exact merge of ``-j 1`` run on the workers; it fetches the root, the merged
+states of every bag. Samples never leave the worker that read them, and the invariants file
+is byte for byte the one a single process writes.
 
 A bag that cannot be read is answered with its error, as in one process. A task whose worker
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
@@ -25,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from imrosc import __version__
-from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, run_bag
+from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
 
 from .tree import OrderedTree
 
@@ -43,12 +46,39 @@ class FleetError(Exception):
 
 
 def run_remote(template: BagJob, bag: Path, run: int) -> BagResult:
-    """A bag's task: the pass's job (scattered once per worker) for this bag."""
+    """The work of a bag's task: the pass's job for this bag."""
     return run_bag(replace(template, bag=bag, run=run))
+
+
+Task = Callable[[BagJob, Path, int], BagResult]
 
 
 def _same(job: BagJob) -> BagJob:
     return job
+
+
+def _answer(task: Task, template: BagJob, bag: Path, run: int, name: Path) -> Merged:
+    """A bag's task: its answer, the bag named ``name`` as the client names it."""
+    result = task(template, bag, run)
+    result.bag = name
+    for unit in result.units:
+        unit.bag = name
+    return Merged.of(result)
+
+
+def _summary(answer: Merged) -> tuple[int, list[Unit]]:
+    """What the client fetches of a bag's answer: its messages and calibration units."""
+    return answer.messages, answer.units
+
+
+def _join(left: Merged, right: Merged) -> Merged:
+    """A join task: adjacent answers merged, their units left out (the client has them)."""
+    joined = Merged(left.states, dict(left.failed), left.messages, list(left.empty))
+    return joined.join(Merged(right.states, right.failed, right.messages, right.empty))
+
+
+def _failed(bag: Path, error: str) -> Merged:
+    return Merged(failed={bag: error})
 
 
 def worker_version() -> str:
@@ -81,7 +111,7 @@ class Fleet:
     client: Any
     """A ``distributed.Client``."""
     address: str
-    task: Callable[[BagJob, Path, int], BagResult] = run_remote
+    task: Task = run_remote
     """A bag's task (tests put in one that kills its worker)."""
 
     @property
@@ -91,7 +121,19 @@ class Fleet:
         return len(info.get("workers", {}))
 
     def check_workers(self) -> None:
-        """Every worker must import this imrosc (the tasks name its functions)."""
+        """The scheduler and every worker must import this imrosc (the tasks name its
+        functions)."""
+        try:
+            answer = self.client.run_on_scheduler(worker_version)
+        except Exception as error:  # what the scheduler failed to load, whatever it was
+            raise FleetError(
+                f"{self.address}: the scheduler cannot run imrosc ({error}); "
+                f"install imrosc {__version__} where it runs"
+            ) from None
+        if answer != __version__:
+            raise FleetError(
+                f"{self.address}: the scheduler runs imrosc {answer}, this is imrosc {__version__}"
+            )
         answers = self.client.run(worker_version, on_error="return")
         for worker, answer in sorted(answers.items()):
             if isinstance(answer, BaseException):
@@ -107,72 +149,90 @@ class Fleet:
 
     def __call__(self, jobs: Sequence[BagJob], progress: Progress | None) -> Merged:
         """Run one pass's jobs (they differ only in bag and run) as one task per bag and
-        merge their answers in bag order."""
-        as_completed = _distributed().as_completed
+        merge their answers in bag order on the cluster."""
         if not jobs:
             return Merged()
+        distributed = _distributed()
         token = uuid.uuid4().hex[:12]
-        tree: OrderedTree[Merged] = OrderedTree(len(jobs), Merged.join)
+        client = self.client
 
-        def take(index: int, result: BagResult) -> None:
-            if progress is not None:
-                progress(result.bag, result.messages)
-            tree.add(index, Merged.of(result))
+        def join(left: Any, right: Any) -> Any:
+            return client.submit(_join, left, right, key=f"imrosc-join-{uuid.uuid4().hex}")
 
+        tree: OrderedTree[Any] = OrderedTree(len(jobs), join)
+        units: list[list[Unit]] = [[] for _ in jobs]
         try:
             # a task, not scattered data: the scheduler keeps it and computes it again when
             # the workers that held it die
-            template = self.client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
-            futures = [self._submit(template, job, f"{token}-{i}") for i, job in enumerate(jobs)]
-            position = {future.key: index for index, future in enumerate(futures)}
-            completed = as_completed(futures, loop=self.client.loop)
-            del futures  # a bag's answer is forgotten on the cluster once merged here
+            template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
+            answers = [self._submit(template, job, f"{token}-{i}") for i, job in enumerate(jobs)]
+            summaries = {
+                client.submit(_summary, answer, key=f"imrosc-summary-{token}-{i}"): i
+                for i, answer in enumerate(answers)
+            }
             doubtful = []
-            for future in completed:
-                index = position[future.key]
-                result = self._answer(future, jobs[index].bag)
-                future.release()
-                if result is None:
+            for summary in distributed.as_completed(list(summaries), loop=client.loop):
+                index = summaries.pop(summary)
+                got = self._summary(summary)
+                if got is None:
                     doubtful.append(index)
-                else:
-                    take(index, result)
+                    continue
+                messages, units[index] = got
+                tree.add(index, answers[index])
+                answers[index] = None  # the tree holds it until it is joined
+                if progress is not None:
+                    progress(jobs[index].bag, messages)
             # a worker that dies takes the tasks queued on it along: each bag whose workers
             # died is tried once more, alone on the cluster, before it is called bad
             for index in doubtful:
-                future = self._submit(template, jobs[index], f"{token}-{index}-alone")
-                result = self._answer(future, jobs[index].bag)
-                future.release()
-                take(index, result or BagResult(jobs[index].bag, error=KILLED))
+                answer = self._submit(template, jobs[index], f"{token}-{index}-alone")
+                got = self._summary(client.submit(_summary, answer, pure=False))
+                if got is None:
+                    answer = client.submit(_failed, jobs[index].bag, KILLED, pure=False)
+                    got = (0, [])
+                messages, units[index] = got
+                tree.add(index, answer)
+                if progress is not None:
+                    progress(jobs[index].bag, messages)
+            merged: Merged = tree.result().result()
             template.release()
+        except distributed.client.FutureCancelledError:
+            raise FleetError(f"{self.address}: lost the Dask scheduler") from None
         except (OSError, TimeoutError) as error:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
-        return tree.result()
+        except RuntimeError as error:
+            if "deserialization of the task graph" not in str(error):
+                raise
+            raise FleetError(
+                f"{self.address}: the scheduler cannot load imrosc's tasks: it runs another "
+                f"imrosc than this {__version__}"
+            ) from None
+        merged.units = [unit for found in units for unit in found]
+        return merged
 
     def _submit(self, template: Any, job: BagJob, key: str) -> Any:
         return self.client.submit(
+            _answer,
             self.task,
             template,
             job.bag.absolute(),  # the workers' own folder may differ from ours
             job.run,
+            job.bag,
             key=f"imrosc-bag-{key}",
             retries=RETRIES,
             pure=False,
         )
 
-    def _answer(self, future: Any, bag: Path) -> BagResult | None:
-        """The bag's answer, with the bag named as the client names it; ``None`` when its
-        workers died on every try (``distributed.scheduler.allowed-failures``)."""
-        distributed = _distributed()
+    def _summary(self, future: Any) -> tuple[int, list[Unit]] | None:
+        """A bag's summary; ``None`` when its workers died on every try
+        (``distributed.scheduler.allowed-failures``)."""
         try:
-            result: BagResult = future.result()
-        except distributed.KilledWorker:
+            found: tuple[int, list[Unit]] = future.result()
+        except _distributed().KilledWorker:
             return None
-        except distributed.client.FutureCancelledError:
-            raise FleetError(f"{self.address}: lost the Dask scheduler") from None
-        result.bag = bag
-        for unit in result.units:
-            unit.bag = bag
-        return result
+        finally:
+            future.release()
+        return found
 
 
 @contextmanager
