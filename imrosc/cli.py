@@ -23,7 +23,7 @@ from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 from imrosc.progress import bag_progress, quiet_option
 
 if TYPE_CHECKING:
-    from imrosc.infer.engine import BagReducer
+    from imrosc.fleet import Fleet
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 """0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
@@ -100,8 +100,8 @@ scheduler_option = click.option(
 
 
 @contextlib.contextmanager
-def cluster(command: str, address: str | None) -> Iterator[BagReducer | None]:
-    """The bag reducer of the Dask cluster at ``address`` (none without one); a cluster
+def cluster(command: str, address: str | None) -> Iterator[Fleet | None]:
+    """A client of the Dask cluster at ``address`` (none without one); a cluster
     that cannot be used ends the command with one line and :data:`EXIT_USAGE`."""
     if not address:
         yield None
@@ -272,7 +272,7 @@ def infer(
         target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
     try:
-        with cluster("infer", scheduler) as reducer, bag_progress("inferring", quiet) as factory:
+        with cluster("infer", scheduler) as fleet, bag_progress("inferring", quiet) as factory:
             result = run_detect(
                 config,
                 workers=jobs,
@@ -281,7 +281,8 @@ def infer(
                 progress_factory=factory,
                 budget=budget,
                 before_work=before_work,
-                reducer=reducer,
+                reducer=fleet,
+                replays=fleet.replay_held_out if fleet is not None else None,
             )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -250,6 +250,14 @@ def _within(time: float, span: tuple[float, float] | None) -> bool:
 
 
 Job = tuple[Mapping[str, Any], dict[Path, list[tuple[float, float] | None]], int]
+"""A fold's replays: the document learnt without its units, their bags and spans, the fold."""
+Replays = Callable[[Sequence[Job]], list[list[HeldOut]]]
+"""Runs :func:`replay_held_out` over jobs elsewhere (a cluster, :mod:`imrosc.fleet`)."""
+
+
+def replay_held_out(job: Job) -> list[HeldOut]:
+    """A fold's held-out units replayed (each bag alone: a job may be split by bag)."""
+    return _replay(job)
 
 
 def _replay(job: Job) -> list[HeldOut]:
@@ -316,16 +324,20 @@ def calibrate_rule(
     budget: float,
     *,
     workers: int = 1,
+    replays: Replays | None = None,
 ) -> RuleResult:
     """Replay the folds ``held`` (a document learnt without the fold's units, and their
-    indexes into ``units``) and set the rule for ``budget``."""
+    indexes into ``units``) in ``workers`` processes, or with ``replays`` when given, and set
+    the rule for ``budget``."""
     jobs: list[Job] = []
     for fold, (document, indexes) in enumerate(held):
         by_bag: dict[Path, list[tuple[float, float] | None]] = {}
         for index in indexes:
             by_bag.setdefault(units[index].bag, []).append(units[index].span)
         jobs.append((document, by_bag, fold))
-    if workers > 1 and len(jobs) > 1:
+    if replays is not None:
+        answers = replays(jobs)
+    elif workers > 1 and len(jobs) > 1:
         with multiprocessing.get_context("fork").Pool(min(workers, len(jobs))) as pool:
             answers = pool.map(_replay, jobs)
     else:

@@ -10,6 +10,9 @@ invariants), and joins the answers of adjacent bags as they complete with join t
 states of every bag. Samples never leave the worker that read them, and the invariants file
 is byte for byte the one a single process writes.
 
+Calibration's held-out replays are tasks too, one per fold and bag, each fold's document
+sent once.
+
 A bag that cannot be read is answered with its error, as in one process. A task whose worker
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
 3 by default); a task that raises is retried :data:`RETRIES` times. A bag that keeps killing
@@ -21,13 +24,14 @@ from __future__ import annotations
 
 import importlib
 import uuid
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from imrosc import __version__
+from imrosc.calibrate.rule import HeldOut, Job, replay_held_out
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
 
 from .tree import OrderedTree
@@ -79,6 +83,20 @@ def _join(left: Merged, right: Merged) -> Merged:
 
 def _failed(bag: Path, error: str) -> Merged:
     return Merged(failed={bag: error})
+
+
+def _replay(
+    document: Mapping[str, Any],
+    bag: Path,
+    spans: list[tuple[float, float] | None],
+    fold: int,
+    name: Path,
+) -> list[HeldOut]:
+    """A calibration task: one bag's held-out units of a fold replayed."""
+    found = replay_held_out((document, {bag: spans}, fold))
+    for unit in found:
+        unit.bag = str(name)
+    return found
 
 
 def worker_version() -> str:
@@ -209,6 +227,39 @@ class Fleet:
             ) from None
         merged.units = [unit for found in units for unit in found]
         return merged
+
+    def replay_held_out(self, jobs: Sequence[Job]) -> list[list[HeldOut]]:
+        """Calibration's held-out replays: one task per fold and bag (the fold's document
+        sent once), the answers in the order of the folds and their bags."""
+        client = self.client
+        token = uuid.uuid4().hex[:12]
+        tasks = []
+        try:
+            for fold, (document, bags, number) in enumerate(jobs):
+                learnt = client.submit(_same, document, key=f"imrosc-fold-{token}-{fold}")
+                tasks.append(
+                    [
+                        client.submit(
+                            _replay,
+                            learnt,
+                            bag.absolute(),
+                            spans,
+                            number,
+                            bag,
+                            key=f"imrosc-replay-{token}-{fold}-{k}",
+                            retries=RETRIES,
+                        )
+                        for k, (bag, spans) in enumerate(bags.items())
+                    ]
+                )
+            answers = client.gather(tasks)
+        except _distributed().KilledWorker as killed:
+            raise FleetError(
+                f"{self.address}: the Dask workers died replaying a held-out bag ({killed})"
+            ) from None
+        except (OSError, TimeoutError) as error:
+            raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
+        return [[unit for found in fold for unit in found] for fold in answers]
 
     def _submit(self, template: Any, job: BagJob, key: str) -> Any:
         return self.client.submit(

@@ -168,7 +168,8 @@ def test_a_worker_killed_mid_task_gives_the_same_invariants(
 ) -> None:
     bags = runs(project)
     alone = run_detect(project, workers=1, bags=bags)
-    fleet = run_detect(project, bags=bags, reducer=Fleet(client, address, task=kill_once))
+    cluster = Fleet(client, address, task=kill_once)
+    fleet = run_detect(project, bags=bags, reducer=cluster, replays=cluster.replay_held_out)
     assert marker(bags[1].absolute()).exists(), "no worker was killed"
     assert fleet.document is not None and alone.document is not None
     assert dumps(fleet.document) == dumps(alone.document)
