@@ -52,7 +52,15 @@ CONFIG = "landing_sim.xml"
 
 
 def worker_peak_mb() -> float:
-    """A worker process's peak RSS (MB)."""
+    """A worker process's peak RSS (MB): Linux's ``VmHWM``, which starts again at ``exec``
+    (``ru_maxrss`` keeps the peak of the process that spawned the worker)."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
@@ -70,8 +78,9 @@ def write_bags(folder: Path, count: int, duration: float) -> list[Path]:
 def on_cluster(
     config: Path, bags: Sequence[Path], workers: int
 ) -> tuple[DetectResult, list[float]]:
-    """The detect stage on a fresh LocalCluster of ``workers`` processes, and each worker's
-    peak RSS (MB) afterwards."""
+    """The detect stage on a fresh LocalCluster of ``workers`` processes, calibration's
+    replays included, and the workers' RSS when they started (the least), then each
+    worker's peak RSS (MB)."""
     import distributed
 
     with (
@@ -86,10 +95,10 @@ def on_cluster(
         ) as cluster,
         distributed.Client(cluster, set_as_default=False) as client,
     ):
-        result = run_detect(
-            config, bags=list(bags), reducer=Fleet(client, cluster.scheduler_address)
-        )
-        peaks = sorted(client.run(worker_peak_mb).values())
+        started = min(client.run(worker_peak_mb).values())
+        fleet = Fleet(client, cluster.scheduler_address)
+        result = run_detect(config, bags=list(bags), reducer=fleet, replays=fleet.replay_held_out)
+        peaks = [started, *sorted(client.run(worker_peak_mb).values())]
     return result, peaks
 
 
@@ -201,8 +210,9 @@ def main() -> None:
     _, peaks[len(half)] = on_cluster(config, half, 2)
     print("(b) peak RSS of each of 2 workers:")
     for count in sorted(peaks):
-        shown = ", ".join(f"{mb:,.0f} MB" for mb in peaks[count])
-        print(f"    {count:>3} bags: {shown}")
+        started, *peak = peaks[count]
+        shown = ", ".join(f"{mb:,.0f} MB" for mb in peak)
+        print(f"    {count:>3} bags: {shown} (started at {started:,.0f} MB)")
     longer = folder / "longer" / "run_longer.bag"
     if not longer.exists():
         write_run(longer, seed=len(bags), fmt="ros1", duration=10 * args.duration)
