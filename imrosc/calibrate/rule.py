@@ -252,31 +252,33 @@ def _within(time: float, span: tuple[float, float] | None) -> bool:
 Job = tuple[Mapping[str, Any], dict[Path, list[tuple[float, float] | None]], int]
 """A fold's replays: the document learnt without its units, their bags and spans, the fold."""
 Replays = Callable[[Sequence[Job]], list[list[HeldOut]]]
-"""Runs :func:`replay_held_out` over jobs elsewhere (a cluster, :mod:`imrosc.fleet`)."""
+"""Replays the folds' jobs elsewhere (a cluster, :mod:`imrosc.fleet`), each fold's units in
+the order of its bags."""
 
 
-def replay_held_out(job: Job) -> list[HeldOut]:
-    """A fold's held-out units replayed (each bag alone: a job may be split by bag)."""
-    return _replay(job)
+def held_out_replayer(document: Mapping[str, Any]) -> Any:
+    """The replayer of a fold's document (its engine built once; it replays bag after bag)."""
+    from imrosc.replay import Replayer
+
+    engine = Engine(document, rule=HELD_BACK)
+    engine.alarms.record = True
+    return Replayer(document, engine)
 
 
 def _replay(job: Job) -> list[HeldOut]:
     """Replay a fold's bags against its document; one :class:`HeldOut` per unit span."""
-    from imrosc.replay import Replayer
-
     document, bags, fold = job
-    engine = Engine(document, rule=HELD_BACK)
-    engine.alarms.record = True
-    replayer = Replayer(document, engine)
+    replayer = held_out_replayer(document)
     found = []
     for bag, spans in bags.items():
-        found += _held_out(replayer, bag, spans, fold)
+        found += held_out(replayer, bag, spans, fold)
     return found
 
 
-def _held_out(
+def held_out(
     replayer: Any, bag: Path, spans: list[tuple[float, float] | None], fold: int
 ) -> list[HeldOut]:
+    """A bag's held-out units (``spans``) of ``fold``, replayed with the fold's replayer."""
     result = replayer.run(bag)
     fed = replayer.engine.alarms.fed
     found = []

@@ -23,7 +23,9 @@ the bags queued beside it are not blamed), then reported as a bag that could not
 from __future__ import annotations
 
 import importlib
+import threading
 import uuid
+from collections import OrderedDict
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -31,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from imrosc import __version__
-from imrosc.calibrate.rule import HeldOut, Job, replay_held_out
+from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
 
 from .tree import OrderedTree
@@ -85,15 +87,30 @@ def _failed(bag: Path, error: str) -> Merged:
     return Merged(failed={bag: error})
 
 
+_replayers = threading.local()
+"""Per worker thread, the replayers of the last folds it replayed (by the fold's key)."""
+REPLAYERS = 8
+
+
 def _replay(
     document: Mapping[str, Any],
+    fold_key: str,
     bag: Path,
     spans: list[tuple[float, float] | None],
     fold: int,
     name: Path,
 ) -> list[HeldOut]:
-    """A calibration task: one bag's held-out units of a fold replayed."""
-    found = replay_held_out((document, {bag: spans}, fold))
+    """A calibration task: one bag's held-out units of a fold replayed (the fold's engine
+    built once per worker thread, as one process builds it once per fold)."""
+    cache: OrderedDict[str, Any] | None = getattr(_replayers, "cache", None)
+    if cache is None:
+        cache = _replayers.cache = OrderedDict()
+    replayer = cache.get(fold_key)
+    if replayer is None:
+        replayer = cache[fold_key] = held_out_replayer(document)
+        while len(cache) > REPLAYERS:
+            cache.popitem(last=False)
+    found = held_out(replayer, bag, spans, fold)
     for unit in found:
         unit.bag = str(name)
     return found
@@ -236,12 +253,14 @@ class Fleet:
         tasks = []
         try:
             for fold, (document, bags, number) in enumerate(jobs):
-                learnt = client.submit(_same, document, key=f"imrosc-fold-{token}-{fold}")
+                fold_key = f"imrosc-fold-{token}-{fold}"
+                learnt = client.submit(_same, document, key=fold_key)
                 tasks.append(
                     [
                         client.submit(
                             _replay,
                             learnt,
+                            fold_key,
                             bag.absolute(),
                             spans,
                             number,
