@@ -40,6 +40,8 @@ from .tree import OrderedTree
 
 RETRIES = 2
 """How many times a bag's task that raised is run again."""
+JOIN_PRIORITY = 1
+"""Joins and summaries run before the bags still queued (those have priority 0)."""
 CONNECT_TIMEOUT = 10.0
 """Seconds to reach the scheduler."""
 INSTALL = "pip install 'imrosc[fleet]'"
@@ -192,7 +194,10 @@ class Fleet:
         client = self.client
 
         def join(left: Any, right: Any) -> Any:
-            return client.submit(_join, left, right, key=f"imrosc-join-{uuid.uuid4().hex}")
+            key = f"imrosc-join-{uuid.uuid4().hex}"
+            # before the bags still queued (Dask runs what was submitted first, first): the
+            # answers waiting for their neighbour stay few
+            return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
 
         tree: OrderedTree[Any] = OrderedTree(len(jobs), join)
         units: list[list[Unit]] = [[] for _ in jobs]
@@ -202,7 +207,9 @@ class Fleet:
             template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
             answers = [self._submit(template, job, f"{token}-{i}") for i, job in enumerate(jobs)]
             summaries = {
-                client.submit(_summary, answer, key=f"imrosc-summary-{token}-{i}"): i
+                client.submit(
+                    _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
+                ): i
                 for i, answer in enumerate(answers)
             }
             doubtful = []
