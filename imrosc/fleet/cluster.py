@@ -10,8 +10,8 @@ invariants), and joins the answers of adjacent bags as they complete with join t
 states of every bag. Samples never leave the worker that read them, and the invariants file
 is byte for byte the one a single process writes.
 
-Calibration's held-out replays are tasks too, one per fold and bag, each fold's document
-sent once.
+Calibration's held-out replays are tasks too: each fold's bags in as many groups as give
+every worker one, each fold's document sent once.
 
 A bag that cannot be read is answered with its error, as in one process. A task whose worker
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
@@ -23,6 +23,7 @@ the bags queued beside it are not blamed), then reported as a bag that could not
 from __future__ import annotations
 
 import importlib
+import math
 import threading
 import uuid
 from collections import OrderedDict
@@ -81,6 +82,11 @@ def _summary(answer: Merged) -> tuple[int, list[Unit]]:
 
 def _join(left: Merged, right: Merged) -> Merged:
     """A join task: adjacent answers merged, their units left out (the client has them)."""
+    for point in (left.states or {}).values():
+        for state in point.states:
+            freeze = getattr(state, "freeze", None)  # no samples come again: drop caches
+            if freeze is not None:
+                freeze()
     joined = Merged(left.states, dict(left.failed), left.messages, list(left.empty))
     return joined.join(Merged(right.states, right.failed, right.messages, right.empty))
 
@@ -97,13 +103,11 @@ REPLAYERS = 8
 def _replay(
     document: Mapping[str, Any],
     fold_key: str,
-    bag: Path,
-    spans: list[tuple[float, float] | None],
+    bags: list[tuple[Path, list[tuple[float, float] | None], Path]],
     fold: int,
-    name: Path,
 ) -> list[HeldOut]:
-    """A calibration task: one bag's held-out units of a fold replayed (the fold's engine
-    built once per worker thread, as one process builds it once per fold)."""
+    """A calibration task: some bags' held-out units of a fold replayed, each bag
+    ``(path, spans, name)`` (the fold's engine built once per worker thread)."""
     cache: OrderedDict[str, Any] | None = getattr(_replayers, "cache", None)
     if cache is None:
         cache = _replayers.cache = OrderedDict()
@@ -112,9 +116,12 @@ def _replay(
         replayer = cache[fold_key] = held_out_replayer(document)
         while len(cache) > REPLAYERS:
             cache.popitem(last=False)
-    found = held_out(replayer, bag, spans, fold)
-    for unit in found:
-        unit.bag = str(name)
+    found = []
+    for bag, spans, name in bags:
+        units = held_out(replayer, bag, spans, fold)
+        for unit in units:
+            unit.bag = str(name)
+        found += units
     return found
 
 
@@ -205,6 +212,7 @@ class Fleet:
             # a task, not scattered data: the scheduler keeps it and computes it again when
             # the workers that held it die
             template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
+            client.replicate([template])  # the bags' tasks then go to any worker
             answers = [self._submit(template, job, f"{token}-{i}") for i, job in enumerate(jobs)]
             summaries = {
                 client.submit(
@@ -253,35 +261,42 @@ class Fleet:
         return merged
 
     def replay_held_out(self, jobs: Sequence[Job]) -> list[list[HeldOut]]:
-        """Calibration's held-out replays: one task per fold and bag (the fold's document
-        sent once), the answers in the order of the folds and their bags."""
+        """Calibration's held-out replays: per fold, its bags in as many consecutive groups
+        as it takes to give every worker one (one task each, the fold's document sent
+        once); the answers in the order of the folds and their bags."""
         client = self.client
         token = uuid.uuid4().hex[:12]
+        parts = max(1, math.ceil(self.workers / max(len(jobs), 1)))
         tasks = []
         try:
-            for fold, (document, bags, number) in enumerate(jobs):
-                fold_key = f"imrosc-fold-{token}-{fold}"
-                learnt = client.submit(_same, document, key=fold_key)
+            keys = [f"imrosc-fold-{token}-{fold}" for fold in range(len(jobs))]
+            learnt = [
+                client.submit(_same, job[0], key=key, priority=JOIN_PRIORITY)
+                for job, key in zip(jobs, keys, strict=True)
+            ]
+            # on every worker: else the scheduler keeps a fold's tasks beside its document
+            client.replicate(learnt)
+            for fold, (_, bags, number) in enumerate(jobs):
+                every = [(bag.absolute(), spans, bag) for bag, spans in bags.items()]
+                size = max(1, math.ceil(len(every) / parts))
                 tasks.append(
                     [
                         client.submit(
                             _replay,
-                            learnt,
-                            fold_key,
-                            bag.absolute(),
-                            spans,
+                            learnt[fold],
+                            keys[fold],
+                            every[first : first + size],
                             number,
-                            bag,
-                            key=f"imrosc-replay-{token}-{fold}-{k}",
+                            key=f"imrosc-replay-{token}-{fold}-{first}",
                             retries=RETRIES,
                         )
-                        for k, (bag, spans) in enumerate(bags.items())
+                        for first in range(0, len(every), size)
                     ]
                 )
             answers = client.gather(tasks)
         except _distributed().KilledWorker as killed:
             raise FleetError(
-                f"{self.address}: the Dask workers died replaying a held-out bag ({killed})"
+                f"{self.address}: the Dask workers died replaying held-out bags ({killed})"
             ) from None
         except (OSError, TimeoutError) as error:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None

@@ -156,6 +156,11 @@ class PolygonState:
             self.stale[drawn] = 0
         return self._guide
 
+    def freeze(self) -> None:
+        """No samples will come before it is finalized (it may still absorb merges): the
+        guide goes, and merges no longer refresh it."""
+        self._guide = None
+
     def __getstate__(self) -> dict[str, Any]:
         """The hulls and their support without the guide, a cache many times their size:
         a state sent from a worker (or copied) is merged and finalized, which needs none."""
