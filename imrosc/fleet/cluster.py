@@ -17,7 +17,9 @@ A bag that cannot be read is answered with its error, as in one process. A task 
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
 3 by default); a task that raises is retried :data:`RETRIES` times. A bag that keeps killing
 its workers (one too big for their memory) is tried once more alone on the cluster (so that
-the bags queued beside it are not blamed), then reported as a bag that could not be read.
+the bags queued beside it are not blamed), then reported as a bag that could not be read; if
+the workers it killed took answers of other bags along and computing one again failed, the
+pass runs once more with that bag left out.
 """
 
 from __future__ import annotations
@@ -197,55 +199,15 @@ class Fleet:
         if not jobs:
             return Merged()
         distributed = _distributed()
-        token = uuid.uuid4().hex[:12]
-        client = self.client
-
-        def join(left: Any, right: Any) -> Any:
-            key = f"imrosc-join-{uuid.uuid4().hex}"
-            # before the bags still queued (Dask runs what was submitted first, first): the
-            # answers waiting for their neighbour stay few
-            return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
-
-        tree: OrderedTree[Any] = OrderedTree(len(jobs), join)
-        units: list[list[Unit]] = [[] for _ in jobs]
         try:
-            # a task, not scattered data: the scheduler keeps it and computes it again when
-            # the workers that held it die
-            template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
-            client.replicate([template])  # the bags' tasks then go to any worker
-            answers = [self._submit(template, job, f"{token}-{i}") for i, job in enumerate(jobs)]
-            summaries = {
-                client.submit(
-                    _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
-                ): i
-                for i, answer in enumerate(answers)
-            }
-            doubtful = []
-            for summary in distributed.as_completed(list(summaries), loop=client.loop):
-                index = summaries.pop(summary)
-                got = self._summary(summary)
-                if got is None:
-                    doubtful.append(index)
-                    continue
-                messages, units[index] = got
-                tree.add(index, answers[index])
-                answers[index] = None  # the tree holds it until it is joined
-                if progress is not None:
-                    progress(jobs[index].bag, messages)
-            # a worker that dies takes the tasks queued on it along: each bag whose workers
-            # died is tried once more, alone on the cluster, before it is called bad
-            for index in doubtful:
-                answer = self._submit(template, jobs[index], f"{token}-{index}-alone")
-                got = self._summary(client.submit(_summary, answer, pure=False))
-                if got is None:
-                    answer = client.submit(_failed, jobs[index].bag, KILLED, pure=False)
-                    got = (0, [])
-                messages, units[index] = got
-                tree.add(index, answer)
-                if progress is not None:
-                    progress(jobs[index].bag, messages)
-            merged: Merged = tree.result().result()
-            template.release()
+            bad: set[int] = set()
+            merged = self._pass(jobs, progress, bad)
+            if merged is None:
+                # the workers killed by a bad bag took answers along, and computing one of
+                # them again failed too: once more, without the bags that kill workers
+                merged = self._pass(jobs, None, bad)
+            if merged is None:
+                raise FleetError(f"{self.address}: the Dask workers keep dying")
         except distributed.client.FutureCancelledError:
             raise FleetError(f"{self.address}: lost the Dask scheduler") from None
         except (OSError, TimeoutError) as error:
@@ -257,6 +219,73 @@ class Fleet:
                 f"{self.address}: the scheduler cannot load imrosc's tasks: it runs another "
                 f"imrosc than this {__version__}"
             ) from None
+        return merged
+
+    def _pass(
+        self, jobs: Sequence[BagJob], progress: Progress | None, bad: set[int]
+    ) -> Merged | None:
+        """One try at a pass; ``bad``: the bags whose workers die reading them (given as
+        failed bags without a try, and those found added); ``None`` when an answer was lost
+        with its workers and could not be computed again."""
+        distributed = _distributed()
+        token = uuid.uuid4().hex[:12]
+        client = self.client
+
+        def join(left: Any, right: Any) -> Any:
+            key = f"imrosc-join-{uuid.uuid4().hex}"
+            # before the bags still queued (Dask runs what was submitted first, first): the
+            # answers waiting for their neighbour stay few
+            return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
+
+        def killed(index: int) -> Any:
+            return client.submit(_failed, jobs[index].bag, KILLED, pure=False)
+
+        tree: OrderedTree[Any] = OrderedTree(len(jobs), join)
+        units: list[list[Unit]] = [[] for _ in jobs]
+        # a task, not scattered data: the scheduler keeps it and computes it again when the
+        # workers that held it die
+        template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
+        client.replicate([template])  # the bags' tasks then go to any worker
+        answers = [
+            killed(i) if i in bad else self._submit(template, job, f"{token}-{i}")
+            for i, job in enumerate(jobs)
+        ]
+        summaries = {
+            client.submit(
+                _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
+            ): i
+            for i, answer in enumerate(answers)
+        }
+        doubtful = []
+        for summary in distributed.as_completed(list(summaries), loop=client.loop):
+            index = summaries.pop(summary)
+            got = self._summary(summary)
+            if got is None:
+                doubtful.append(index)
+                continue
+            messages, units[index] = got
+            tree.add(index, answers[index])
+            answers[index] = None  # the tree holds it until it is joined
+            if progress is not None:
+                progress(jobs[index].bag, messages)
+        # a worker that dies takes the tasks queued on it along: each bag whose workers died
+        # is tried once more, alone on the cluster, before it is called bad
+        for index in doubtful:
+            answer = self._submit(template, jobs[index], f"{token}-{index}-alone")
+            got = self._summary(client.submit(_summary, answer, pure=False))
+            if got is None:
+                bad.add(index)
+                answer, got = killed(index), (0, [])
+            messages, units[index] = got
+            tree.add(index, answer)
+            if progress is not None:
+                progress(jobs[index].bag, messages)
+        try:
+            merged: Merged = tree.result().result()
+        except distributed.KilledWorker:
+            return None
+        finally:
+            template.release()
         merged.units = [unit for found in units for unit in found]
         return merged
 
