@@ -508,6 +508,7 @@ def _emit(
 @report_option
 @click.option("--no-plots", is_flag=True, help="Leave the plot data out (smaller reports).")
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@scheduler_option
 @quiet_option
 def replay(
     inv: Path,
@@ -517,9 +518,11 @@ def replay(
     report_path: Path | None,
     no_plots: bool,
     force: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
-    """Run the monitor's engine over BAGS as if live and print the violation timeline.
+    """Run the monitor's engine over BAGS as if live and print the violation timeline;
+    with --scheduler, each bag is a task on a Dask cluster (docs/fleet.md).
 
     Exit status: 0 no violation, 1 an alarm (or a bag that could not be read), 3
     violations that raised no alarm, 5 a point that checked no sample in some run (its
@@ -542,9 +545,14 @@ def replay(
         problems += bad
     _report(problems, "text")
     try:
-        with bag_progress("replaying", quiet) as factory:
+        with cluster("replay", scheduler) as fleet, bag_progress("replaying", quiet) as factory:
             report, results = replay_document(
-                inv, document, found, plots=not no_plots, progress=factory(len(found))
+                inv,
+                document,
+                found,
+                plots=not no_plots,
+                progress=factory(len(found)),
+                elsewhere=fleet.replay_runs if fleet is not None else None,
             )
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
         fail("replay", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)

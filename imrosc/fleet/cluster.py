@@ -38,6 +38,7 @@ from typing import Any
 from imrosc import __version__
 from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
+from imrosc.replay import RunResult
 
 from .tree import OrderedTree
 
@@ -97,6 +98,25 @@ def _failed(bag: Path, error: str) -> Merged:
     return Merged(failed={bag: error})
 
 
+def _failed_run(bag: Path) -> dict[str, Any]:
+    """The run in ``replay``'s report of a bag whose workers died reading it."""
+    return {
+        "bag": str(bag),
+        "start": None,
+        "end": None,
+        "messages": 0,
+        "skipped": 0,
+        "error": KILLED,
+        "warnings": [],
+        "checked": {},
+        "unchecked": [],
+        "violations": 0,
+        "alarms": [],
+        "episodes": [],
+        "plots": {"polygons": [], "frequencies": []},
+    }
+
+
 _replayers = threading.local()
 """Per worker thread, the replayers of the last folds it replayed (by the fold's key)."""
 REPLAYERS = 8
@@ -125,6 +145,26 @@ def _replay(
             unit.bag = str(name)
         found += units
     return found
+
+
+def _replay_run(
+    document: Mapping[str, Any], key: str, bag: Path, name: Path, plots: bool
+) -> tuple[RunResult, dict[str, Any]]:
+    """A ``replay`` task: one bag replayed (the document's engine built once per thread)."""
+    from imrosc.replay import RunReplayer
+
+    cache: OrderedDict[str, Any] | None = getattr(_replayers, "runs", None)
+    if cache is None:
+        cache = _replayers.runs = OrderedDict()
+    replay = cache.get(key)
+    if replay is None:
+        replay = cache[key] = RunReplayer(document, plots)
+        while len(cache) > REPLAYERS:
+            cache.popitem(last=False)
+    result, run = replay(bag)
+    result.bag = name
+    run["bag"] = str(name)
+    return result, run
 
 
 def worker_version() -> str:
@@ -330,6 +370,54 @@ class Fleet:
         except (OSError, TimeoutError) as error:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
         return [[unit for found in fold for unit in found] for fold in answers]
+
+    def replay_runs(
+        self,
+        document: Mapping[str, Any],
+        bags: list[Path],
+        plots: bool,
+        progress: Progress | None,
+    ) -> list[tuple[RunResult, dict[str, Any]]]:
+        """``imrosc replay``: one task per bag (the document sent once), the runs in bag
+        order; ``progress`` hears of each bag as it completes."""
+        if not bags:
+            return []
+        distributed = _distributed()
+        client = self.client
+        key = f"imrosc-replay-document-{uuid.uuid4().hex[:12]}"
+        try:
+            learnt = client.submit(_same, document, key=key)
+            client.replicate([learnt])
+            futures = {
+                client.submit(
+                    _replay_run,
+                    learnt,
+                    key,
+                    bag.absolute(),
+                    bag,
+                    plots,
+                    key=f"{key}-{index}",
+                    retries=RETRIES,
+                ): index
+                for index, bag in enumerate(bags)
+            }
+            answers: list[tuple[RunResult, dict[str, Any]] | None] = [None] * len(bags)
+            for future in distributed.as_completed(list(futures), loop=client.loop):
+                index = futures.pop(future)
+                try:
+                    answers[index] = future.result()
+                except distributed.KilledWorker:
+                    result = RunResult(bags[index])
+                    result.error = KILLED
+                    answers[index] = (result, _failed_run(bags[index]))
+                future.release()
+                if progress is not None:
+                    progress(bags[index], answers[index][0].messages)  # type: ignore[index]
+        except distributed.client.FutureCancelledError:
+            raise FleetError(f"{self.address}: lost the Dask scheduler") from None
+        except (OSError, TimeoutError) as error:
+            raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
+        return [answer for answer in answers if answer is not None]
 
     def _submit(self, template: Any, job: BagJob, key: str) -> Any:
         return self.client.submit(

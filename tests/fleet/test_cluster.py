@@ -231,3 +231,18 @@ def test_without_dask_the_scheduler_option_says_what_to_install(
     assert result.output == (
         "imrosc infer: --scheduler needs Dask (dask and distributed): pip install 'imrosc[fleet]'\n"
     )
+
+
+def test_replay_on_the_cluster_reports_what_one_process_reports(
+    project: Path, address: str, tmp_path: Path
+) -> None:
+    bags = runs(project)
+    inv = tmp_path / "some.inv"
+    assert infer_cli(project, bags[:3], inv, "-j", "1").exit_code == 0
+    (tmp_path / "notes.bag").write_text("not a bag\n")
+    arguments = ["replay", str(inv), *map(str, bags), str(tmp_path / "notes.bag"), "--json", "-q"]
+    alone = CliRunner().invoke(main, arguments)
+    fleet = CliRunner().invoke(main, [*arguments, "--scheduler", address])
+    assert alone.exit_code == fleet.exit_code == 1  # the bag that is not one
+    assert fleet.stdout == alone.stdout
+    assert '"error": null' in fleet.stdout
