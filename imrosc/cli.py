@@ -6,11 +6,12 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # BLAS threads stall a loaded 2-core machine
 
+import contextlib
 import errno
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 
@@ -21,6 +22,9 @@ from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 from imrosc.progress import bag_progress, quiet_option
+
+if TYPE_CHECKING:
+    from imrosc.fleet import Fleet
 
 EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE = 0, 1, 2
 """0: done, nothing found; 1: findings (errors in a configuration, alarms, bags that could not
@@ -85,6 +89,31 @@ bags_option = click.option(
     type=click.Path(path_type=Path),
     help="Bags or folders to read (instead of the <detect> bags, where there are some).",
 )
+
+
+scheduler_option = click.option(
+    "--scheduler",
+    envvar="IMROSC_SCHEDULER",
+    metavar="ADDRESS",
+    help="A Dask scheduler (tcp://host:8786): each bag is a task on its cluster "
+    "(docs/fleet.md) [env: IMROSC_SCHEDULER].",
+)
+
+
+@contextlib.contextmanager
+def cluster(command: str, address: str | None) -> Iterator[Fleet | None]:
+    """A client of the Dask cluster at ``address`` (none without one); a cluster
+    that cannot be used ends the command with one line and :data:`EXIT_USAGE`."""
+    if not address:
+        yield None
+        return
+    from imrosc.fleet import FleetError, connect
+
+    try:
+        with connect(address) as fleet:
+            yield fleet
+    except FleetError as error:
+        fail(command, str(error), EXIT_USAGE)
 
 
 @click.group(cls=_Main, context_settings={"help_option_names": ["-h", "--help"]})
@@ -241,6 +270,7 @@ main.add_command(graph_command)
     "alarm [default: detect/@budget, 0.05].",
 )
 @click.option("--force", is_flag=True, help="Overwrite an output file imrosc did not write.")
+@scheduler_option
 @quiet_option
 def infer(
     config: Path,
@@ -250,10 +280,12 @@ def infer(
     output: Path | None,
     budget: float | None,
     force: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
     """Infer the invariants of CONFIG's <detect> bags, calibrate them across the bags
-    (docs/calibration.md) and write the invariants file."""
+    (docs/calibration.md) and write the invariants file; with --scheduler, each bag is a
+    task on a Dask cluster (docs/fleet.md)."""
     from imrosc.build import write_files
     from imrosc.detect import run_detect
     from imrosc.invariants import dumps
@@ -264,7 +296,7 @@ def infer(
         target(output or default, INVARIANTS, inputs=(config, *graph_files, *read), force=force)
 
     try:
-        with bag_progress("inferring", quiet) as factory:
+        with cluster("infer", scheduler) as fleet, bag_progress("inferring", quiet) as factory:
             result = run_detect(
                 config,
                 workers=jobs,
@@ -273,6 +305,8 @@ def infer(
                 progress_factory=factory,
                 budget=budget,
                 before_work=before_work,
+                reducer=fleet,
+                replays=fleet.replay_held_out if fleet is not None else None,
             )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)
@@ -303,6 +337,8 @@ def infer(
         f"{result.seconds:.1f} s ({rate:,.0f} msg/s)"
         + (f", calibrated in {result.calibration_seconds:.1f} s" if result.calibration else "")
     )
+    if scheduler:
+        click.echo(f"on the Dask cluster at {scheduler}")
     skipped = sorted({d.path for d in result.diagnostics if d.code == "bag-error"})
     if skipped:
         click.echo(f"skipped {len(skipped)} bag{'s' * (len(skipped) != 1)}: {', '.join(skipped)}")
@@ -497,6 +533,7 @@ def _emit(
 @report_option
 @click.option("--no-plots", is_flag=True, help="Leave the plot data out (smaller reports).")
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@scheduler_option
 @quiet_option
 def replay(
     inv: Path,
@@ -506,9 +543,11 @@ def replay(
     report_path: Path | None,
     no_plots: bool,
     force: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
-    """Run the monitor's engine over BAGS as if live and print the violation timeline.
+    """Run the monitor's engine over BAGS as if live and print the violation timeline;
+    with --scheduler, each bag is a task on a Dask cluster (docs/fleet.md).
 
     Exit status: 0 no violation, 1 an alarm (or a bag that could not be read), 3
     violations that raised no alarm, 5 a point that checked no sample in some run (its
@@ -531,9 +570,14 @@ def replay(
         problems += bad
     _report(problems, "text")
     try:
-        with bag_progress("replaying", quiet) as factory:
+        with cluster("replay", scheduler) as fleet, bag_progress("replaying", quiet) as factory:
             report, results = replay_document(
-                inv, document, found, plots=not no_plots, progress=factory(len(found))
+                inv,
+                document,
+                found,
+                plots=not no_plots,
+                progress=factory(len(found)),
+                elsewhere=fleet.replay_runs if fleet is not None else None,
             )
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
         fail("replay", f"{inv}: malformed: {type(error).__name__}: {error}", EXIT_USAGE)

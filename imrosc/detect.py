@@ -19,9 +19,11 @@ from imrosc.backends.plan import render_job, render_plan
 from imrosc.backends.registry import BuildInputs, TopicType
 from imrosc.build import load_graph
 from imrosc.calibrate import Calibration, calibrate
+from imrosc.calibrate.rule import Replays
 from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.infer.engine import (
+    BagReducer,
     Discovered,
     InferenceResult,
     Progress,
@@ -203,12 +205,16 @@ def run_detect(
     progress_factory: Callable[[int], Progress] | None = None,
     budget: float | None = None,
     before_work: Callable[[Path, Sequence[Path]], None] | None = None,
+    reducer: BagReducer | None = None,
+    replays: Replays | None = None,
 ) -> DetectResult:
     """Run the detect stage; the invariants document is returned, not yet written.
     ``budget`` overrides the configuration's false-alarm budget (0: no calibration).
     ``before_work`` is called with the default invariants file (``<detect inv>``) and the
     bags, once the configuration is checked and before any bag is read (the command line
-    refuses an output there, not after minutes of work)."""
+    refuses an output there, not after minutes of work). ``reducer`` runs the bags elsewhere
+    (a Dask cluster, :mod:`imrosc.fleet`) instead of ``workers`` local processes, and
+    ``replays`` calibration's held-out replays."""
     started = time.monotonic()
     out = DetectResult()
     prepared, out.diagnostics = prepare(config_path, graph_files=graph_files, bags=bags)
@@ -237,6 +243,7 @@ def run_detect(
         workers=workers or default_workers(),
         progress=progress,
         calibrate=tunables.budget > 0,
+        reducer=reducer,
     )
     out.result = result
     for bag, reason in sorted(result.failed.items()):
@@ -266,7 +273,11 @@ def run_detect(
     out.seconds = time.monotonic() - started
     if tunables.budget > 0:
         out.calibration = calibrate(
-            out.document, result.units, tunables.budget, workers=workers or default_workers()
+            out.document,
+            result.units,
+            tunables.budget,
+            workers=workers or default_workers(),
+            replays=replays,
         )
         out.calibration_seconds = time.monotonic() - started - out.seconds
     out.output = prepared.base / inv

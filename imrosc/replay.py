@@ -352,6 +352,47 @@ class PlotTrace:
         return {"polygons": polygons, "frequencies": frequencies}
 
 
+class RunReplayer:
+    """Replays bag after bag against one invariants document (its engine built once)."""
+
+    def __init__(self, document: Mapping[str, Any], plots: bool) -> None:
+        self.document = document
+        self.trace = PlotTrace(document) if plots else None
+        self.replayer = Replayer(document, Engine(document, self.trace))
+
+    def __call__(self, bag: Path) -> tuple[RunResult, dict[str, Any]]:
+        """A bag's result and its run in the report."""
+        trace, document = self.trace, self.document
+        if trace is not None:
+            trace.reset()
+        result = self.replayer.run(bag)
+        run = {
+            "bag": str(bag),
+            "start": result.start,
+            "end": result.end,
+            "messages": result.messages,
+            "skipped": result.skipped,
+            "error": result.error,
+            "warnings": list(result.warnings),
+            "checked": dict(result.checked),
+            "unchecked": list(result.unchecked),
+            "violations": len(result.violations),
+            "alarms": alarms_json(result.alarms),
+            "episodes": episodes(result.violations),
+            "plots": trace.plots(document, result.violations)
+            if trace is not None
+            else {"polygons": [], "frequencies": []},
+        }
+        return result, run
+
+
+RunsReplay = Callable[
+    [Mapping[str, Any], list[Path], bool, "Progress | None"],
+    list[tuple["RunResult", dict[str, Any]]],
+]
+"""Replays the bags elsewhere (a cluster, :mod:`imrosc.fleet`), their runs in bag order."""
+
+
 def replay_document(
     inv: Path,
     document: Mapping[str, Any],
@@ -359,39 +400,22 @@ def replay_document(
     *,
     plots: bool = True,
     progress: Progress | None = None,
+    elsewhere: RunsReplay | None = None,
 ) -> tuple[dict[str, Any], list[RunResult]]:
     """Replay ``bags`` and describe each run: its timeline and, with ``plots``, the data
-    of its violated polygons and frequencies; ``progress`` hears of each bag done."""
-    trace = PlotTrace(document) if plots else None
-    replayer = Replayer(document, Engine(document, trace))
-    runs: list[dict[str, Any]] = []
-    results: list[RunResult] = []
-    for bag in bags:
-        if trace is not None:
-            trace.reset()
-        result = replayer.run(bag)
-        results.append(result)
-        if progress is not None:
-            progress(bag, result.messages)
-        runs.append(
-            {
-                "bag": str(bag),
-                "start": result.start,
-                "end": result.end,
-                "messages": result.messages,
-                "skipped": result.skipped,
-                "error": result.error,
-                "warnings": list(result.warnings),
-                "checked": dict(result.checked),
-                "unchecked": list(result.unchecked),
-                "violations": len(result.violations),
-                "alarms": alarms_json(result.alarms),
-                "episodes": episodes(result.violations),
-                "plots": trace.plots(document, result.violations)
-                if trace is not None
-                else {"polygons": [], "frequencies": []},
-            }
-        )
+    of its violated polygons and frequencies; ``progress`` hears of each bag done;
+    ``elsewhere`` replays them instead (a cluster)."""
+    if elsewhere is not None:
+        answers = elsewhere(document, list(bags), plots, progress)
+    else:
+        replay = RunReplayer(document, plots)
+        answers = []
+        for bag in bags:
+            answers.append(replay(bag))
+            if progress is not None:
+                progress(bag, answers[-1][0].messages)
+    results = [result for result, _ in answers]
+    runs = [run for _, run in answers]
     out = {
         "$comment": f"{mark(REPORT)} (imrosc replay)",
         "format": "imrosc-replay",

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from imrosc.calibrate.envelope import Envelopes, UnitView
-from imrosc.calibrate.rule import HeldOut, calibrate_rule
+from imrosc.calibrate.rule import HeldOut, Replays, calibrate_rule
 from imrosc.infer.engine import Unit
 from imrosc.runtime.alarms import AlarmRule
 
@@ -141,8 +141,10 @@ def calibrate(
     *,
     folds: int = 5,
     workers: int = 1,
+    replays: Replays | None = None,
 ) -> Calibration:
-    """Calibrate ``document`` (an invariants document, changed in place) on ``units``."""
+    """Calibrate ``document`` (an invariants document, changed in place) on ``units``; the
+    held-out replays run in ``workers`` processes, or with ``replays`` (a cluster)."""
     segments = any(u.span is not None for u in units)
     report = Calibration(budget, "segments" if segments else "runs", len(units))
     if len(units) < 2:
@@ -157,7 +159,7 @@ def calibrate(
     held: list[tuple[Mapping[str, Any], list[int]]] = [
         (envelopes.document(everyone - set(group)), group) for group in groups if group
     ]
-    found = calibrate_rule(held, units, budget, workers=workers)
+    found = calibrate_rule(held, units, budget, workers=workers, replays=replays)
     report.rule, report.certified, report.held_out = found.rule, found.certified, found.held_out
     kept = []
     for invariant in final["invariants"]:

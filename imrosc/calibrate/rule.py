@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -250,25 +250,35 @@ def _within(time: float, span: tuple[float, float] | None) -> bool:
 
 
 Job = tuple[Mapping[str, Any], dict[Path, list[tuple[float, float] | None]], int]
+"""A fold's replays: the document learnt without its units, their bags and spans, the fold."""
+Replays = Callable[[Sequence[Job]], list[list[HeldOut]]]
+"""Replays the folds' jobs elsewhere (a cluster, :mod:`imrosc.fleet`), each fold's units in
+the order of its bags."""
+
+
+def held_out_replayer(document: Mapping[str, Any]) -> Any:
+    """The replayer of a fold's document (its engine built once; it replays bag after bag)."""
+    from imrosc.replay import Replayer
+
+    engine = Engine(document, rule=HELD_BACK)
+    engine.alarms.record = True
+    return Replayer(document, engine)
 
 
 def _replay(job: Job) -> list[HeldOut]:
     """Replay a fold's bags against its document; one :class:`HeldOut` per unit span."""
-    from imrosc.replay import Replayer
-
     document, bags, fold = job
-    engine = Engine(document, rule=HELD_BACK)
-    engine.alarms.record = True
-    replayer = Replayer(document, engine)
+    replayer = held_out_replayer(document)
     found = []
     for bag, spans in bags.items():
-        found += _held_out(replayer, bag, spans, fold)
+        found += held_out(replayer, bag, spans, fold)
     return found
 
 
-def _held_out(
+def held_out(
     replayer: Any, bag: Path, spans: list[tuple[float, float] | None], fold: int
 ) -> list[HeldOut]:
+    """A bag's held-out units (``spans``) of ``fold``, replayed with the fold's replayer."""
     result = replayer.run(bag)
     fed = replayer.engine.alarms.fed
     found = []
@@ -316,16 +326,20 @@ def calibrate_rule(
     budget: float,
     *,
     workers: int = 1,
+    replays: Replays | None = None,
 ) -> RuleResult:
     """Replay the folds ``held`` (a document learnt without the fold's units, and their
-    indexes into ``units``) and set the rule for ``budget``."""
+    indexes into ``units``) in ``workers`` processes, or with ``replays`` when given, and set
+    the rule for ``budget``."""
     jobs: list[Job] = []
     for fold, (document, indexes) in enumerate(held):
         by_bag: dict[Path, list[tuple[float, float] | None]] = {}
         for index in indexes:
             by_bag.setdefault(units[index].bag, []).append(units[index].span)
         jobs.append((document, by_bag, fold))
-    if workers > 1 and len(jobs) > 1:
+    if replays is not None:
+        answers = replays(jobs)
+    elif workers > 1 and len(jobs) > 1:
         with multiprocessing.get_context("fork").Pool(min(workers, len(jobs))) as pool:
             answers = pool.map(_replay, jobs)
     else:

@@ -416,33 +416,70 @@ def _map(jobs: Sequence[BagJob], workers: int, progress: Progress | None) -> lis
     return results
 
 
+@dataclass
+class Merged:
+    """The merged answers of consecutive bags: their states (``None`` until a bag that could
+    be read), failed and empty bags, messages and calibration units, all in bag order."""
+
+    states: dict[str, PointState] | None = None
+    failed: dict[Path, str] = field(default_factory=dict)
+    messages: int = 0
+    empty: list[Path] = field(default_factory=list)
+    units: list[Unit] = field(default_factory=list)
+
+    @classmethod
+    def of(cls, result: BagResult) -> Merged:
+        """One bag's answer (a failed bag brings its error and nothing else)."""
+        if result.error is not None:
+            return cls(failed={result.bag: result.error})
+        empty = [] if result.messages else [result.bag]
+        return cls(result.states, {}, result.messages, empty, list(result.units))
+
+    def join(self, later: Merged) -> Merged:
+        """Absorb the answers of the bags that come right after ours (in place): the exact
+        merge of every point's states, so joining adjacent answers in any grouping gives one
+        sequential pass over the bags."""
+        self.failed.update(later.failed)
+        self.messages += later.messages
+        self.empty += later.empty
+        self.units += later.units
+        if self.states is None:
+            self.states = later.states
+        elif later.states is not None:
+            for key, state in later.states.items():
+                self.states[key].merge(state)
+        return self
+
+
+BagReducer = Callable[[Sequence[BagJob], Progress | None], Merged]
+"""Runs the jobs of one pass elsewhere (a cluster: :mod:`imrosc.fleet`) and returns their
+answers merged in bag order."""
+
+
 def _merge(
     results: Iterable[BagResult],
     specs: Sequence[PointSpec],
     tunables: Tunables,
     units: list[Unit] | None = None,
 ) -> tuple[dict[str, PointState], dict[Path, str], int, tuple[Path, ...]]:
-    merged: dict[str, PointState] | None = None
-    failed: dict[Path, str] = {}
-    empty: list[Path] = []
-    messages = 0
+    merged = Merged()
     for result in results:
-        if result.error is not None:
-            failed[result.bag] = result.error
-            continue
-        if units is not None:
-            units += result.units
-        if not result.messages:
-            empty.append(result.bag)
-        messages += result.messages
-        if merged is None:
-            merged = result.states
-            continue
-        for key, state in result.states.items():
-            merged[key].merge(state)
-    if merged is None:
-        merged = new_states(specs, tunables, discover=False)
-    return merged, failed, messages, tuple(empty)
+        merged.join(Merged.of(result))
+    return _unpack(merged, specs, tunables, units)
+
+
+def _unpack(
+    merged: Merged,
+    specs: Sequence[PointSpec],
+    tunables: Tunables,
+    units: list[Unit] | None,
+) -> tuple[dict[str, PointState], dict[Path, str], int, tuple[Path, ...]]:
+    if units is not None:
+        units += merged.units
+    states = merged.states
+    if states is None:
+        states = new_states(specs, tunables, discover=False)
+    return states, merged.failed, merged.messages, tuple(merged.empty)
 
 
 def infer(
@@ -455,10 +492,22 @@ def infer(
     workers: int = 1,
     progress: Progress | None = None,
     calibrate: bool = False,
+    reducer: BagReducer | None = None,
 ) -> InferenceResult:
-    """Infer over ``bags`` (sorted; one run each) with ``workers`` processes; with
-    ``calibrate``, also the invariants of each run alone (of time segments of the runs when
-    there are fewer than :data:`MIN_RUNS`)."""
+    """Infer over ``bags`` (sorted; one run each) with ``workers`` processes, or with
+    ``reducer`` (a cluster) when given; with ``calibrate``, also the invariants of each run
+    alone (of time segments of the runs when there are fewer than :data:`MIN_RUNS`)."""
+
+    def run(
+        jobs: Sequence[BagJob],
+        specs: Sequence[PointSpec],
+        shown: Progress | None,
+        found: list[Unit],
+    ) -> tuple[dict[str, PointState], dict[Path, str], int, tuple[Path, ...]]:
+        if reducer is not None:
+            return _unpack(reducer(jobs, shown), specs, tunables, found)
+        return _merge(_map(jobs, workers, shown), specs, tunables, found)
+
     ordered = sorted(bags)
     frozen = {topic: frozenset(names) for topic, names in callerids.items()}
     units = segments_for(len(ordered)) if calibrate else 0
@@ -467,7 +516,7 @@ def infer(
         for i, b in enumerate(ordered)
     ]
     found: list[Unit] = []
-    first, failed, messages, empty = _merge(_map(jobs, workers, progress), specs, tunables, found)
+    first, failed, messages, empty = run(jobs, specs, progress, found)
     discovered = tuple(
         Discovered(key, variable, value)
         for key, state in first.items()
@@ -486,7 +535,7 @@ def infer(
         for b in good
     ]
     more: list[Unit] = []
-    extra, _, _, _ = _merge(_map(second, workers, None), second_specs, tunables, more)
+    extra, _, _, _ = run(second, second_specs, None, more)
     first.update(extra)
     _join_units(found, more)
     return InferenceResult(first, ordered, failed, messages, discovered, empty, found)

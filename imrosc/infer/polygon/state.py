@@ -23,6 +23,7 @@ from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
 from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, heads, seeds
@@ -142,8 +143,30 @@ class PolygonState:
         self.pj: IntArray = second.astype(np.int64)
         self.count: IntArray = np.zeros(len(self.pi), np.int64)
         self.hull = GroupSet.empty()
-        self.guide = Guide(len(self.pi))
+        self._guide: Guide | None = Guide(len(self.pi))
         self.stale = np.zeros(len(self.pi), np.int64)
+
+    @property
+    def guide(self) -> Guide:
+        """The filters of the current hulls, rebuilt from them after a copy."""
+        if self._guide is None:
+            self._guide = Guide(len(self.pi))
+            drawn = np.unique(self.hull.group)
+            self._guide.refresh(self.hull, drawn)
+            self.stale[drawn] = 0
+        return self._guide
+
+    def freeze(self) -> None:
+        """No samples will come before it is finalized (it may still absorb merges): the
+        guide goes, and merges no longer refresh it."""
+        self._guide = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The hulls and their support without the guide, a cache many times their size:
+        a state sent from a worker (or copied) is merged and finalized, which needs none."""
+        state = dict(self.__dict__)
+        state["_guide"] = None
+        return state
 
     def _matrix(self, samples: Samples) -> FloatArray:
         values = np.empty((len(self.names), len(samples)))
@@ -164,17 +187,29 @@ class PolygonState:
             kept = self.hull.take(np.flatnonzero(~mine))
             fresh = hulls(GroupSet.concat([before, extra]))
             self.hull = GroupSet.concat([kept, fresh])
-            changed = _changed(before, fresh, np.flatnonzero(touched))
-            # a guide from an older hull stays valid (it lies inside the new one): refresh
-            # it only where asked, where it lets many samples through or has gone stale
-            self.stale[changed] += 1
-            many = np.bincount(extra.group, minlength=len(self.pi)) > _REFRESH_AT
-            redo = changed[
-                many[changed] | ~self.guide.ok[changed] | (self.stale[changed] >= _STALE) | refresh
-            ]
-            self.guide.refresh(self.hull, redo)
-            self.stale[redo] = 0
+            if self._guide is not None:  # none after a copy: rebuilt if samples come again
+                self._refresh(self._guide, before, fresh, touched, extra, refresh)
         self.count += added
+
+    def _refresh(
+        self,
+        guide: Guide,
+        before: GroupSet,
+        fresh: GroupSet,
+        touched: npt.NDArray[np.bool_],
+        extra: GroupSet,
+        refresh: bool,
+    ) -> None:
+        """A guide from an older hull stays valid (it lies inside the new one): refresh it
+        only where asked, where it lets many samples through or has gone stale."""
+        changed = _changed(before, fresh, np.flatnonzero(touched))
+        self.stale[changed] += 1
+        many = np.bincount(extra.group, minlength=len(self.pi)) > _REFRESH_AT
+        redo = changed[
+            many[changed] | ~guide.ok[changed] | (self.stale[changed] >= _STALE) | refresh
+        ]
+        guide.refresh(self.hull, redo)
+        self.stale[redo] = 0
 
     def update(self, samples: Samples) -> None:
         """Fold a chunk: prefilter, then the exact hull of the survivors and the vertices.

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import pickle
 from fractions import Fraction
 from typing import Any
 
@@ -380,12 +381,16 @@ def _snapshot(state: PolygonState) -> tuple[Any, ...]:
     st.lists(clouds(), min_size=2, max_size=4),
     st.lists(st.integers(0, 600), max_size=3),
     st.lists(st.integers(0, 600), max_size=6),
+    st.booleans(),
 )
 def test_fold_merge_rechunk_and_brute_force_agree_exactly(
     columns: list[tuple[FloatArray, FloatArray]],
     run_points: list[int],
     chunk_points: list[int],
+    copied: bool,
 ) -> None:
+    """``copied``: each run's states are pickled between runs, as a worker's answer is (a
+    copy has no guide: merged as it is, rebuilt if samples come again)."""
     length = min(len(x) for x, _ in columns)
     data = {}
     for k, (x, y) in enumerate(columns):
@@ -420,6 +425,8 @@ def test_fold_merge_rechunk_and_brute_force_agree_exactly(
         for chunk in run(a, b, []):
             alone.update(chunk)
         alone.end_run()
+        if copied:
+            folded, alone = pickle.loads(pickle.dumps((folded, alone)))
         merged.merge(alone)
     assert _snapshot(folded) == _snapshot(merged)
     ctx = FinalizeContext(Tunables(drop_ratio=1.0), variables, "p")

@@ -1,0 +1,223 @@
+"""Inference on a Dask cluster: speed-up, memory per worker, bytes sent to the client.
+
+    python bench/fleet.py [--bags 40] [--duration 30] [--folder DIR]
+
+Writes ``--bags`` simulated runs of the landing system (``imrosc.sim``, ROS 1 bags of
+``--duration`` s each) into ``DIR/bags`` (kept and reused), then runs ``imrosc infer``'s
+detect stage on ``examples/landing_sim.xml``'s configuration over them:
+
+(a) with a ``distributed.LocalCluster`` of 1 and of 2 single-threaded worker processes
+    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the
+    seconds of inference (the client's catalogue of the bags, the two passes over them, the
+    merge) and of calibration (its held-out replays: on the cluster, or in the pool), and
+    the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores. The load average before
+    and after each case says whether other work shared the cores.
+(b) the peak RSS of each worker process (its ``ru_maxrss``) for half the bags and for all of
+    them: a worker holds one bag's states at a time, so the peak does not grow with the bags.
+(c) what one bag's task sends back to the client (its pickled answer: the states of every
+    point and its calibration invariants) against the samples it was made from (the
+    translated columns) and the bag file, for three of the bags and one ten times as long.
+
+Every case checks that the invariants are byte for byte those of ``-j 1``'s merge order
+(the cluster's and the pool's documents are compared).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import pickle
+import resource
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from imrosc.demo import example_configs  # noqa: E402
+from imrosc.detect import DetectResult, prepare, run_detect  # noqa: E402
+from imrosc.fleet import Fleet  # noqa: E402
+from imrosc.infer.engine import BagJob, run_bag, segments_for  # noqa: E402
+from imrosc.invariants import dumps  # noqa: E402
+from imrosc.sim import write_run  # noqa: E402
+from imrosc.translate.stream import BagTranslator  # noqa: E402
+
+CONFIG = "landing_sim.xml"
+
+
+def worker_peak_mb() -> float:
+    """A worker process's peak RSS (MB): Linux's ``VmHWM``, which starts again at ``exec``
+    (``ru_maxrss`` keeps the peak of the process that spawned the worker)."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def write_bags(folder: Path, count: int, duration: float) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    bags = []
+    for run in range(count):
+        bag = folder / f"run_{run:03d}.bag"
+        if not bag.exists():
+            write_run(bag, seed=run, fmt="ros1", duration=duration)
+        bags.append(bag)
+    return bags
+
+
+def on_cluster(
+    config: Path, bags: Sequence[Path], workers: int
+) -> tuple[DetectResult, list[float]]:
+    """The detect stage on a fresh LocalCluster of ``workers`` processes, calibration's
+    replays included, and the workers' RSS when they started (the least), then each
+    worker's peak RSS (MB)."""
+    import distributed
+
+    with (
+        distributed.LocalCluster(
+            n_workers=workers,
+            processes=True,
+            threads_per_worker=1,
+            host="127.0.0.1",
+            scheduler_port=0,
+            dashboard_address=":0",
+            silence_logs=40,
+        ) as cluster,
+        distributed.Client(cluster, set_as_default=False) as client,
+    ):
+        started = min(client.run(worker_peak_mb).values())
+        fleet = Fleet(client, cluster.scheduler_address)
+        result = run_detect(config, bags=list(bags), reducer=fleet, replays=fleet.replay_held_out)
+        peaks = [started, *sorted(client.run(worker_peak_mb).values())]
+    return result, peaks
+
+
+def samples_bytes(job: BagJob) -> int:
+    """The bytes of the columns the translator makes of one bag (object columns pickled)."""
+    translator = BagTranslator(
+        job.specs, job.layouts, {k: set(v) for k, v in job.callerids.items()}
+    )
+    total = 0
+    for samples in translator.translate(job.bag, job.run):
+        total += samples.time.nbytes
+        for column in samples.columns.values():
+            total += len(pickle.dumps(column)) if column.dtype == object else column.nbytes
+    return total
+
+
+def sizes(config: Path, bags: Sequence[Path], longer: Path) -> None:
+    """(c): per bag, what goes back to the client against the samples and the file; the
+    ``longer`` bag (ten times as long) shows what grows with the bag and what does not."""
+    prepared, _ = prepare(config, bags=list(bags))
+    assert prepared is not None
+    project, catalog = prepared.project, prepared.catalog
+    assert project.detect is not None
+    frozen = {topic: frozenset(names) for topic, names in catalog.callerids.items()}
+    units = segments_for(len(bags))
+    template = BagJob(
+        bags[0],
+        0,
+        tuple(prepared.specs),
+        prepared.layouts,
+        frozen,
+        project.detect.tunables,
+        units=units,
+    )
+    job_kib = len(pickle.dumps(template, 5)) / 1024
+    print(f"(c) sent once per worker: the pass's job, {job_kib:,.0f} KiB")
+    print(f"    {'bag':<14}{'file':>10}{'samples':>11}{'answer':>10}{'states':>10}{'units':>9}")
+    for run, bag in enumerate([*bags[:3], longer]):
+        job = BagJob(
+            bag, run, template.specs, template.layouts, frozen, template.tunables, units=units
+        )
+        result = run_bag(job)
+        answer = len(pickle.dumps(result, 5))
+        states = len(pickle.dumps(result.states, 5))
+        unit_bytes = len(pickle.dumps(result.units, 5))
+        made = samples_bytes(job)
+        print(
+            f"    {bag.name:<14}{bag.stat().st_size / 1024:>8,.0f} K{made / 1024:>9,.0f} K"
+            f"{answer / 1024:>8,.0f} K{states / 1024:>8,.0f} K{unit_bytes / 1024:>7,.0f} K"
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--bags", type=int, default=40)
+    parser.add_argument("--duration", type=float, default=30.0)
+    parser.add_argument("--folder", type=Path, help="where the bags are kept [a temporary one]")
+    args = parser.parse_args()
+    folder = args.folder or Path(tempfile.mkdtemp(prefix="imrosc-fleet-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    source = next(p for p in example_configs() if p.name == CONFIG)
+    config = folder / CONFIG
+    shutil.copyfile(source, config)
+    started = time.monotonic()
+    bags = write_bags(folder / "bags", args.bags, args.duration)
+    megabytes = sum(b.stat().st_size for b in bags) / 2**20
+    print(
+        f"{len(bags)} bags of {args.duration:g} s in {folder / 'bags'} ({megabytes:,.0f} MB, "
+        f"written in {time.monotonic() - started:.1f} s)"
+    )
+
+    print("(a) imrosc infer's detect stage, the same invariants file checked in each case:")
+    timings: dict[str, float] = {}
+    reference: str | None = None
+    peaks: dict[int, list[float]] = {}
+
+    def report(label: str, result: DetectResult) -> None:
+        nonlocal reference
+        assert result.document is not None and result.result is not None
+        text = dumps(result.document)
+        if reference is None:
+            reference = text
+        assert text == reference, f"{label}: not the invariants of the other runs"
+        timings[label] = result.seconds
+        timings[label + " total"] = result.seconds + result.calibration_seconds
+        messages = result.result.messages
+        load = " ".join(f"{x:.1f}" for x in os.getloadavg())
+        print(
+            f"    {label:<24}infer {result.seconds:5.1f} s ({messages / result.seconds:,.0f} "
+            f"msg/s), calibration {result.calibration_seconds:5.1f} s  [load {load}]"
+        )
+
+    result = run_detect(config, bags=bags, workers=2)
+    report("-j 2 (local pool)", result)
+    for workers in (1, 2):
+        result, peak = on_cluster(config, bags, workers)
+        report(f"LocalCluster {workers} worker{'s' * (workers > 1)}", result)
+        if workers == 2:
+            peaks[len(bags)] = peak
+    ratio = timings["LocalCluster 1 worker"] / timings["LocalCluster 2 workers"]
+    pool = timings["-j 2 (local pool)"] / timings["LocalCluster 2 workers"]
+    whole = timings["LocalCluster 1 worker total"] / timings["LocalCluster 2 workers total"]
+    print(
+        f"    speed-up of 2 workers over 1: {ratio:.2f}x inference, {whole:.2f}x with "
+        f"calibration (target >= 1.7x); -j 2 takes {pool:.2f}x the 2-worker cluster's time"
+    )
+
+    half = bags[: len(bags) // 2]
+    _, peaks[len(half)] = on_cluster(config, half, 2)
+    print("(b) peak RSS of each of 2 workers:")
+    for count in sorted(peaks):
+        started, *peak = peaks[count]
+        shown = ", ".join(f"{mb:,.0f} MB" for mb in peak)
+        print(f"    {count:>3} bags: {shown} (started at {started:,.0f} MB)")
+    longer = folder / "longer" / "run_longer.bag"
+    if not longer.exists():
+        write_run(longer, seed=len(bags), fmt="ros1", duration=10 * args.duration)
+    sizes(config, bags, longer)
+
+
+if __name__ == "__main__":
+    main()

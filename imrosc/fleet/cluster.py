@@ -1,0 +1,464 @@
+"""Bags as tasks on a Dask cluster (``imrosc infer --scheduler ADDRESS``).
+
+The client sends the compiled configuration once (one task whose answer every worker
+fetches once), then one task per bag: its path and run number. A worker reads the bag and
+updates fresh states of every point: the bag's answer, which stays on the cluster. The client
+fetches of each answer only its summary (messages, and for calibration the bag's own
+invariants), and joins the answers of adjacent bags as they complete with join tasks
+(:class:`~imrosc.fleet.tree.OrderedTree` over futures: bags 0 and 1, 2 and 3, then 0-1 and
+2-3, ...), the exact merge of ``-j 1`` run on the workers; it fetches the root, the merged
+states of every bag. Samples never leave the worker that read them, and the invariants file
+is byte for byte the one a single process writes.
+
+Calibration's held-out replays are tasks too: each fold's bags in as many groups as give
+every worker one, each fold's document sent once.
+
+A bag that cannot be read is answered with its error, as in one process. A task whose worker
+dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
+3 by default); a task that raises is retried :data:`RETRIES` times. A bag that keeps killing
+its workers (one too big for their memory) is tried once more alone on the cluster (so that
+the bags queued beside it are not blamed), then reported as a bag that could not be read; if
+the workers it killed took answers of other bags along and computing one again failed, the
+pass runs once more with that bag left out.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import threading
+import uuid
+from collections import OrderedDict
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from imrosc import __version__
+from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
+from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
+from imrosc.replay import RunResult
+
+from .tree import OrderedTree
+
+RETRIES = 2
+"""How many times a bag's task that raised is run again."""
+JOIN_PRIORITY = 1
+"""Joins and summaries run before the bags still queued (those have priority 0)."""
+CONNECT_TIMEOUT = 10.0
+"""Seconds to reach the scheduler."""
+INSTALL = "pip install 'imrosc[fleet]'"
+KILLED = "its Dask workers died while reading it, on every try (a bag too big for their memory?)"
+
+
+class FleetError(Exception):
+    """The cluster cannot be used: Dask missing, the scheduler unreachable or lost, workers
+    without imrosc. The message is one line."""
+
+
+def run_remote(template: BagJob, bag: Path, run: int) -> BagResult:
+    """The work of a bag's task: the pass's job for this bag."""
+    return run_bag(replace(template, bag=bag, run=run))
+
+
+Task = Callable[[BagJob, Path, int], BagResult]
+
+
+def _same(job: BagJob) -> BagJob:
+    return job
+
+
+def _answer(task: Task, template: BagJob, bag: Path, run: int, name: Path) -> Merged:
+    """A bag's task: its answer, the bag named ``name`` as the client names it."""
+    result = task(template, bag, run)
+    result.bag = name
+    for unit in result.units:
+        unit.bag = name
+    return Merged.of(result)
+
+
+def _summary(answer: Merged) -> tuple[int, list[Unit]]:
+    """What the client fetches of a bag's answer: its messages and calibration units."""
+    return answer.messages, answer.units
+
+
+def _join(left: Merged, right: Merged) -> Merged:
+    """A join task: adjacent answers merged, their units left out (the client has them)."""
+    for point in (left.states or {}).values():
+        for state in point.states:
+            freeze = getattr(state, "freeze", None)  # no samples come again: drop caches
+            if freeze is not None:
+                freeze()
+    joined = Merged(left.states, dict(left.failed), left.messages, list(left.empty))
+    return joined.join(Merged(right.states, right.failed, right.messages, right.empty))
+
+
+def _failed(bag: Path, error: str) -> Merged:
+    return Merged(failed={bag: error})
+
+
+def _failed_run(bag: Path) -> dict[str, Any]:
+    """The run in ``replay``'s report of a bag whose workers died reading it."""
+    return {
+        "bag": str(bag),
+        "start": None,
+        "end": None,
+        "messages": 0,
+        "skipped": 0,
+        "error": KILLED,
+        "warnings": [],
+        "checked": {},
+        "unchecked": [],
+        "violations": 0,
+        "alarms": [],
+        "episodes": [],
+        "plots": {"polygons": [], "frequencies": []},
+    }
+
+
+_replayers = threading.local()
+"""Per worker thread, the replayers of the last folds it replayed (by the fold's key)."""
+REPLAYERS = 8
+
+
+def _replay(
+    document: Mapping[str, Any],
+    fold_key: str,
+    bags: list[tuple[Path, list[tuple[float, float] | None], Path]],
+    fold: int,
+) -> list[HeldOut]:
+    """A calibration task: some bags' held-out units of a fold replayed, each bag
+    ``(path, spans, name)`` (the fold's engine built once per worker thread)."""
+    cache: OrderedDict[str, Any] | None = getattr(_replayers, "cache", None)
+    if cache is None:
+        cache = _replayers.cache = OrderedDict()
+    replayer = cache.get(fold_key)
+    if replayer is None:
+        replayer = cache[fold_key] = held_out_replayer(document)
+        while len(cache) > REPLAYERS:
+            cache.popitem(last=False)
+    found = []
+    for bag, spans, name in bags:
+        units = held_out(replayer, bag, spans, fold)
+        for unit in units:
+            unit.bag = str(name)
+        found += units
+    return found
+
+
+def _replay_run(
+    document: Mapping[str, Any], key: str, bag: Path, name: Path, plots: bool
+) -> tuple[RunResult, dict[str, Any]]:
+    """A ``replay`` task: one bag replayed (the document's engine built once per thread)."""
+    from imrosc.replay import RunReplayer
+
+    cache: OrderedDict[str, Any] | None = getattr(_replayers, "runs", None)
+    if cache is None:
+        cache = _replayers.runs = OrderedDict()
+    replay = cache.get(key)
+    if replay is None:
+        replay = cache[key] = RunReplayer(document, plots)
+        while len(cache) > REPLAYERS:
+            cache.popitem(last=False)
+    result, run = replay(bag)
+    result.bag = name
+    run["bag"] = str(name)
+    return result, run
+
+
+def worker_version() -> str:
+    """The imrosc version a worker imports."""
+    return __version__
+
+
+def _distributed() -> Any:
+    """The ``distributed`` module (untyped here), or :class:`FleetError` without it."""
+    try:
+        return importlib.import_module("distributed")
+    except ImportError:
+        raise FleetError(f"--scheduler needs Dask (dask and distributed): {INSTALL}") from None
+
+
+def _check_address(distributed: Any, address: str) -> None:
+    """Refuse an address Dask cannot parse before a client exists (a failed client prints
+    a traceback when it is collected)."""
+    try:
+        scheme, _ = distributed.comm.parse_address(address)
+        distributed.comm.registry.get_backend(scheme)
+    except ValueError as error:
+        raise FleetError(f"{address}: not a Dask scheduler address: {error}") from None
+
+
+@dataclass
+class Fleet:
+    """A connected Dask client, used as the inference engine's bag reducer."""
+
+    client: Any
+    """A ``distributed.Client``."""
+    address: str
+    task: Task = run_remote
+    """A bag's task (tests put in one that kills its worker)."""
+
+    @property
+    def workers(self) -> int:
+        """Workers the scheduler has now."""
+        info: dict[str, Any] = self.client.scheduler_info()
+        return len(info.get("workers", {}))
+
+    def check_workers(self) -> None:
+        """The scheduler and every worker must import this imrosc (the tasks name its
+        functions)."""
+        try:
+            answer = self.client.run_on_scheduler(worker_version)
+        except Exception as error:  # what the scheduler failed to load, whatever it was
+            raise FleetError(
+                f"{self.address}: the scheduler cannot run imrosc ({error}); "
+                f"install imrosc {__version__} where it runs"
+            ) from None
+        if answer != __version__:
+            raise FleetError(
+                f"{self.address}: the scheduler runs imrosc {answer}, this is imrosc {__version__}"
+            )
+        answers = self.client.run(worker_version, on_error="return")
+        for worker, answer in sorted(answers.items()):
+            if isinstance(answer, BaseException):
+                raise FleetError(
+                    f"{self.address}: worker {worker} cannot run imrosc ({answer}); "
+                    f"install imrosc {__version__} where the workers run"
+                )
+            if answer != __version__:
+                raise FleetError(
+                    f"{self.address}: worker {worker} runs imrosc {answer}, "
+                    f"this is imrosc {__version__}"
+                )
+
+    def __call__(self, jobs: Sequence[BagJob], progress: Progress | None) -> Merged:
+        """Run one pass's jobs (they differ only in bag and run) as one task per bag and
+        merge their answers in bag order on the cluster."""
+        if not jobs:
+            return Merged()
+        distributed = _distributed()
+        try:
+            bad: set[int] = set()
+            merged = self._pass(jobs, progress, bad)
+            if merged is None:
+                # the workers killed by a bad bag took answers along, and computing one of
+                # them again failed too: once more, without the bags that kill workers
+                merged = self._pass(jobs, None, bad)
+            if merged is None:
+                raise FleetError(f"{self.address}: the Dask workers keep dying")
+        except distributed.client.FutureCancelledError:
+            raise FleetError(f"{self.address}: lost the Dask scheduler") from None
+        except (OSError, TimeoutError) as error:
+            raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
+        except RuntimeError as error:
+            if "deserialization of the task graph" not in str(error):
+                raise
+            raise FleetError(
+                f"{self.address}: the scheduler cannot load imrosc's tasks: it runs another "
+                f"imrosc than this {__version__}"
+            ) from None
+        return merged
+
+    def _pass(
+        self, jobs: Sequence[BagJob], progress: Progress | None, bad: set[int]
+    ) -> Merged | None:
+        """One try at a pass; ``bad``: the bags whose workers die reading them (given as
+        failed bags without a try, and those found added); ``None`` when an answer was lost
+        with its workers and could not be computed again."""
+        distributed = _distributed()
+        token = uuid.uuid4().hex[:12]
+        client = self.client
+
+        def join(left: Any, right: Any) -> Any:
+            key = f"imrosc-join-{uuid.uuid4().hex}"
+            # before the bags still queued (Dask runs what was submitted first, first): the
+            # answers waiting for their neighbour stay few
+            return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
+
+        def killed(index: int) -> Any:
+            return client.submit(_failed, jobs[index].bag, KILLED, pure=False)
+
+        tree: OrderedTree[Any] = OrderedTree(len(jobs), join)
+        units: list[list[Unit]] = [[] for _ in jobs]
+        # a task, not scattered data: the scheduler keeps it and computes it again when the
+        # workers that held it die
+        template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
+        client.replicate([template])  # the bags' tasks then go to any worker
+        answers = [
+            killed(i) if i in bad else self._submit(template, job, f"{token}-{i}")
+            for i, job in enumerate(jobs)
+        ]
+        summaries = {
+            client.submit(
+                _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
+            ): i
+            for i, answer in enumerate(answers)
+        }
+        doubtful = []
+        for summary in distributed.as_completed(list(summaries), loop=client.loop):
+            index = summaries.pop(summary)
+            got = self._summary(summary)
+            if got is None:
+                doubtful.append(index)
+                continue
+            messages, units[index] = got
+            tree.add(index, answers[index])
+            answers[index] = None  # the tree holds it until it is joined
+            if progress is not None:
+                progress(jobs[index].bag, messages)
+        # a worker that dies takes the tasks queued on it along: each bag whose workers died
+        # is tried once more, alone on the cluster, before it is called bad
+        for index in doubtful:
+            answer = self._submit(template, jobs[index], f"{token}-{index}-alone")
+            got = self._summary(client.submit(_summary, answer, pure=False))
+            if got is None:
+                bad.add(index)
+                answer, got = killed(index), (0, [])
+            messages, units[index] = got
+            tree.add(index, answer)
+            if progress is not None:
+                progress(jobs[index].bag, messages)
+        try:
+            merged: Merged = tree.result().result()
+        except distributed.KilledWorker:
+            return None
+        finally:
+            template.release()
+        merged.units = [unit for found in units for unit in found]
+        return merged
+
+    def replay_held_out(self, jobs: Sequence[Job]) -> list[list[HeldOut]]:
+        """Calibration's held-out replays: per fold, its bags in as many consecutive groups
+        as it takes to give every worker one (one task each, the fold's document sent
+        once); the answers in the order of the folds and their bags."""
+        client = self.client
+        token = uuid.uuid4().hex[:12]
+        parts = max(1, math.ceil(self.workers / max(len(jobs), 1)))
+        tasks = []
+        try:
+            keys = [f"imrosc-fold-{token}-{fold}" for fold in range(len(jobs))]
+            learnt = [
+                client.submit(_same, job[0], key=key, priority=JOIN_PRIORITY)
+                for job, key in zip(jobs, keys, strict=True)
+            ]
+            # on every worker: else the scheduler keeps a fold's tasks beside its document
+            client.replicate(learnt)
+            for fold, (_, bags, number) in enumerate(jobs):
+                every = [(bag.absolute(), spans, bag) for bag, spans in bags.items()]
+                size = max(1, math.ceil(len(every) / parts))
+                tasks.append(
+                    [
+                        client.submit(
+                            _replay,
+                            learnt[fold],
+                            keys[fold],
+                            every[first : first + size],
+                            number,
+                            key=f"imrosc-replay-{token}-{fold}-{first}",
+                            retries=RETRIES,
+                        )
+                        for first in range(0, len(every), size)
+                    ]
+                )
+            answers = client.gather(tasks)
+        except _distributed().KilledWorker as killed:
+            raise FleetError(
+                f"{self.address}: the Dask workers died replaying held-out bags ({killed})"
+            ) from None
+        except (OSError, TimeoutError) as error:
+            raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
+        return [[unit for found in fold for unit in found] for fold in answers]
+
+    def replay_runs(
+        self,
+        document: Mapping[str, Any],
+        bags: list[Path],
+        plots: bool,
+        progress: Progress | None,
+    ) -> list[tuple[RunResult, dict[str, Any]]]:
+        """``imrosc replay``: one task per bag (the document sent once), the runs in bag
+        order; ``progress`` hears of each bag as it completes."""
+        if not bags:
+            return []
+        distributed = _distributed()
+        client = self.client
+        key = f"imrosc-replay-document-{uuid.uuid4().hex[:12]}"
+        try:
+            learnt = client.submit(_same, document, key=key)
+            client.replicate([learnt])
+            futures = {
+                client.submit(
+                    _replay_run,
+                    learnt,
+                    key,
+                    bag.absolute(),
+                    bag,
+                    plots,
+                    key=f"{key}-{index}",
+                    retries=RETRIES,
+                ): index
+                for index, bag in enumerate(bags)
+            }
+            answers: list[tuple[RunResult, dict[str, Any]] | None] = [None] * len(bags)
+            for future in distributed.as_completed(list(futures), loop=client.loop):
+                index = futures.pop(future)
+                try:
+                    answers[index] = future.result()
+                except distributed.KilledWorker:
+                    result = RunResult(bags[index])
+                    result.error = KILLED
+                    answers[index] = (result, _failed_run(bags[index]))
+                future.release()
+                if progress is not None:
+                    progress(bags[index], answers[index][0].messages)  # type: ignore[index]
+        except distributed.client.FutureCancelledError:
+            raise FleetError(f"{self.address}: lost the Dask scheduler") from None
+        except (OSError, TimeoutError) as error:
+            raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
+        return [answer for answer in answers if answer is not None]
+
+    def _submit(self, template: Any, job: BagJob, key: str) -> Any:
+        return self.client.submit(
+            _answer,
+            self.task,
+            template,
+            job.bag.absolute(),  # the workers' own folder may differ from ours
+            job.run,
+            job.bag,
+            key=f"imrosc-bag-{key}",
+            retries=RETRIES,
+            pure=False,
+        )
+
+    def _summary(self, future: Any) -> tuple[int, list[Unit]] | None:
+        """A bag's summary; ``None`` when its workers died on every try
+        (``distributed.scheduler.allowed-failures``)."""
+        try:
+            found: tuple[int, list[Unit]] = future.result()
+        except _distributed().KilledWorker:
+            return None
+        finally:
+            future.release()
+        return found
+
+
+@contextmanager
+def connect(address: str, timeout: float | None = None) -> Iterator[Fleet]:
+    """A client of the Dask scheduler at ``address``, closed on leaving; :class:`FleetError`
+    when Dask is missing, the scheduler cannot be reached or a worker cannot run imrosc."""
+    distributed = _distributed()
+    _check_address(distributed, address)
+    try:
+        client = distributed.Client(
+            address, timeout=timeout or CONNECT_TIMEOUT, set_as_default=False
+        )
+    except (OSError, TimeoutError) as error:
+        raise FleetError(f"{address}: cannot reach the Dask scheduler: {error}") from None
+    try:
+        fleet = Fleet(client, address)
+        fleet.check_workers()
+        yield fleet
+    finally:
+        client.close()
