@@ -202,10 +202,20 @@ class Monitor:
         )
 
     def checked(self, where: str, callback: Callable[..., Any]) -> Callable[..., Any]:
-        """``callback`` under the guard: the first exception stops the node (:meth:`stop`)."""
+        """``callback`` under the guard: the first exception stops the node (:meth:`stop`).
+        An exception once ROS is shutting down (Ctrl-C: a relay publishing on a context just
+        closed) is the shutdown's, not a failure of the checks."""
+
+        def unless_shut_down(*args: Any) -> Any:
+            try:
+                return callback(*args)
+            except Exception:
+                if rclpy.ok():
+                    raise
+                return None
 
         def run(*args: Any) -> Any:
-            return self.guard.run(where, callback, *args)
+            return self.guard.run(where, unless_shut_down, *args)
 
         return run
 
