@@ -36,7 +36,6 @@ __all__ = [
     "BagGraphs",
     "PublisherStart",
     "graph_from_bag",
-    "graph_from_bags",
     "publisher_starts",
     "read_bag_graphs",
 ]
@@ -192,9 +191,3 @@ def read_bag_graphs(
     merged = Graph.merge(*graphs)
     sources = tuple(s for s in (SOURCE_RECORDS, SOURCE_CALLERID) if s in merged.sources)
     return BagGraphs(replace(merged, sources=sources), tuple(problems), tuple(read))
-
-
-def graph_from_bags(paths: Sequence[Path]) -> tuple[Graph, list[Diagnostic]]:
-    """The graph recorded in every bag under the paths, and a diagnostic per problem."""
-    result = read_bag_graphs(paths)
-    return result.graph, list(result.diagnostics)

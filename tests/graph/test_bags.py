@@ -10,7 +10,6 @@ from imrosc.bags import open_bag
 from imrosc.graph.bags import (
     PublisherStart,
     graph_from_bag,
-    graph_from_bags,
     publisher_starts,
     read_bag_graphs,
 )
@@ -47,7 +46,8 @@ def names(graph: Graph) -> dict[str, tuple[list[str], list[str], list[str]]]:
 
 
 def test_callerids_are_publishers(tmp_path: Path) -> None:
-    graph, problems = graph_from_bags([write_ros1_bag(tmp_path / "a.bag", TALK)])
+    found = read_bag_graphs([write_ros1_bag(tmp_path / "a.bag", TALK)])
+    graph, problems = found.graph, list(found.diagnostics)
     assert problems == []
     assert names(graph) == {
         "/ctrl": (["/cmd", "/rosout"], [], []),
@@ -82,7 +82,8 @@ def test_publishers_start_at_their_connections_first_message(tmp_path: Path) -> 
 
 def test_records_are_merged_over_snapshots(tmp_path: Path) -> None:
     messages = [arch_message(1.0, FIRST), arch_message(2.5, SECOND_SNAPSHOT)]
-    graph, problems = graph_from_bags([write_ros1_bag(tmp_path / "a.bag", messages)])
+    found = read_bag_graphs([write_ros1_bag(tmp_path / "a.bag", messages)])
+    graph, problems = found.graph, list(found.diagnostics)
     assert problems == []
     assert graph.sources == ("records",)
     assert graph.knows_subscriptions
@@ -108,7 +109,8 @@ def test_records_and_callerids_together_records_first(tmp_path: Path) -> None:
 def test_a_ros2_bag_with_records(tmp_path: Path, storage: str) -> None:
     messages = [arch_message(1.0, FIRST), arch_message(2.0, SECOND_SNAPSHOT), *TALK[:2]]
     bag = write_ros2_bag(tmp_path / "r2", messages, storage=storage)  # type: ignore[arg-type]
-    graph, problems = graph_from_bags([bag])
+    found = read_bag_graphs([bag])
+    graph, problems = found.graph, list(found.diagnostics)
     assert problems == []
     assert graph.sources == ("records",)
     assert graph.subscribers("/chatter") == ("/listener", "/logger")
@@ -124,7 +126,8 @@ def test_a_bad_record_is_reported_and_the_others_used(tmp_path: Path) -> None:
         ),
     ]
     bag = write_ros1_bag(tmp_path / "a.bag", messages)
-    graph, problems = graph_from_bags([bag])
+    found = read_bag_graphs([bag])
+    graph, problems = found.graph, list(found.diagnostics)
     assert graph.publishers("/cmd") == ("/ctrl",)
     assert [(d.path, d.line, d.column, d.code) for d in problems] == [
         (str(bag), 1, 1, "bag-error")
@@ -140,7 +143,8 @@ def test_a_record_topic_of_another_type_is_reported_once(tmp_path: Path) -> None
         Message(ARCH_TOPIC, i * SECOND, "x" * i, "/odd", "std_msgs/msg/UInt8") for i in (1, 2)
     ]
     bag = write_ros1_bag(tmp_path / "a.bag", [*messages, *TALK[:1]])
-    graph, problems = graph_from_bags([bag])
+    found = read_bag_graphs([bag])
+    graph, problems = found.graph, list(found.diagnostics)
     assert [d.code for d in problems] == ["bag-error"]
     assert "std_msgs/msg/UInt8, not std_msgs/msg/String" in problems[0].message
     assert "/odd" not in graph.nodes
