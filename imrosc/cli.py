@@ -207,12 +207,12 @@ def build(
     import json
 
     from imrosc import ir
-    from imrosc.backends.registry import BackendError, available, is_monitor
+    from imrosc.backends.registry import BackendError, is_monitor
     from imrosc.build import build as run_build
     from imrosc.build import write_files
 
     try:
-        monitor = backend in available() and is_monitor(backend)
+        monitor = is_monitor(backend)
     except BackendError as error:
         fail("build", str(error), EXIT_USAGE)
     if inv is not None and not monitor:

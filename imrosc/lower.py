@@ -8,7 +8,6 @@ conditional points are not yet expanded, and events not yet labelled.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 
 from lxml import etree
@@ -18,7 +17,13 @@ from imrosc.runtime.families import PUBLISH, select
 from imrosc.schema import expression, pattern
 from imrosc.schema.flowmap import parse_flow_mapping
 from imrosc.schema.loader import LoadedConfig
-from imrosc.schema.semantics import ARCH_KINDS, children, element_text, split_tokens
+from imrosc.schema.semantics import (
+    ARCH_KINDS,
+    FAMILY_SEPARATORS,
+    children,
+    element_text,
+    split_tokens,
+)
 
 
 def _span(config: LoadedConfig, element: etree._Element) -> ir.Span:
@@ -69,7 +74,7 @@ def _families(value: str | None) -> tuple[str, ...]:
     """The families a checked ``families`` attribute selects (none: every family)."""
     if value is None:
         return ()
-    chosen, _ = select(re.split(r"[,\s]+", value.strip()), PUBLISH)
+    chosen, _ = select([t.text for t in split_tokens(value, FAMILY_SEPARATORS)], PUBLISH)
     return chosen
 
 

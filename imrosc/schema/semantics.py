@@ -30,6 +30,8 @@ from imrosc.schema.loader import LoadedConfig
 from imrosc.schema.names import check_graph_name
 from imrosc.schema.pattern import PatternError, event_letters, parse_pattern, placeholders
 
+FAMILY_SEPARATORS = ", \t\r\n"
+"""What separates the names of a ``families`` attribute."""
 POINT_TAGS = ("publish", "call", "param", "arch", "temporal")
 """Scope elements that are program points (a scope-level ``param`` needs an id to be named)."""
 
@@ -236,7 +238,7 @@ class _Pass:
         value = element.get("families")
         if value is None:
             return
-        tokens = [t for t in split_tokens(value, ", \t\n") if t.text]
+        tokens = [t for t in split_tokens(value, FAMILY_SEPARATORS) if t.text]
         if not tokens:
             message = "families names no family: leave the attribute out for all of them"
             self.at_attribute(element, "families", "unknown-family", message)
