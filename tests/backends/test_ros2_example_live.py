@@ -157,6 +157,9 @@ try:
     rclpy.spin(node)
 except (KeyboardInterrupt, ExternalShutdownException):
     pass
+except Exception:  # rclpy may raise from a take the SIGINT shutdown interrupted
+    if rclpy.ok():
+        raise
 finally:
     node.destroy_node()
     rclpy.try_shutdown()
