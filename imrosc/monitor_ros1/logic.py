@@ -185,6 +185,17 @@ def withheld_for(caused: Iterable[Any], alarmed: Sequence[Any]) -> str:
     return ", ".join(sorted({v.invariant for v in caused if id(v) in belongs}))
 
 
+def blocked_line(topic: str, caused: Iterable[Any], alarmed: Sequence[Any]) -> str:
+    """The node's log warning (throttled) when it withholds a message on a blocked topic.
+
+    >>> from types import SimpleNamespace
+    >>> v = SimpleNamespace(invariant="i1b2c3")
+    >>> blocked_line("/a/cmd", [v], [v])
+    'imrosc: blocked a message on /a/cmd (alarm of i1b2c3)'
+    """
+    return f"imrosc: blocked a message on {topic} (alarm of {withheld_for(caused, alarmed)})"
+
+
 def log_line(report: Report) -> str:
     """The node's log warning of a report: an alarm (and its rule) or a violation."""
     v = report.violation

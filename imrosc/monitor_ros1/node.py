@@ -307,6 +307,8 @@ class Monitor:
             self.last_relayed = time.time()
             if not logic.withheld(caused, alarmed):
                 relay.publish(message)
+            else:
+                rospy.logwarn_throttle(1.0, logic.blocked_line(topic, caused, alarmed))
         self.report(found + caused, raised, alarmed)
 
     def read(self, message: Any, topic: str, raw: Tuple[wire.Reader, Any]) -> Optional[List[Any]]:

@@ -357,6 +357,8 @@ class Monitor:
                 self.last_relayed = time.time()
                 if not common.withheld(caused, alarmed):
                     topic.relay.publish(message)
+                else:
+                    self.warn(common.blocked_line(name, caused, alarmed), throttle_duration_sec=1.0)
             self.report(found + caused, raised, alarmed)
 
         return on_message

@@ -213,6 +213,10 @@ phase[0] = "bad"
 ask.publish(UInt8(data=200))
 wait(lambda: len(out["warnings"]) >= 3, 20.0)
 time.sleep(2.0)  # about 20 bad commands
+out["relay_publishers"] = sorted(
+    (i.node_namespace.rstrip("/") + "/" + i.node_name)
+    for i in node.get_publishers_info_by_topic("/m/a/cmd_subject_ctrl_state")
+)
 phase[0] = "recovered"
 ask.publish(UInt8(data=3))
 out["recovered"] = wait(lambda: count("recovered", 3) >= 5, 20.0)
@@ -339,6 +343,8 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
     out = json.loads(driver.stdout.strip().splitlines()[-1])
     context = json.dumps(out) + "\n" + launch.output
     assert out["relaying"] and out["recovered"], context  # good commands and waypoints relayed
+    # only the monitor publishes on the relay: its relay and action f's publisher
+    assert set(out["relay_publishers"]) == {f"/{PACKAGE}"}, context
     bad = [value for phase, value in out["relayed"] if phase == "bad"]
     # the first bad commands are relayed until the alarm (three in a row or 0.3 s of ROS
     # time), then every one is blocked; about 20 were sent
@@ -354,6 +360,7 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
     heard = re.findall(r"STANDIN /a/ctrl_state_machine heard (\S+) (\d+)", launch.output)
     assert {topic for topic, _ in heard} == {"/m/a/cmd_subject_ctrl_state"}, context
     assert [int(value) for _, value in heard].count(200) <= 2, context
+    assert "imrosc: blocked a message on /a/cmd_subject_ctrl_state" in launch.output, context
     commanded = re.findall(r"STANDIN /a/car_ctrl commands 200", launch.output)
     assert commanded, context  # the stand-in did send bad commands
     assert code == 0, context

@@ -40,6 +40,8 @@ GRAPH = HERE / "landing_live.graph.yaml"
 POSE, COMMAND = "/a/car_pose", "/a/cmd_subject_ctrl_state"
 RELAY = "/m/a/cmd_subject_ctrl_state"
 BROKEN, CLEAR = "/m/broken_inv", "/m/clear_inv"
+ROSOUT = "/rosout"
+"""Where rospy nodes log (the monitor's warnings among them)."""
 Z_BOUNDS = "0.1 <= car_pose.pose.position.z <= 0.18"
 COMMAND_IS_3 = "cmd_subject_ctrl_state.data == 3"
 
@@ -110,7 +112,7 @@ def monitored(ros: Ros, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Mo
 
     ros.add_package_path(out)
     commands = folder / "commands.jsonl"
-    watch = ros.listen(BROKEN, POSE)
+    watch = ros.listen(BROKEN, POSE, ROSOUT)
     monitor = "/" + spec["node"]
     invariants = {i["id"]: i for i in document["invariants"]}
     system = ros.start_system(launch, log=commands)
@@ -191,6 +193,11 @@ def test_a_bad_command_is_blocked_and_the_action_fires(monitored: Monitored) -> 
     assert action["t"] - report["received"] < 1.0
     # one report on a: the good commands around the bad one break nothing
     assert [r["text"] for r in monitored.reports(since) if r["point"] == "a"] == [COMMAND_IS_3]
+    # and the node's log says it blocked it
+    blocked = f"imrosc: blocked a message on {COMMAND} (alarm of {report['invariant']})"
+    monitored.watch.wait(
+        lambda logs: any(r["msg"]["msg"] == blocked for r in logs), blocked, topic=ROSOUT
+    )
 
 
 def test_a_silent_publisher_breaks_its_frequency_by_timer(monitored: Monitored) -> None:
