@@ -492,6 +492,8 @@ def set_check(config: Path, inv: str, classification: Classification) -> Path:
     check = etree.Element("check", inv=inv)
     if SELECT[0] is not None:
         check.set("select", SELECT[0])
+    if DETECTOR[0] is not None:
+        check.set("detector", DETECTOR[0])
     check.text = "\n    "
     entries: list[etree._Element] = []
     for bag in classification.success:
@@ -530,6 +532,8 @@ BUDGET: list[float | None] = [None]
 """The false-alarm budget every part learns with (``--budget``; None: imrosc's default)."""
 SELECT: list[str | None] = [None]
 """How classification chooses its invariants (``--select``; None: imrosc's default)."""
+DETECTOR: list[str | None] = [None]
+"""Whether classification learns fault detectors (``--detector``; None: imrosc's default)."""
 
 
 def learn(config: Path, bags: Sequence[Path], workers: int | None) -> dict[str, Any]:
@@ -972,9 +976,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=None,
         help="how classify chooses the kept invariants (default: imrosc's, cover)",
     )
+    parser.add_argument(
+        "--detector",
+        choices=("none", "logistic"),
+        default=None,
+        help="whether classification learns fault detectors (default: imrosc's, none)",
+    )
     args = parser.parse_args(argv)
     BUDGET[0] = args.budget
     SELECT[0] = args.select
+    DETECTOR[0] = args.detector
     parts = [p.strip() for p in args.only.split(",") if p.strip()]
     unknown = sorted(set(parts) - set(PARTS))
     if unknown or args.folds < 2:

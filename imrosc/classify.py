@@ -33,10 +33,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, held_out_runs
 from imrosc.check import load_checked
+from imrosc.detectors import FOLDS, Learnt, learn, run_of, variables_of
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
+from imrosc.folds import blocked
 from imrosc.infer.engine import default_workers
 from imrosc.infer.registry import group_of
 from imrosc.invariants import InvariantsFileError, load
@@ -45,9 +49,20 @@ from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
 from imrosc.progress import Progress, ProgressFactory
 from imrosc.replay import Replayer
+from imrosc.runtime import Engine
 from imrosc.runtime.alarms import AlarmRule
+from imrosc.runtime.engine import NUMERIC_TYPES
 from imrosc.schema.names import resolve_name
-from imrosc.selection import SELECTIONS, Cover, Nominal, cover
+from imrosc.selection import (
+    SELECTIONS,
+    Cover,
+    Nominal,
+    Worth,
+    cover,
+    detected_by,
+    held_out_cover,
+    union_false_alarm,
+)
 
 
 class CheckStageError(Exception):
@@ -249,6 +264,9 @@ class RunOutcome:
     unchecked: list[str] = field(default_factory=list)
     """The unconditional publish points that checked no sample in this run."""
     messages: int = 0
+    samples: dict[str, list[tuple[float, Any]]] = field(default_factory=dict, repr=False)
+    """Per point a detector may weigh (``<check detector>``), its checked samples: the time
+    and the values of :func:`imrosc.detectors.variables_of`."""
 
     @property
     def violated(self) -> set[str]:
@@ -270,17 +288,46 @@ class RunOutcome:
 
 
 _WORKER: Replayer | None = None
+_SAMPLES: Sampler | None = None
 
 
-def _start_worker(document: Mapping[str, Any]) -> None:
-    global _WORKER  # noqa: PLW0603 - one replayer per worker process
-    _WORKER = Replayer(document)
+class Sampler:
+    """The engine's trace (:data:`imrosc.runtime.engine.Trace`) keeping, per point a
+    detector may weigh, each checked sample's time and values."""
+
+    def __init__(self, document: Mapping[str, Any]) -> None:
+        self.places: dict[str, Any] = {}
+        for key, info in document["points"].items():
+            if info.get("kind") != "publish":
+                continue
+            numeric = [v["name"] for v in info["variables"] if v["type"] in NUMERIC_TYPES]
+            weighed = variables_of(info)
+            if weighed:
+                self.places[key] = np.asarray([numeric.index(n) for n in weighed], np.int64)
+        self.samples: dict[str, list[tuple[float, Any]]] = {}
+
+    def trace(self, point: str, time: float, row: Any, frequency: float | None) -> None:
+        places = self.places.get(point)
+        if places is not None:
+            self.samples.setdefault(point, []).append((time, row.take(places)))
+
+    def take(self) -> dict[str, list[tuple[float, Any]]]:
+        taken, self.samples = self.samples, {}
+        return taken
+
+
+def _start_worker(document: Mapping[str, Any], collect: bool = False) -> None:
+    global _WORKER, _SAMPLES  # noqa: PLW0603 - one replayer per worker process
+    _SAMPLES = Sampler(document) if collect else None
+    engine = Engine(document, trace=_SAMPLES.trace) if _SAMPLES is not None else None
+    _WORKER = Replayer(document, engine)
 
 
 def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
     assert _WORKER is not None
     bag, spec = task
     result = _WORKER.run(bag)
+    samples = _SAMPLES.take() if _SAMPLES is not None else {}
     out = RunOutcome(
         bag,
         result.error,
@@ -289,6 +336,7 @@ def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
         warnings=result.warnings,
         unchecked=result.unchecked,
         messages=result.messages,
+        samples=samples,
     )
     if result.error is not None:
         return out
@@ -327,21 +375,23 @@ def observe_runs(
     workers: int | None = None,
     onsets: Mapping[Path, OnsetSpec] | None = None,
     progress: Progress | None = None,
+    collect: bool = False,
 ) -> dict[Path, RunOutcome]:
     """Replay each bag (in worker processes) and keep what classification needs; a bag in
-    ``onsets`` also gets its fault's onset; ``progress`` hears of each bag done."""
+    ``onsets`` also gets its fault's onset; ``progress`` hears of each bag done;
+    ``collect``: each run's samples too (:attr:`RunOutcome.samples`)."""
     tasks = [(bag, (onsets or {}).get(bag)) for bag in bags]
     workers = min(workers or default_workers(), max(len(bags), 1))
     found: list[RunOutcome] = []
     if workers <= 1:
-        _start_worker(document)
+        _start_worker(document, collect)
         for task in tasks:
             found.append(_observe(task))
             if progress is not None:
                 progress(found[-1].bag, found[-1].messages)
     else:
         context = multiprocessing.get_context("fork")
-        with context.Pool(workers, _start_worker, (document,)) as pool:
+        with context.Pool(workers, _start_worker, (document, collect)) as pool:
             for outcome in pool.imap(_observe, tasks, chunksize=1):
                 found.append(outcome)
                 if progress is not None:
@@ -375,6 +425,8 @@ def classify(
     delays: Mapping[str, Sequence[float]] | None = None,
     untested: Mapping[Path, frozenset[str]] | None = None,
     select: str = SELECTIONS[0],
+    detectors: Mapping[str, int] | None = None,
+    folds: Sequence[Sequence[Path]] = (),
 ) -> tuple[list[dict[str, Any]], dict[str, dict[str, int]], Cover | None]:
     """Scores per invariant, counts per family, and the chosen set (``select="cover"``;
     :mod:`imrosc.selection`).
@@ -385,6 +437,10 @@ def classify(
     positives. ``delays``: per invariant, its detection delays (s) on runs with an onset.
     ``untested``: per successful run scored from its held-out replays, the invariants it was
     not replayed against (no evidence either way: not counted among its runs).
+    ``detectors``: the learnt detectors among the invariants, each with the held-out
+    nominal runs its threshold was set on; with ``select="cover"`` the monitor is then the
+    best of the cover, the detectors, or both, as held-out failed runs (``folds``) show
+    (:func:`monitor_choice`).
     """
     scores: list[dict[str, Any]] = []
     families: dict[str, dict[str, int]] = {}
@@ -437,13 +493,14 @@ def classify(
             scores,
             key=lambda s: unknown if s.get("delay_mean") is None else s["delay_mean"],
         )
-        chosen = cover(
-            nominal,
-            fail,
-            before,
-            len(success) + len(fail),
-            order=[s["id"] for s in by_delay],
-        )
+        order = [s["id"] for s in by_delay]
+        runs = len(success) + len(fail)
+        if detectors:
+            for ident, held in detectors.items():  # 1/(held + 1): the threshold's rank
+                nominal[ident] = Nominal(max(held - 1, 0), 0)
+            chosen = monitor_choice(nominal, fail, before, runs, folds, order, set(detectors))
+        else:
+            chosen = cover(nominal, fail, before, runs, order=order)
         picked = {ident: rank for rank, ident in enumerate(chosen.chosen)}
         for entry in scores:
             entry["kept"] = entry["id"] in picked
@@ -455,6 +512,55 @@ def classify(
         counts["total"] += 1
         counts["kept"] += int(entry["kept"])
     return scores, dict(sorted(families.items())), chosen
+
+
+def monitor_choice(
+    nominal: Mapping[str, Nominal],
+    fail: Mapping[Path, set[str]],
+    before: Mapping[Path, set[str]],
+    runs: int,
+    folds: Sequence[Sequence[Path]],
+    order: Sequence[str],
+    detectors: set[str],
+) -> Cover:
+    """The monitor of the invariants ``cover`` chooses, of the learnt ``detectors``, or of
+    both: whichever held-out failed runs show worth the most (failed runs detected, less
+    those alarmed on before their onset, less the false alarms expected on ``runs`` new
+    nominal runs). The cover is chosen without each fold of failed runs in turn and judged
+    on it (:func:`imrosc.selection.held_out_cover`); the detectors' detections are
+    cross-fitted already, their thresholds above every held-out nominal run. Ties keep the
+    cover, then the detectors alone."""
+    invariants = {i: n for i, n in nominal.items() if i not in detectors}
+    plain = {run: ids - detectors for run, ids in fail.items()}
+    found = cover(invariants, plain, before, runs, order=order)
+    by_detector = {run: bool(ids & detectors) for run, ids in fail.items()}
+    p_cover = union_false_alarm(nominal, found.chosen)
+    p_detector = union_false_alarm(nominal, sorted(detectors))
+    p_both = 1.0 - (1.0 - p_cover) * (1.0 - p_detector)
+    covered, spoiled = held_out_cover(invariants, plain, before, runs, folds, order)
+    both, both_spoiled = held_out_cover(invariants, plain, before, runs, folds, order, by_detector)
+    candidates = [
+        (Worth("cover", covered, spoiled, runs * p_cover), found.chosen),
+        (
+            Worth("detector", sum(by_detector.values()), 0, runs * p_detector),
+            tuple(sorted(detectors)),
+        ),
+        (
+            Worth("both", both, both_spoiled, runs * p_both),
+            found.chosen + tuple(sorted(detectors)),
+        ),
+    ]
+    worth, chosen = max(candidates, key=lambda c: c[0].value)  # the first of equals
+    detected = detected_by(set(chosen), fail, before)
+    value = detected - runs * union_false_alarm(nominal, chosen)
+    return Cover(
+        chosen,
+        detected,
+        union_false_alarm(nominal, chosen),
+        value,
+        worth,
+        tuple(c[0] for c in candidates),
+    )
 
 
 def compare(
@@ -746,7 +852,8 @@ def run_check(
     everything = [b for bags in found.values() for b in bags]
     out.inputs = [inv_path, *everything]
     progress = progress_factory(len(everything)) if progress_factory is not None else None
-    observed = observe_runs(document, everything, workers, specs, progress)
+    logistic = check.mode == "classify" and check.detector == "logistic"
+    observed = observe_runs(document, everything, workers, specs, progress, collect=logistic)
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
     ]
@@ -799,16 +906,31 @@ def run_check(
             assert outcome.onset is not None
             for ident, at in outcome.after.items():
                 delays.setdefault(ident, []).append(at - outcome.onset)
+        detecting = {b: set(o.detected) for b, o in runs["fail"].items()}
+        learnt: list[Learnt] = []
+        if logistic:
+            learnt = learn_detectors(document, runs["success"], onset_runs)
+            report["detectors"] = [detector_entry(d) for d in learnt]
+            document = {**document, "invariants": [*document["invariants"]]}
+            for found_detector in learnt:
+                ident = found_detector.invariant["id"]
+                document["invariants"].append(found_detector.invariant)
+                for bag in onset_runs:
+                    if str(bag) in found_detector.choice.detected:
+                        detecting[bag].add(ident)
+                delays[ident] = list(found_detector.choice.delays.values())
         scores, families, chosen = classify(
             document,
             success_broken,
-            {b: o.detected for b, o in runs["fail"].items()},
+            detecting,
             beta=check.beta,
             threshold=check.threshold,
             before={b: o.before for b, o in onset_runs.items() if o.onset},
             delays=delays if onset_runs else None,
             untested={b: seen.untested for b, seen in held.items()},
             select=check.select,
+            detectors={d.invariant["id"]: d.choice.nominal for d in learnt},
+            folds=blocked_runs(runs["fail"]),
         )
         report["scores"], report["families"] = scores, families
         if chosen is not None:
@@ -818,6 +940,18 @@ def run_check(
                 "false_alarm": _number(chosen.false_alarm),
                 "value": _number(chosen.value),
             }
+            if chosen.worth is not None:
+                report["cover"]["monitor"] = chosen.worth.name
+                report["cover"]["held_out"] = [
+                    {
+                        "monitor": w.name,
+                        "detected": w.detected,
+                        "early": w.early,
+                        "expected_false_alarms": _number(w.expected),
+                        "value": _number(w.value),
+                    }
+                    for w in chosen.candidates
+                ]
         out.refined = refined(document, scores, report)
         if "alarms" in document and runs["success"]:
             out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)
@@ -843,6 +977,51 @@ def run_check(
     out.diagnostics = finalize(out.diagnostics)
     out.report = report
     return out
+
+
+def blocked_runs(runs: Mapping[Path, RunOutcome], folds: int = FOLDS) -> list[list[Path]]:
+    """The runs in blocked folds by their start (:func:`imrosc.folds.blocked`)."""
+    bags = list(runs)
+    return [
+        [bags[k] for k in fold] for fold in blocked(bags, lambda b: (runs[b].start, str(b)), folds)
+    ]
+
+
+def learn_detectors(
+    document: Mapping[str, Any],
+    success: Mapping[Path, RunOutcome],
+    failed: Mapping[Path, RunOutcome],
+) -> list[Learnt]:
+    """The fault detectors of the publish points (:mod:`imrosc.detectors`), from the samples
+    of the successful runs and of the failed runs with an onset."""
+    found = []
+    for key, info in sorted(document["points"].items()):
+        variables = variables_of(info) if info.get("kind") == "publish" else []
+        runs = [
+            run_of(str(bag), o.start, o.onset if bag in failed else None, o.samples[key])
+            for group in (success, failed)
+            for bag, o in group.items()
+            if o.samples.get(key)
+        ]
+        learnt = learn(key, variables, runs)
+        if learnt is not None:
+            found.append(learnt)
+    return found
+
+
+def detector_entry(learnt: Learnt) -> dict[str, Any]:
+    """The report's account of a learnt detector: what its cross-fitting saw."""
+    choice = learnt.choice
+    return {
+        "id": learnt.invariant["id"],
+        "point": learnt.invariant["point"],
+        "variables": len(learnt.invariant["variables"]),
+        "penalty": choice.strength,
+        "threshold": _number(choice.threshold),
+        "held_out_nominal": choice.nominal,
+        "detected": sorted(choice.detected),
+        "delays": {run: _number(delay) for run, delay in sorted(choice.delays.items())},
+    }
 
 
 def success_in_detect(project: Project, base: Path, success: Sequence[Path]) -> list[Path]:

@@ -30,11 +30,12 @@ from imrosc.infer.engine import (
     default_workers,
     infer,
 )
-from imrosc.infer.registry import FAMILY_GROUPS, group_of
+from imrosc.infer.registry import group_of
 from imrosc.invariants import PointInfo, document
 from imrosc.lower import lower
 from imrosc.passes.context import PassContext
 from imrosc.passes.pipeline import run_passes
+from imrosc.runtime.families import INFERRED_GROUPS
 from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
@@ -83,7 +84,7 @@ class DetectResult:
 
     def counts(self) -> dict[str, int]:
         """Invariants per summary group, in the thesis' order."""
-        found = dict.fromkeys(FAMILY_GROUPS, 0)
+        found = dict.fromkeys(INFERRED_GROUPS, 0)
         for invariant in (self.document or {}).get("invariants", ()):
             group = group_of(invariant["family"])
             found[group] = found.get(group, 0) + 1

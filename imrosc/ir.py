@@ -218,9 +218,11 @@ class Check:
     threshold: float = 0.5
     beta: float = 1.0
     onsets: tuple[Onset, ...] = ()
+    """One per ``fail`` entry, in order (the entry's span; its onset if it gives one)."""
     select: Literal["cover", "fscore"] = "cover"
     """How classification chooses the kept invariants (:mod:`imrosc.selection`)."""
-    """One per ``fail`` entry, in order (the entry's span; its onset if it gives one)."""
+    detector: Literal["none", "logistic"] = "none"
+    """Whether classification also learns fault detectors (:mod:`imrosc.detectors`)."""
 
 
 @dataclass(frozen=True)

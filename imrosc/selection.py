@@ -72,6 +72,10 @@ class Cover:
     """The estimated probability that the set raises a false alarm on a new nominal run."""
     value: float
     """``detected - runs * false_alarm``."""
+    worth: Worth | None = None
+    """With learnt detectors, the candidate monitor kept and its held-out worth."""
+    candidates: tuple[Worth, ...] = ()
+    """With learnt detectors, every candidate monitor's held-out worth."""
 
 
 def detected_by(
@@ -132,3 +136,70 @@ def cover(
         chosen.append(ident)
         taken.add(ident)
         clean *= 1.0 - nominal[ident].false_alarm
+
+
+@dataclass(frozen=True)
+class Worth:
+    """A candidate monitor's worth as held-out runs show it: failed runs it detects, failed
+    runs it alarms on before their onset, and the false alarms it is expected to raise on
+    new nominal runs (``runs * p``)."""
+
+    name: str
+    detected: int
+    early: int
+    expected: float
+
+    @property
+    def value(self) -> float:
+        return self.detected - self.early - self.expected
+
+
+def held_out_cover(
+    nominal: Mapping[str, Nominal],
+    detects: Mapping[Run, set[str]],
+    early: Mapping[Run, set[str]],
+    runs: int,
+    folds: Sequence[Sequence[Run]],
+    order: Sequence[str] = (),
+    extra: Mapping[Run, bool] | None = None,
+) -> tuple[int, int]:
+    """The failed runs that ``cover``'s choice detects and alarms on before their onset when
+    each fold of failed runs is held out of the choice (the choice is made on the others):
+    the worth of the selection itself, which the set's own counts overstate (the set was
+    picked because it detects those very runs). ``extra``: per failed run, whether another
+    part of the monitor (a detector, cross-fitted) detects it.
+
+    >>> nominal = {"a": Nominal(10, 0), "b": Nominal(10, 0)}
+    >>> held_out_cover(nominal, {1: {"a"}, 2: {"a"}, 3: {"b"}}, {}, 3, [[1], [2], [3]])
+    (2, 0)
+    """
+    detected = early_alarms = 0
+    for fold in folds:
+        held = set(fold)
+        chosen = set(
+            cover(
+                nominal,
+                {r: ids for r, ids in detects.items() if r not in held},
+                {r: ids for r, ids in early.items() if r not in held},
+                runs,
+                order,
+            ).chosen
+        )
+        for run in fold:
+            spoiled = bool(early.get(run, set()) & chosen)
+            early_alarms += spoiled
+            found = bool(detects.get(run, set()) & chosen) or bool((extra or {}).get(run))
+            detected += found and not spoiled
+    return detected, early_alarms
+
+
+def union_false_alarm(nominal: Mapping[str, Nominal], chosen: Sequence[str]) -> float:
+    """The probability that any of ``chosen`` breaks on a new nominal run (independence).
+
+    >>> round(union_false_alarm({"a": Nominal(8, 0), "b": Nominal(8, 2)}, ["a", "b"]), 2)
+    0.37
+    """
+    clean = 1.0
+    for ident in chosen:
+        clean *= 1.0 - nominal[ident].false_alarm
+    return 1.0 - clean

@@ -28,6 +28,7 @@ from typing import Any
 
 from imrosc.calibrate.envelope import Envelopes, UnitView
 from imrosc.calibrate.rule import HeldOut, Replays, calibrate_rule
+from imrosc.folds import blocked
 from imrosc.infer.engine import Unit
 from imrosc.runtime.alarms import AlarmRule
 
@@ -92,11 +93,8 @@ class Calibration:
 
 
 def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
-    """Blocked k-fold: the units (indexes) in the order they were recorded, cut into
-    ``folds`` contiguous blocks (at least 2, at most one per unit) of sizes differing by
-    at most one. Runs recorded close together (one session, one day, neighbouring
-    segments of one run) share their conditions; holding them out together keeps a
-    held-out unit from being explained by its own neighbour.
+    """Blocked k-fold (:func:`imrosc.folds.blocked`): the units (indexes) in the order they
+    were recorded, cut into ``folds`` contiguous blocks.
 
     >>> from pathlib import Path
     >>> units = [Unit(Path(name), [], start=start) for name, start in
@@ -104,15 +102,7 @@ def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
     >>> blocks(units, 2), blocks(units, 3)
     ([[1, 2, 0], [3, 4]], [[1, 2], [0, 3], [4]])
     """
-    order = sorted(range(len(units)), key=lambda u: (units[u].start, str(units[u].bag), u))
-    k = max(2, min(folds, len(order)))
-    size, extra = divmod(len(order), k)
-    found, at = [], 0
-    for fold in range(k):
-        width = size + (fold < extra)
-        found.append(order[at : at + width])
-        at += width
-    return [group for group in found if group]
+    return blocked(units, lambda u: (u.start, str(u.bag)), folds)
 
 
 def _evidence(

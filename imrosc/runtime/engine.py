@@ -22,7 +22,8 @@ from .alarms import Alarm, AlarmRule, AlarmTracker, shapes_of
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
 from .conditions import holds
-from .families import INTERVAL, PATTERN, VARIANCE
+from .detector import Detector
+from .families import DETECTOR, INTERVAL, PATTERN, VARIANCE
 from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
 from .windows import Windows
@@ -37,6 +38,8 @@ Trace = Callable[[str, float, Any, Optional[float]], None]
 """``trace(point, time, sample, frequency)``: called for every sample a point checks."""
 
 _NUMERIC = ("float", "int", "uint", "bool", "time")
+NUMERIC_TYPES = _NUMERIC
+"""The variable types a point's sample vector holds (the others are strings or sets)."""
 
 
 def _number(value: Any) -> float:
@@ -114,6 +117,12 @@ class _Point:
         self.silent = False
         """The timer reported a silence that the frequency has not recovered from yet (its
         lower bounds are not reported again meanwhile)."""
+        self.detectors = [
+            Detector(inv, index)
+            for inv in invariants
+            if inv["family"] == DETECTOR and all(n in index for n in inv["variables"])
+        ]
+        """The learnt fault detectors of the point (``imrosc classify``)."""
         self.arch = ArchChecks(invariants, key) if self.kind == "arch" else None
         self.intervals: List[IntervalMachine] = []
         self.patterns: List[PatternMachine] = []
@@ -131,6 +140,8 @@ class _Point:
         """Samples checked in this run (conditions accepted, inputs all seen)."""
         if self.windows is not None:
             self.windows.reset()
+        for detector in self.detectors:
+            detector.reset()
         self.silent = False
         if self.arch is not None:
             self.arch.reset()
@@ -184,6 +195,10 @@ class _Point:
                 )
             else:
                 frequency = None
+        for detector in self.detectors:
+            broken = detector.sample(time, row, self.key)
+            if broken is not None and broken.invariant not in self.checks.cleared:
+                found.append(broken)
         if trace is not None:
             trace(self.key, time, row, frequency)
         return found
@@ -303,7 +318,11 @@ class Engine:
             )
         for point in self.points.values():
             point.plain = (
-                point.direct and not point.filters and not point.string_names and not point.windows
+                point.direct
+                and not point.filters
+                and not point.string_names
+                and not point.windows
+                and not point.detectors
             )
         self._publish_events = {
             name: points for (kind, name), points in self._events.items() if kind == "publish"
@@ -404,6 +423,7 @@ class Engine:
         point.invariants = [i for i in point.invariants if i["id"] != invariant]
         point.intervals = [m for m in point.intervals if m.invariant["id"] != invariant]
         point.patterns = [m for m in point.patterns if m.invariant["id"] != invariant]
+        point.detectors = [d for d in point.detectors if d.invariant["id"] != invariant]
         if point.arch is not None:
             point.arch.items = [item for item in point.arch.items if item[4]["id"] != invariant]
         return True
@@ -480,6 +500,14 @@ class Engine:
             return []
         point.checked += 1
         broken = point.sample(time, row, texts, self.trace)
+        if point.detectors and broken:
+            scored = [v for v in broken if v.family == DETECTOR]
+            if scored:  # a detector's threshold is calibrated already: an alarm at once
+                self.alarms.event(scored)
+                rest = [v for v in broken if v.family != DETECTOR]
+                if rest or self.alarms.busy(point.key):
+                    self.alarms.sample(point.key, time, rest)
+                return broken
         if broken or self.alarms.busy(point.key):
             self.alarms.sample(point.key, time, broken)
         return broken

@@ -37,6 +37,7 @@ POLYGON = "polygon"
 ARCHITECTURE = "architecture"
 INTERVAL = "interval"
 PATTERN = "pattern"
+DETECTOR = "detector"
 
 PUBLISH = "publish"
 CALL = "call"
@@ -46,9 +47,9 @@ TEMPORAL = "temporal"
 POINT_KINDS = (PUBLISH, CALL, PARAM, ARCH, TEMPORAL)
 """The kinds of program point (``plan.json``'s and the IR's)."""
 
-GROUPS = ("default", "time-related", "polygon", "architecture", "temporal")
+GROUPS = ("default", "time-related", "polygon", "architecture", "temporal", "detector")
 """How summaries group families, as the thesis counts them (465 default, 362
-time-related, ...)."""
+time-related, ...); detectors are learnt by classification, not inferred."""
 
 
 class Family(NamedTuple):
@@ -62,6 +63,7 @@ class Family(NamedTuple):
     check: str
     """How the runtime checks it: ``value`` (each sample's values), ``window`` (the
     point's values over its time window), ``event`` (timers, the graph, orderings: each
+    violation an alarm), ``score`` (a learnt score of the point's recent samples: each
     violation an alarm)."""
     compiled: bool = False
     """Whether the compiled kernel (:mod:`.compiled`) checks it (value families)."""
@@ -91,6 +93,7 @@ CATALOG: Tuple[Family, ...] = (
     Family(ARCHITECTURE, "architecture", frozenset({ARCH}), "event"),
     Family(INTERVAL, "temporal", frozenset({TEMPORAL}), "event"),
     Family(PATTERN, "temporal", frozenset({TEMPORAL}), "event"),
+    Family(DETECTOR, "detector", frozenset(), "score"),
 )
 """Every family, in the order inference instantiates them and files list them."""
 
@@ -102,6 +105,10 @@ EVENT: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.check == "event")
 """Families whose violations are events (the graph, orderings)."""
 RANGED: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.ranged)
 COMPILED: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.compiled)
+INFERRED_GROUPS: Tuple[str, ...] = tuple(
+    g for g in GROUPS if any(f.points for f in CATALOG if f.group == g)
+)
+"""The summary groups of the families inference instantiates (``imrosc infer``'s counts)."""
 
 
 def in_group(group: str) -> Tuple[str, ...]:

@@ -15,6 +15,7 @@ from imrosc.cli import main
 from imrosc.demo import example_configs
 from imrosc.invariants import load
 from imrosc.ir import Project, from_json, to_json
+from imrosc.replay import Replayer
 from imrosc.sim import Scenario, ScenarioKind, write_run, write_runs
 from tests.checking import onsets
 from tests.translate import msg, write_bag
@@ -438,3 +439,46 @@ def test_invariants_of_another_project_are_a_warning(prepared: Path, tmp_path: P
     config.write_text(config.read_text().replace('project="p"', 'project="q"'))
     codes = [d.code for d in run_check(config, workers=1).diagnostics]
     assert "project-mismatch" in codes
+
+
+def test_a_learnt_detector_joins_the_monitor_when_held_out_runs_say_it_is_worth_it(
+    prepared: Path, tmp_path: Path
+) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    config = folder / "detector.xml"
+    config.write_text(
+        '<imROS project="p">\n'
+        '  <scope><publish id="a">/x</publish></scope>\n'
+        '  <detect inv="p.inv"><bag>bags/train</bag></detect>\n'
+        '  <check inv="p.inv" detector="logistic">\n'
+        "    <success>bags/ok</success><success>bags/train</success>\n"
+        '    <fail onset="12">bags/bad</fail><fail onset="12">bags/other</fail>\n'
+        "  </check>\n"
+        "</imROS>\n"
+    )
+    result = run_check(config, workers=1)
+    assert result.refined is not None, result.diagnostics
+    (detector,) = result.report["detectors"]
+    assert detector["point"] == "a" and detector["variables"] == 1
+    # the jump to 5 shows in every failed run held out within the window of its onset (the
+    # glitch before glitch.bag's onset, a nominal sample, raises the threshold)
+    assert len(detector["detected"]) == 3
+    assert all(0.0 <= delay < 1.0 for delay in detector["delays"].values())
+    cover = result.report["cover"]
+    assert [w["monitor"] for w in cover["held_out"]] == ["cover", "detector", "both"]
+    best = max(w["value"] for w in cover["held_out"])
+    assert next(w for w in cover["held_out"] if w["monitor"] == cover["monitor"])["value"] == best
+    kept = {inv["family"] for inv in result.refined["invariants"]}
+    assert ("detector" in kept) == (cover["monitor"] in ("detector", "both"))
+    if "detector" in kept:
+        replayed = Replayer(result.refined).run(folder / "bags" / "bad" / "late.bag")
+        first = min(a.time for a in replayed.alarms) - replayed.start
+        assert onsets.ONSET <= first < onsets.ONSET + 1.0
+
+
+def test_without_the_attribute_no_detector_is_learnt(prepared: Path, tmp_path: Path) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    result = run_check(onsets.project(folder, '<fail onset="12">bags/bad</fail>'), workers=1)
+    assert "detectors" not in result.report
+    assert result.refined is not None
+    assert all(inv["family"] != "detector" for inv in result.refined["invariants"])

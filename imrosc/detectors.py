@@ -1,0 +1,201 @@
+"""Fault detectors learnt by classification (``<check detector="logistic">``).
+
+An invariant learnt from good runs alone says what the runs kept; it cannot say which of
+the ways a new run differs matter. With failed runs whose faults have an onset,
+classification can also learn that: per publish point, a *detector* (family ``detector``,
+:mod:`imrosc.runtime.detector`) scores each sample from the mean, standard deviation and
+change of each of the point's variables over the trailing window, and alarms above a
+threshold. How it is learnt (``docs/families/detector.md``):
+
+1. **Fit** an L2-regularised logistic regression (Newton's method on standardised
+   statistics, the two classes weighted equally): every sample of a good run and the
+   samples of a failed run before its onset are nominal, the samples from the onset on
+   faulty.
+2. **Threshold, cross-fitted**: the runs are cut into blocked folds by their start (as
+   calibration cuts its units); each fold's runs are scored by a model fitted without them,
+   and the threshold is the largest score any of them reached while nominal: with ``n``
+   such held-out runs, a new good run exceeds it with probability about ``1/(n+1)`` (the
+   largest held-out value, as calibration's rule uses with too few runs to certify).
+3. **Penalty**, from :data:`PENALTIES`: the one whose cross-fitted scores detect the most
+   held-out failed runs (a score above the threshold from the onset on), the strongest on
+   ties. No detector is kept when none detects one.
+
+The runs it detected, held out, and its estimated false-alarm probability are what
+classification's selection weighs it by, as it weighs every invariant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from imrosc.folds import blocked
+from imrosc.runtime.detector import features
+from imrosc.runtime.families import DETECTOR
+
+WINDOW = 1.0
+"""Seconds of the trailing window of the statistics."""
+PENALTIES = (1.0, 10.0, 100.0, 1e3, 1e4, 1e5)
+"""The L2 penalties (on the standardised weights) the cross-fitting chooses from."""
+NEWTON_STEPS = 25
+FOLDS = 4
+"""Blocked folds of the cross-fitting (fewer with fewer runs)."""
+_VALUE_TYPES = ("float", "int", "uint", "bool")
+
+
+@dataclass
+class Run:
+    """The samples of one point in one run: times (s), statistics, and the onset (s from the
+    run's start; ``None`` for a good run)."""
+
+    name: str
+    start: float
+    onset: float | None
+    times: Any
+    stats: Any
+    faulty: Any = field(init=False)
+
+    def __post_init__(self) -> None:
+        times = np.asarray(self.times, dtype=np.float64)
+        if self.onset is None:
+            self.faulty = np.zeros(len(times), dtype=bool)
+        else:
+            self.faulty = times - self.start >= self.onset
+
+
+@dataclass(frozen=True)
+class Model:
+    center: Any
+    scale: Any
+    weights: Any
+    """Per standardised statistic, then the bias last."""
+
+    def scores(self, run: Run) -> Any:
+        return ((run.stats - self.center) / self.scale) @ self.weights[:-1] + self.weights[-1]
+
+
+def fit(runs: Sequence[Run], strength: float) -> Model:
+    """The logistic regression of ``runs`` with the L2 penalty ``strength``."""
+    x = np.vstack([r.stats for r in runs])
+    y = np.concatenate([r.faulty for r in runs]).astype(np.float64)
+    center, scale = x.mean(axis=0), x.std(axis=0)
+    scale[scale == 0] = 1.0
+    z = np.hstack([(x - center) / scale, np.ones((len(x), 1))])
+    positives = max(1.0, float(y.sum()))
+    negatives = max(1.0, len(y) - positives)
+    weight = np.where(y > 0, len(y) / (2 * positives), len(y) / (2 * negatives))
+    w = np.zeros(z.shape[1])
+    penalty = np.full(z.shape[1], strength)
+    penalty[-1] = 0.0
+    for _ in range(NEWTON_STEPS):
+        p = 1 / (1 + np.exp(-np.clip(z @ w, -30, 30)))
+        gradient = z.T @ (weight * (p - y)) + penalty * w
+        hessian = (z * (weight * p * (1 - p))[:, None]).T @ z + np.diag(penalty + 1e-9)
+        w -= np.linalg.solve(hessian, gradient)
+    return Model(center, scale, w)
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A penalty, its cross-fitted threshold, and the failed runs its held-out scores
+    detected."""
+
+    strength: float
+    threshold: float
+    detected: frozenset[str]
+    delays: Mapping[str, float]
+    nominal: int
+    """Held-out runs with nominal samples (the threshold's evidence)."""
+
+
+def choose(runs: Sequence[Run]) -> Choice | None:
+    """The cross-fitted penalty and threshold (module docstring, steps 2 and 3); ``None``
+    with too few runs to hold any out or when no penalty detects a held-out failed run."""
+    folds = blocked(runs, lambda r: (r.start, r.name), FOLDS)
+    if len(folds) < 2:
+        return None
+    best: Choice | None = None
+    for strength in PENALTIES:
+        held: list[tuple[Run, Any]] = []
+        for fold in folds:
+            training = [r for k, r in enumerate(runs) if k not in fold]
+            if not any(r.faulty.any() for r in training):
+                continue
+            model = fit(training, strength)
+            held += [(runs[k], model.scores(runs[k])) for k in fold]
+        nominal = [float(s[~r.faulty].max()) for r, s in held if (~r.faulty).any()]
+        if not nominal:
+            continue
+        threshold = max(nominal)
+        delays = {}
+        for run, scored in held:
+            over = np.flatnonzero(run.faulty & (scored > threshold))
+            if len(over) and run.onset is not None:
+                delays[run.name] = float(run.times[over[0]] - run.start - run.onset)
+        if best is None or len(delays) >= len(best.detected):
+            best = Choice(strength, threshold, frozenset(delays), delays, len(nominal))
+    return best if best is not None and best.detected else None
+
+
+def variables_of(point: Mapping[str, Any]) -> list[str]:
+    """The variables a detector of a point weighs: its numeric values as recorded."""
+    return [
+        v["name"]
+        for v in point.get("variables", ())
+        if v.get("type") in _VALUE_TYPES and v.get("derived") in (None, "avg", "std")
+    ]
+
+
+@dataclass
+class Learnt:
+    """A detector invariant and what its cross-fitting saw."""
+
+    invariant: dict[str, Any]
+    choice: Choice
+
+
+def learn(key: str, variables: Sequence[str], runs: Sequence[Run]) -> Learnt | None:
+    """The detector of point ``key`` from its runs' samples (``None``: none is kept)."""
+    if not variables or not any(r.faulty.any() for r in runs):
+        return None
+    choice = choose(runs)
+    if choice is None:
+        return None
+    model = fit(runs, choice.strength)
+    weights = [float(w) for w in model.weights]
+    invariant = {
+        "id": detector_id(key, variables),
+        "point": key,
+        "family": DETECTOR,
+        "kind": "logistic",
+        "variables": list(variables),
+        "params": {
+            "window": WINDOW,
+            "center": [float(c) for c in model.center],
+            "scale": [float(s) for s in model.scale],
+            "weights": weights[:-1],
+            "bias": weights[-1],
+            "threshold": choice.threshold,
+            "penalty": choice.strength,
+        },
+        "text": f"detector score of {len(variables)} variables of {key} <= {choice.threshold:.6g}",
+    }
+    return Learnt(invariant, choice)
+
+
+def detector_id(key: str, variables: Sequence[str]) -> str:
+    """A stable id, as :func:`imrosc.invariants.invariant_id` gives."""
+    import hashlib
+
+    subject = "\0".join([key, DETECTOR, "logistic", *variables])
+    return "i" + hashlib.sha1(subject.encode(), usedforsecurity=False).hexdigest()[:11]
+
+
+def run_of(name: str, start: float, onset: float | None, samples: Sequence[Any]) -> Run:
+    """One point's :class:`Run` from its samples ``(time, values)`` in one run."""
+    times = np.array([t for t, _ in samples], dtype=np.float64)
+    rows = np.array([values for _, values in samples], dtype=np.float64)
+    return Run(name, start, onset, times, features(times, rows.reshape(len(times), -1), WINDOW))
