@@ -36,7 +36,11 @@ Parts:
      invariants ``<check select>`` keeps: imrosc's default, the set whose union detects the
      most failed runs minus its expected false alarms, or with ``--select fscore`` those whose
      F-score reaches the threshold; the alarm rule set again for the kept ones from
-     calibration's held-out traces). The <success> runs are the <detect> runs: run_check
+     calibration's held-out traces). With ``<check detector="logistic">`` (this bench's
+     default; ``--detector none`` for the invariants alone) classification also learns a
+     fault detector per point, and keeps the cover, the detector or both, whichever failed
+     runs held out of the choice show worth the most (docs/families/detector.md). The
+     <success> runs are the <detect> runs: run_check
      scores them from what each broke when calibration held it out (cross-validated false
      positives, blocked by recording time), not from a replay against what they taught. The
      fault flights' pre-onset parts are in-sample (their copies trained the invariants).
@@ -979,8 +983,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--detector",
         choices=("none", "logistic"),
-        default=None,
-        help="whether classification learns fault detectors (default: imrosc's, none)",
+        default="logistic",
+        help='<check detector> of the classified monitors (default: logistic, docs/families/'
+        'detector.md; "none" is imrosc\'s default: invariants only)',
     )
     args = parser.parse_args(argv)
     BUDGET[0] = args.budget
