@@ -44,6 +44,7 @@ from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
 from imrosc.progress import Progress, ProgressFactory
+from imrosc.remote import bag_path
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.names import resolve_name
@@ -115,11 +116,12 @@ def load_project(config_path: Path) -> tuple[Project | None, list[Diagnostic]]:
 
 
 def bags_of(base: Path, entries: Sequence[str]) -> tuple[list[Path], list[Diagnostic]]:
-    """The bags ``entries`` name (relative to ``base``), and diagnostics for the rest."""
+    """The bags ``entries`` name (paths relative to ``base``, globs, URLs), and diagnostics
+    for the rest."""
     bags: list[Path] = []
     problems: list[Diagnostic] = []
     for entry in entries:
-        found, bad = discover_bags(base / entry)
+        found, bad = discover_bags(bag_path(entry, base))
         bags += found
         problems += bad
     return bags, problems

@@ -83,11 +83,25 @@ graph_option = click.option(
     type=click.Path(dir_okay=False, path_type=Path),
     help="A graph file (YAML) saying who publishes, subscribes and serves what.",
 )
+
+
+def bag_arguments(
+    ctx: click.Context, param: click.Parameter, values: tuple[str, ...]
+) -> tuple[Path, ...]:
+    """Bags on the command line: paths, globs or URLs (s3://, gs://, http(s)://; each a
+    :class:`~imrosc.remote.BagUrl`)."""
+    from imrosc.remote import bag_path
+
+    return tuple(bag_path(value) for value in values)
+
+
 bags_option = click.option(
     "--bags",
     multiple=True,
-    type=click.Path(path_type=Path),
-    help="Bags or folders to read (instead of the <detect> bags, where there are some).",
+    metavar="BAG",
+    callback=bag_arguments,
+    help="Bags, folders, globs or URLs to read (instead of the <detect> bags, where there "
+    "are some).",
 )
 
 
@@ -397,7 +411,7 @@ def export_daikon(
 
 
 @main.command()
-@click.argument("bags", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("bags", nargs=-1, required=True, callback=bag_arguments)
 @click.option(
     "--format",
     "output_format",
@@ -527,7 +541,7 @@ def _emit(
 
 @main.command()
 @click.argument("inv", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("bags", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("bags", nargs=-1, required=True, callback=bag_arguments)
 @format_option
 @click.option("--json", "as_json", is_flag=True, help="Same as --format json.")
 @report_option
