@@ -31,7 +31,7 @@ import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, held_out_runs
@@ -49,6 +49,9 @@ from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
 from imrosc.schema.names import resolve_name
 from imrosc.selection import SELECTIONS, Cover, Nominal, cover
+
+if TYPE_CHECKING:
+    from imrosc.fleet import Fleet
 
 
 class CheckStageError(Exception):
@@ -279,10 +282,19 @@ def _start_worker(document: Mapping[str, Any]) -> None:
     _WORKER = Replayer(document)
 
 
-def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
+RunTask = tuple[Path, OnsetSpec | None]
+"""A run to observe: its bag and, for a failed run with an onset, how to find it."""
+
+
+def _observe(task: RunTask) -> RunOutcome:
     assert _WORKER is not None
+    return observe(_WORKER, task)
+
+
+def observe(replayer: Replayer, task: RunTask) -> RunOutcome:
+    """Replay one run with ``replayer`` and keep what classification needs."""
     bag, spec = task
-    result = _WORKER.run(bag)
+    result = replayer.run(bag)
     out = RunOutcome(
         bag,
         result.error,
@@ -329,13 +341,17 @@ def observe_runs(
     workers: int | None = None,
     onsets: Mapping[Path, OnsetSpec] | None = None,
     progress: Progress | None = None,
+    cluster: Fleet | None = None,
 ) -> dict[Path, RunOutcome]:
-    """Replay each bag (in worker processes) and keep what classification needs; a bag in
-    ``onsets`` also gets its fault's onset; ``progress`` hears of each bag done."""
-    tasks = [(bag, (onsets or {}).get(bag)) for bag in bags]
+    """Replay each bag (in worker processes, or as tasks on ``cluster``) and keep what
+    classification needs; a bag in ``onsets`` also gets its fault's onset; ``progress``
+    hears of each bag done."""
+    tasks: list[RunTask] = [(bag, (onsets or {}).get(bag)) for bag in bags]
     workers = min(workers or default_workers(), max(len(bags), 1))
     found: list[RunOutcome] = []
-    if workers <= 1:
+    if cluster is not None:
+        found = cluster.observe_runs(document, tasks, progress)
+    elif workers <= 1:
         _start_worker(document)
         for task in tasks:
             found.append(_observe(task))
@@ -511,7 +527,10 @@ def refined(
 
 
 def refined_rule(
-    document: Mapping[str, Any], success: Sequence[Path], workers: int | None
+    document: Mapping[str, Any],
+    success: Sequence[Path],
+    workers: int | None,
+    cluster: Fleet | None = None,
 ) -> dict[str, Any]:
     """The alarm rule of the kept invariants: the rule of the whole file asks more of an
     alarm than fewer invariants can give. It is set as calibration sets it (the conformal
@@ -529,7 +548,11 @@ def refined_rule(
     budget = float((document.get("calibration") or {}).get("budget", DEFAULT_BUDGET))
     units = [Unit(bag, []) for bag in success]
     found = calibrate_rule(
-        [(document, list(range(len(units))))], units, budget, workers=workers or 1
+        [(document, list(range(len(units))))],
+        units,
+        budget,
+        workers=workers or 1,
+        replays=cluster.replay_held_out if cluster is not None else None,
     )
     return found.rule.as_json()
 
@@ -684,6 +707,7 @@ def run_check(
     cross_validate: int | None = None,
     before_work: Callable[[Path | None, Path], None] | None = None,
     progress_factory: ProgressFactory | None = None,
+    cluster: Fleet | None = None,
 ) -> CheckResult:
     """The check stage of ``config_path``: classification or comparison.
 
@@ -693,6 +717,8 @@ def run_check(
 
     ``cross_validate`` K: the successful runs that are also ``<detect>`` runs are scored at
     the run level against invariants inferred from the other K-1 folds of the detect bags.
+    ``cluster``: the runs are replayed (and inferred, for cross-validation) as tasks on a
+    Dask cluster (:mod:`imrosc.fleet`) instead of ``workers`` local processes.
     """
     out = CheckResult()
     project, out.diagnostics = load_project(config_path)
@@ -748,7 +774,7 @@ def run_check(
     everything = [b for bags in found.values() for b in bags]
     out.inputs = [inv_path, *everything]
     progress = progress_factory(len(everything)) if progress_factory is not None else None
-    observed = observe_runs(document, everything, workers, specs, progress)
+    observed = observe_runs(document, everything, workers, specs, progress, cluster)
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
     ]
@@ -769,7 +795,7 @@ def run_check(
         held: dict[Path, HeldOutRun] = {}
         if cross_validate is not None:
             report["cross_validation"], replaced, problems = cross_validated(
-                config_path, project, found["success"], cross_validate, workers
+                config_path, project, found["success"], cross_validate, workers, cluster
             )
             out.diagnostics += problems
             success_runs.update({b: o for b, o in replaced.items() if o.error is None})
@@ -822,7 +848,9 @@ def run_check(
             }
         out.refined = refined(document, scores, report)
         if "alarms" in document and runs["success"]:
-            out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)
+            out.refined["alarms"] = refined_rule(
+                out.refined, list(runs["success"]), workers, cluster
+            )
         rule = AlarmRule.from_json(out.refined.get("alarms"))
         kept = {inv["id"] for inv in out.refined["invariants"]}
         report["runs"] = [
@@ -862,6 +890,7 @@ def cross_validated(
     success: Sequence[Path],
     folds: int,
     workers: int | None,
+    cluster: Fleet | None = None,
 ) -> tuple[dict[str, Any], dict[Path, RunOutcome], list[Diagnostic]]:
     """The successful runs that are detect runs, each replayed against the invariants
     inferred from the folds of the detect bags that do not hold it (stability's folds)."""
@@ -882,7 +911,13 @@ def cross_validated(
         train = [b for b in detect if b not in held_out]
         held = {b.resolve() for b in held_out}
         scored = [b for b in success if b.resolve() in held]
-        detected = run_detect(config_path, workers=workers, bags=train)
+        detected = run_detect(
+            config_path,
+            workers=workers,
+            bags=train,
+            reducer=cluster,
+            replays=cluster.replay_held_out if cluster is not None else None,
+        )
         for problem in detected.diagnostics:
             if problem.code.startswith("bag-"):
                 problems.append(problem)
@@ -895,7 +930,7 @@ def cross_validated(
                     d.as_text() for d in detected.diagnostics if d.severity.value == "error"
                 )
             )
-        outcomes = observe_runs(inferred, scored, workers) if scored else {}
+        outcomes = observe_runs(inferred, scored, workers, cluster=cluster) if scored else {}
         replaced.update(outcomes)
         rounds.append(
             {

@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from imrosc import __version__
 from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
@@ -41,6 +41,11 @@ from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_b
 from imrosc.replay import RunResult
 
 from .tree import OrderedTree
+
+if TYPE_CHECKING:
+    from imrosc.classify import RunOutcome, RunTask
+
+T = TypeVar("T")
 
 RETRIES = 2
 """How many times a bag's task that raised is run again."""
@@ -147,24 +152,57 @@ def _replay(
     return found
 
 
+def _cached(kind: str, key: str, build: Callable[[], T]) -> T:
+    """This worker thread's engine of kind ``kind`` for the document ``key`` (the last
+    :data:`REPLAYERS` kept)."""
+    cache: OrderedDict[str, Any] | None = getattr(_replayers, kind, None)
+    if cache is None:
+        cache = OrderedDict()
+        setattr(_replayers, kind, cache)
+    found: T | None = cache.get(key)
+    if found is None:
+        found = cache[key] = build()
+        while len(cache) > REPLAYERS:
+            cache.popitem(last=False)
+    return found
+
+
+def _renamed(text: str | None, bag: Path, name: Path) -> str | None:
+    """A message about a bag read at ``bag``, naming it ``name`` as the client does."""
+    if text is None or bag == name:
+        return text
+    return text.replace(str(bag), str(name))
+
+
 def _replay_run(
     document: Mapping[str, Any], key: str, bag: Path, name: Path, plots: bool
 ) -> tuple[RunResult, dict[str, Any]]:
     """A ``replay`` task: one bag replayed (the document's engine built once per thread)."""
     from imrosc.replay import RunReplayer
 
-    cache: OrderedDict[str, Any] | None = getattr(_replayers, "runs", None)
-    if cache is None:
-        cache = _replayers.runs = OrderedDict()
-    replay = cache.get(key)
-    if replay is None:
-        replay = cache[key] = RunReplayer(document, plots)
-        while len(cache) > REPLAYERS:
-            cache.popitem(last=False)
+    replay = _cached("runs", key, lambda: RunReplayer(document, plots))
     result, run = replay(bag)
     result.bag = name
     run["bag"] = str(name)
+    result.error = run["error"] = _renamed(result.error, bag, name)
     return result, run
+
+
+def _observe_run(
+    document: Mapping[str, Any], key: str, bag: Path, task: RunTask, name: Path
+) -> RunOutcome:
+    """A ``classify`` or ``stability`` task: one run replayed and observed (the document's
+    engine built once per thread)."""
+    from imrosc.classify import observe
+    from imrosc.replay import Replayer
+
+    replayer = _cached("observers", key, lambda: Replayer(document))
+    outcome = observe(replayer, (bag, task[1]))
+    outcome.bag = name
+    outcome.error = _renamed(outcome.error, bag, name)
+    outcome.onset_problem = _renamed(outcome.onset_problem, bag, name)
+    outcome.warnings = [_renamed(text, bag, name) or text for text in outcome.warnings]
+    return outcome
 
 
 def worker_version() -> str:
@@ -199,6 +237,9 @@ class Fleet:
     address: str
     task: Task = run_remote
     """A bag's task (tests put in one that kills its worker)."""
+    observe: Callable[..., RunOutcome] = _observe_run
+    """A run's task in ``classify`` and ``stability`` (tests put in one that kills its
+    worker)."""
 
     @property
     def workers(self) -> int:
@@ -380,39 +421,82 @@ class Fleet:
     ) -> list[tuple[RunResult, dict[str, Any]]]:
         """``imrosc replay``: one task per bag (the document sent once), the runs in bag
         order; ``progress`` hears of each bag as it completes."""
+
+        def killed(bag: Path) -> tuple[RunResult, dict[str, Any]]:
+            result = RunResult(bag)
+            result.error = KILLED
+            return result, _failed_run(bag)
+
+        return self._each_bag(
+            document,
+            bags,
+            lambda learnt, key, bag: (_replay_run, learnt, key, bag.absolute(), bag, plots),
+            killed,
+            lambda answer: answer[0].messages,
+            progress,
+        )
+
+    def observe_runs(
+        self, document: Mapping[str, Any], tasks: list[RunTask], progress: Progress | None
+    ) -> list[RunOutcome]:
+        """``imrosc classify`` and ``imrosc stability``: one task per run (the document
+        sent once), the outcomes in the runs' order; ``progress`` hears of each run as it
+        completes."""
+        from imrosc.classify import RunOutcome
+
+        specs = dict(tasks)
+        return self._each_bag(
+            document,
+            [bag for bag, _ in tasks],
+            lambda learnt, key, bag: (
+                self.observe,
+                learnt,
+                key,
+                bag.absolute(),
+                (bag, specs[bag]),
+                bag,
+            ),
+            lambda bag: RunOutcome(bag, KILLED),
+            lambda outcome: outcome.messages,
+            progress,
+        )
+
+    def _each_bag(
+        self,
+        document: Mapping[str, Any],
+        bags: list[Path],
+        task: Callable[[Any, str, Path], tuple[Any, ...]],
+        killed: Callable[[Path], T],
+        messages: Callable[[T], int],
+        progress: Progress | None,
+    ) -> list[T]:
+        """One task per bag, ``task(document's future, its key, bag)`` (the function and its
+        arguments), the document sent once to every worker; the answers in bag order, a bag
+        whose workers died on every try answered by ``killed``."""
         if not bags:
             return []
         distributed = _distributed()
         client = self.client
-        key = f"imrosc-replay-document-{uuid.uuid4().hex[:12]}"
+        key = f"imrosc-document-{uuid.uuid4().hex[:12]}"
         try:
             learnt = client.submit(_same, document, key=key)
             client.replicate([learnt])
             futures = {
-                client.submit(
-                    _replay_run,
-                    learnt,
-                    key,
-                    bag.absolute(),
-                    bag,
-                    plots,
-                    key=f"{key}-{index}",
-                    retries=RETRIES,
-                ): index
+                client.submit(*task(learnt, key, bag), key=f"{key}-{index}", retries=RETRIES): index
                 for index, bag in enumerate(bags)
             }
-            answers: list[tuple[RunResult, dict[str, Any]] | None] = [None] * len(bags)
+            answers: list[T | None] = [None] * len(bags)
             for future in distributed.as_completed(list(futures), loop=client.loop):
                 index = futures.pop(future)
                 try:
-                    answers[index] = future.result()
+                    answer: T = future.result()
                 except distributed.KilledWorker:
-                    result = RunResult(bags[index])
-                    result.error = KILLED
-                    answers[index] = (result, _failed_run(bags[index]))
+                    answer = killed(bags[index])
+                answers[index] = answer
                 future.release()
                 if progress is not None:
-                    progress(bags[index], answers[index][0].messages)  # type: ignore[index]
+                    progress(bags[index], messages(answer))
+            learnt.release()
         except distributed.client.FutureCancelledError:
             raise FleetError(f"{self.address}: lost the Dask scheduler") from None
         except (OSError, TimeoutError) as error:
