@@ -190,17 +190,22 @@ def open_bag(path: Path) -> Iterator[AnyReader]:
                 local = stack.enter_context(fetched(path))
             except RemoteError as error:
                 raise BagError(path, str(error)) from None
+
+        def said(error: BaseException) -> str:  # of a URL's bag, its URL, not its copy
+            text = _one_line(error)
+            return text if local is path else text.replace(str(local), str(path))
+
         try:
             reader = _SafeReader(local, path)
             reader.open()
         except Exception as error:  # a broken bag raises anything from rosbags
             if not os.path.lexists(local):
                 raise BagError(path, "no such file or directory") from None
-            raise BagError(path, f"cannot open bag: {_one_line(error)}") from error
+            raise BagError(path, f"cannot open bag: {said(error)}") from error
         try:
             yield reader
         except _ROSBAGS_ERRORS as error:
-            raise BagError(path, f"cannot read bag: {_one_line(error)}") from error
+            raise BagError(path, f"cannot read bag: {said(error)}") from error
         finally:
             with suppress(Exception):  # closing a broken bag must not hide the first error
                 reader.close()
