@@ -43,7 +43,7 @@ from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
-from imrosc.progress import Progress, ProgressFactory
+from imrosc.progress import Progress, ProgressFactory, bag_done
 from imrosc.remote import bag_path
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule
@@ -355,15 +355,13 @@ def observe_runs(
         _start_worker(document)
         for task in tasks:
             found.append(_observe(task))
-            if progress is not None:
-                progress(found[-1].bag, found[-1].messages)
+            bag_done(progress, found[-1].bag, found[-1].messages, found[-1].error)
     else:
         context = multiprocessing.get_context("fork")
         with context.Pool(workers, _start_worker, (document,)) as pool:
             for outcome in pool.imap(_observe, tasks, chunksize=1):
                 found.append(outcome)
-                if progress is not None:
-                    progress(outcome.bag, outcome.messages)
+                bag_done(progress, outcome.bag, outcome.messages, outcome.error)
     return {outcome.bag: outcome for outcome in found}
 
 

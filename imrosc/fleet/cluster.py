@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from imrosc import __version__
 from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
+from imrosc.progress import bag_done
 from imrosc.replay import RunResult
 
 from .tree import OrderedTree
@@ -83,9 +84,13 @@ def _answer(task: Task, template: BagJob, bag: Path, run: int, name: Path) -> Me
     return Merged.of(result)
 
 
-def _summary(answer: Merged) -> tuple[int, list[Unit]]:
-    """What the client fetches of a bag's answer: its messages and calibration units."""
-    return answer.messages, answer.units
+Summary = tuple[int, list[Unit], str | None]
+"""What the client fetches of a bag's answer: its messages, calibration units and error."""
+
+
+def _summary(answer: Merged) -> Summary:
+    """A bag's :data:`Summary`."""
+    return answer.messages, answer.units, next(iter(answer.failed.values()), None)
 
 
 def _join(left: Merged, right: Merged) -> Merged:
@@ -344,11 +349,10 @@ class Fleet:
             if got is None:
                 doubtful.append(index)
                 continue
-            messages, units[index] = got
+            messages, units[index], error = got
             tree.add(index, answers[index])
             answers[index] = None  # the tree holds it until it is joined
-            if progress is not None:
-                progress(jobs[index].bag, messages)
+            bag_done(progress, jobs[index].bag, messages, error)
         # a worker that dies takes the tasks queued on it along: each bag whose workers died
         # is tried once more, alone on the cluster, before it is called bad
         for index in doubtful:
@@ -356,11 +360,10 @@ class Fleet:
             got = self._summary(client.submit(_summary, answer, pure=False))
             if got is None:
                 bad.add(index)
-                answer, got = killed(index), (0, [])
-            messages, units[index] = got
+                answer, got = killed(index), (0, [], KILLED)
+            messages, units[index], error = got
             tree.add(index, answer)
-            if progress is not None:
-                progress(jobs[index].bag, messages)
+            bag_done(progress, jobs[index].bag, messages, error)
         try:
             merged: Merged = tree.result().result()
         except distributed.KilledWorker:
@@ -432,7 +435,7 @@ class Fleet:
             bags,
             lambda learnt, key, bag: (_replay_run, learnt, key, bag.absolute(), bag, plots),
             killed,
-            lambda answer: answer[0].messages,
+            lambda answer: (answer[0].messages, answer[0].error),
             progress,
         )
 
@@ -457,7 +460,7 @@ class Fleet:
                 bag,
             ),
             lambda bag: RunOutcome(bag, KILLED),
-            lambda outcome: outcome.messages,
+            lambda outcome: (outcome.messages, outcome.error),
             progress,
         )
 
@@ -467,12 +470,13 @@ class Fleet:
         bags: list[Path],
         task: Callable[[Any, str, Path], tuple[Any, ...]],
         killed: Callable[[Path], T],
-        messages: Callable[[T], int],
+        messages: Callable[[T], tuple[int, str | None]],
         progress: Progress | None,
     ) -> list[T]:
         """One task per bag, ``task(document's future, its key, bag)`` (the function and its
         arguments), the document sent once to every worker; the answers in bag order, a bag
-        whose workers died on every try answered by ``killed``."""
+        whose workers died on every try answered by ``killed``; ``progress`` hears of each
+        bag's ``messages(answer)`` (its messages and error)."""
         if not bags:
             return []
         distributed = _distributed()
@@ -494,8 +498,7 @@ class Fleet:
                     answer = killed(bags[index])
                 answers[index] = answer
                 future.release()
-                if progress is not None:
-                    progress(bags[index], messages(answer))
+                bag_done(progress, bags[index], *messages(answer))
             learnt.release()
         except distributed.client.FutureCancelledError:
             raise FleetError(f"{self.address}: lost the Dask scheduler") from None
@@ -516,11 +519,11 @@ class Fleet:
             pure=False,
         )
 
-    def _summary(self, future: Any) -> tuple[int, list[Unit]] | None:
+    def _summary(self, future: Any) -> Summary | None:
         """A bag's summary; ``None`` when its workers died on every try
         (``distributed.scheduler.allowed-failures``)."""
         try:
-            found: tuple[int, list[Unit]] = future.result()
+            found: Summary = future.result()
         except _distributed().KilledWorker:
             return None
         finally:
