@@ -146,7 +146,8 @@ class OnsetFileError(CheckStageError):
 
 
 def onsets_file(path: Path) -> dict[Path, float | None]:
-    """The onsets a JSON file gives, by resolved bag path (keys are relative to the file).
+    """The onsets a JSON file gives, by resolved bag path (keys are relative to the
+    file, or URLs).
 
     A value is seconds after the bag's start, an object with ``onset_s`` (the ALFA data
     set's form), or null (no fault).
@@ -169,7 +170,7 @@ def onsets_file(path: Path) -> dict[Path, float | None]:
             raise OnsetFileError(
                 f"{path}: the onset of {key!r} is {value!r}; expected seconds >= 0 or null"
             )
-        out[(path.parent / key).resolve()] = None if value is None else float(value)
+        out[bag_path(key, path.parent).resolve()] = None if value is None else float(value)
     return out
 
 

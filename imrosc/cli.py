@@ -22,6 +22,7 @@ from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 from imrosc.progress import bag_progress, quiet_option
+from imrosc.remote import bag_arguments
 
 if TYPE_CHECKING:
     from imrosc.fleet import Fleet
@@ -83,16 +84,6 @@ graph_option = click.option(
     type=click.Path(dir_okay=False, path_type=Path),
     help="A graph file (YAML) saying who publishes, subscribes and serves what.",
 )
-
-
-def bag_arguments(
-    ctx: click.Context, param: click.Parameter, values: tuple[str, ...]
-) -> tuple[Path, ...]:
-    """Bags on the command line: paths, globs or URLs (s3://, gs://, http(s)://; each a
-    :class:`~imrosc.remote.BagUrl`)."""
-    from imrosc.remote import bag_path
-
-    return tuple(bag_path(value) for value in values)
 
 
 bags_option = click.option(

@@ -134,6 +134,11 @@ class BagUrl(_Base):  # type: ignore[misc]
         return str(self).split("://", 1)[0].lower()
 
 
+def bag_arguments(ctx: Any, param: Any, values: tuple[str, ...]) -> tuple[Path, ...]:
+    """A click callback: bags on the command line, paths, globs or URLs (:func:`bag_path`)."""
+    return tuple(bag_path(value) for value in values)
+
+
 def bag_path(entry: str | Path, base: Path | None = None) -> Path:
     """A bag as the user names it: a URL (:class:`BagUrl`; ``file://`` gives a local path),
     else a path, relative to ``base`` when given.
