@@ -4,6 +4,7 @@ a ``http.server`` in a thread of the test process, which lists folders as web se
 from __future__ import annotations
 
 import functools
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,12 +18,21 @@ class _Quiet(SimpleHTTPRequestHandler):
         """No request log on stderr."""
 
 
+class _Server(ThreadingHTTPServer):
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """A client that closes its connection early (fsspec asks a file's size with a GET
+        it stops reading) is no error worth a traceback."""
+        error = sys.exc_info()[1]
+        if not isinstance(error, ConnectionError):
+            super().handle_error(request, client_address)
+
+
 @contextmanager
 def serve(folder: Path) -> Iterator[str]:
     """``folder`` at ``http://127.0.0.1:PORT`` (the URL, without a trailing slash) while the
     context lasts."""
     handler = functools.partial(_Quiet, directory=str(folder))
-    server = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    server = _Server(("127.0.0.1", 0), handler)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
     try:

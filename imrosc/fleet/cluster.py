@@ -1,4 +1,5 @@
-"""Bags as tasks on a Dask cluster (``imrosc infer --scheduler ADDRESS``).
+"""Bags as tasks on a Dask cluster (``--scheduler ADDRESS`` of ``infer``, ``replay``, ``classify``
+and ``stability``).
 
 The client sends the compiled configuration once (one task whose answer every worker
 fetches once), then one task per bag: its path and run number. A worker reads the bag and
@@ -11,7 +12,9 @@ states of every bag. Samples never leave the worker that read them, and the inva
 is byte for byte the one a single process writes.
 
 Calibration's held-out replays are tasks too: each fold's bags in as many groups as give
-every worker one, each fold's document sent once.
+every worker one, each fold's document sent once. The replays of ``imrosc replay``,
+``classify`` and ``stability`` are one task per bag (:meth:`Fleet.replay_runs`,
+:meth:`Fleet.observe_runs`), the document sent once, the answers in bag order.
 
 A bag that cannot be read is answered with its error, as in one process. A task whose worker
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
