@@ -234,9 +234,11 @@ def discover_url(url: BagUrl) -> tuple[list[Path], list[Diagnostic]]:
     file, a ROS 2 bag folder (or its ``metadata.yaml``), a glob of them, or a folder that
     a listing shows (object stores; web servers that list their folders)."""
     text = str(url)
+    # a web URL's query is no pattern (a presigned URL's signature: ?X-Amz-Signature=...)
+    path = text.split("?", 1)[0] if url.protocol in ("http", "https") else text
     try:
         fs = _filesystem(url)
-        if has_magic(text):
+        if has_magic(path):
             matches = sorted(fs.glob(text))
             if not matches:
                 return [], [_error(text, "no bag matches the pattern")]
@@ -349,7 +351,7 @@ def _download(url: BagUrl) -> _Copy:
     target = Path(tempfile.mkdtemp(prefix="imrosc-bag-")) / (url.name or "bag")
     try:
         if url.suffix == ROS1_SUFFIX:
-            fs.get(str(url), str(target))
+            fs.get_file(str(url), str(target))
         else:
             _get_ros2(fs, url, target)
     except Exception as error:  # a transfer fails with anything from fsspec's back ends
@@ -364,14 +366,14 @@ def _get_ros2(fs: Any, url: BagUrl, target: Path) -> None:
     from ruamel.yaml import YAML
 
     target.mkdir()
-    fs.get(str(url / ROS2_METADATA), str(target / ROS2_METADATA))
+    fs.get_file(str(url / ROS2_METADATA), str(target / ROS2_METADATA))
     data = YAML(typ="safe").load((target / ROS2_METADATA).read_text(encoding="utf-8"))
     info = data.get("rosbag2_bagfile_information", {}) if isinstance(data, dict) else {}
     for name in info.get("relative_file_paths", ()) or ():
         if not isinstance(name, str) or name.startswith("/") or ".." in name.split("/"):
             raise RemoteError(f"{ROS2_METADATA} lists a storage file outside the bag: {name}")
         (target / name).parent.mkdir(parents=True, exist_ok=True)
-        fs.get(str(url / name), str(target / name))
+        fs.get_file(str(url / name), str(target / name))
 
 
 _scratch: Scratch | None = None

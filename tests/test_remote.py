@@ -113,6 +113,10 @@ def test_globs_name_the_bags_they_match_for_paths_and_urls(folder: Path, url: st
         [BagUrl(f"{url}/bags/r{run}.bag") for run in range(3)],
         [],
     )
+    signed = BagUrl(f"{url}/bags/r1.bag?X-Amz-Signature=ab&X-Amz-Expires=60")
+    assert discover_bags(signed) == ([signed], [])
+    with open_bag(signed) as reader:
+        assert reader.message_count == 80
     for pattern in (bags / "z*.bag", BagUrl(f"{url}/bags/z*.bag")):
         found, problems = discover_bags(pattern)
         assert found == []
