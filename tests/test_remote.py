@@ -182,3 +182,29 @@ def test_a_ros2_bag_folder_by_url_is_fetched_with_the_storage_files_it_lists(
         open_bag(folder / "ros2" / fmt) as local,
     ):
         assert remote.message_count == local.message_count > 0
+
+
+def test_an_object_stores_folders_and_globs_name_its_bags(folder: Path, tmp_path: Path) -> None:
+    """fsspec's memory file system lists folders and keys as object stores (s3://, gs://)
+    do: paths without the protocol, no folder objects."""
+    import fsspec
+
+    store = fsspec.filesystem("memory")
+    root = f"memory://{tmp_path.name}"
+    for run in range(3):
+        store.pipe_file(f"{root}/uav/r{run}.bag", (folder / "bags" / f"r{run}.bag").read_bytes())
+    for part in ("metadata.yaml", "mcap.mcap"):
+        store.pipe_file(f"{root}/uav/ros2/{part}", (folder / "ros2" / "mcap" / part).read_bytes())
+    every = [BagUrl(f"{root}/uav/{name}") for name in ("r0.bag", "r1.bag", "r2.bag", "ros2")]
+    assert discover_bags(BagUrl(f"{root}/uav")) == (every, [])
+    assert discover_bags(BagUrl(f"{root}/uav/r*.bag")) == (every[:3], [])
+    found, problems = discover_bags(BagUrl(f"{root}/elsewhere"))
+    assert found == [] and [p.message for p in problems] == ["not found"]
+    config = configured(folder, "store.xml", "bags/r0.bag")
+    infer = ["infer", str(config), "-j", "1", "-o"]
+    local = invoke(*infer, str(tmp_path / "local.inv"), "--bags", str(folder / "bags" / "r*.bag"))
+    assert local.exit_code == 0, local.output
+    stored = invoke(*infer, str(tmp_path / "stored.inv"), "--bags", f"{root}/uav/r*.bag")
+    assert stored.exit_code == 0, stored.output
+    got = (tmp_path / "stored.inv").read_text().replace(f"{root}/uav/", f"{folder}/bags/")
+    assert got == (tmp_path / "local.inv").read_text()
