@@ -984,7 +984,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--detector",
         choices=("none", "logistic"),
         default="logistic",
-        help='<check detector> of the classified monitors (default: logistic, docs/families/'
+        help="<check detector> of the classified monitors (default: logistic, docs/families/"
         'detector.md; "none" is imrosc\'s default: invariants only)',
     )
     args = parser.parse_args(argv)

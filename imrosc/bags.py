@@ -14,7 +14,7 @@ import functools
 import os
 import stat
 from collections.abc import Collection, Generator, Iterator
-from contextlib import contextmanager, suppress
+from contextlib import ExitStack, contextmanager, suppress
 from pathlib import Path
 
 from rosbags.highlevel import AnyReader, AnyReaderError
@@ -27,6 +27,7 @@ from rosbags.typesys.store import Typestore
 
 from imrosc.bagrecover import RecoveringReader
 from imrosc.diagnostics import Diagnostic, make
+from imrosc.remote import BagUrl, RemoteError, discover_url, fetched, local_glob
 
 __all__ = [
     "ROS1_SUFFIX",
@@ -117,10 +118,10 @@ class _AsRos1(type(Path())):  # type: ignore[misc]
 class _SafeReader(AnyReader):
     """An AnyReader whose reading methods raise only :class:`BagError` on a broken bag."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, name: Path) -> None:
         named = _AsRos1(path) if is_unfinished(path) else path
         super().__init__([named], default_typestore=_fallback_typestore())
-        self.bag_path = path
+        self.bag_path = name
         if not self.is2:  # a ROS 1 bag cut short or never indexed is scanned instead
             self.readers = [RecoveringReader(path)]
 
@@ -175,26 +176,39 @@ def recovered_diagnostic(path: Path, reader: AnyReader) -> Diagnostic | None:
 
 @contextmanager
 def open_bag(path: Path) -> Iterator[AnyReader]:
-    """Open one bag (a ``.bag`` file or a ROS 2 bag directory) for reading.
+    """Open one bag (a ``.bag`` file or a ROS 2 bag directory, or either by URL: a
+    :class:`~imrosc.remote.BagUrl`, downloaded for the time it is open) for reading.
 
     Anything that goes wrong while opening, iterating ``messages()`` or calling
     ``deserialize()`` raises :class:`BagError` (:class:`MessageError` for one bad message);
     rosbags' own errors raised in the ``with`` body become BagError too.
     """
-    try:
-        reader = _SafeReader(path)
-        reader.open()
-    except Exception as error:  # a broken bag raises anything from rosbags
-        if not os.path.lexists(path):
-            raise BagError(path, "no such file or directory") from None
-        raise BagError(path, f"cannot open bag: {_one_line(error)}") from error
-    try:
-        yield reader
-    except _ROSBAGS_ERRORS as error:
-        raise BagError(path, f"cannot read bag: {_one_line(error)}") from error
-    finally:
-        with suppress(Exception):  # closing a broken bag must not hide the first error
-            reader.close()
+    with ExitStack() as stack:
+        local = path
+        if isinstance(path, BagUrl):
+            try:
+                local = stack.enter_context(fetched(path))
+            except RemoteError as error:
+                raise BagError(path, str(error)) from None
+
+        def said(error: BaseException) -> str:  # of a URL's bag, its URL, not its copy
+            text = _one_line(error)
+            return text if local is path else text.replace(str(local), str(path))
+
+        try:
+            reader = _SafeReader(local, path)
+            reader.open()
+        except Exception as error:  # a broken bag raises anything from rosbags
+            if not os.path.lexists(local):
+                raise BagError(path, "no such file or directory") from None
+            raise BagError(path, f"cannot open bag: {said(error)}") from error
+        try:
+            yield reader
+        except _ROSBAGS_ERRORS as error:
+            raise BagError(path, f"cannot read bag: {said(error)}") from error
+        finally:
+            with suppress(Exception):  # closing a broken bag must not hide the first error
+                reader.close()
 
 
 def _is_ros2_bag(directory: Path) -> bool:
@@ -247,8 +261,24 @@ def discover_bags(path: Path) -> tuple[list[Path], list[Diagnostic]]:
       in it is a bag, each other file is reported as not a bag (hidden files and directories,
       whose names start with ``.``, are skipped), and a directory with no bag is reported.
 
-    A missing path or a file that is not a bag is reported.
+    A missing path or a file that is not a bag is reported. A glob pattern (``*``, ``?``,
+    ``[``) that names no file as it is names the bags of every path it matches; a URL
+    (:class:`~imrosc.remote.BagUrl`) is looked up where it points
+    (:func:`~imrosc.remote.discover_url`).
     """
+    if isinstance(path, BagUrl):
+        return discover_url(path)
+    matches = local_glob(path)
+    if matches is not None:
+        if not matches:
+            return [], [make(str(path), 1, 1, "bag-error", "no bag matches the pattern")]
+        every: list[Path] = []
+        problems: list[Diagnostic] = []
+        for match in matches:
+            more, bad = discover_bags(match)
+            every += more
+            problems += bad
+        return sorted(set(every)), problems
     try:
         mode = path.stat().st_mode
     except OSError as error:

@@ -31,7 +31,7 @@ import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,7 +47,8 @@ from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
 from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
-from imrosc.progress import Progress, ProgressFactory
+from imrosc.progress import Progress, ProgressFactory, bag_done
+from imrosc.remote import bag_path
 from imrosc.replay import Replayer
 from imrosc.runtime import Engine
 from imrosc.runtime.alarms import AlarmRule
@@ -63,6 +64,9 @@ from imrosc.selection import (
     held_out_cover,
     union_false_alarm,
 )
+
+if TYPE_CHECKING:
+    from imrosc.fleet import Fleet
 
 
 class CheckStageError(Exception):
@@ -130,11 +134,12 @@ def load_project(config_path: Path) -> tuple[Project | None, list[Diagnostic]]:
 
 
 def bags_of(base: Path, entries: Sequence[str]) -> tuple[list[Path], list[Diagnostic]]:
-    """The bags ``entries`` name (relative to ``base``), and diagnostics for the rest."""
+    """The bags ``entries`` name (paths relative to ``base``, globs, URLs), and diagnostics
+    for the rest."""
     bags: list[Path] = []
     problems: list[Diagnostic] = []
     for entry in entries:
-        found, bad = discover_bags(base / entry)
+        found, bad = discover_bags(bag_path(entry, base))
         bags += found
         problems += bad
     return bags, problems
@@ -156,7 +161,8 @@ class OnsetFileError(CheckStageError):
 
 
 def onsets_file(path: Path) -> dict[Path, float | None]:
-    """The onsets a JSON file gives, by resolved bag path (keys are relative to the file).
+    """The onsets a JSON file gives, by resolved bag path (keys are relative to the
+    file, or URLs).
 
     A value is seconds after the bag's start, an object with ``onset_s`` (the ALFA data
     set's form), or null (no fault).
@@ -179,7 +185,7 @@ def onsets_file(path: Path) -> dict[Path, float | None]:
             raise OnsetFileError(
                 f"{path}: the onset of {key!r} is {value!r}; expected seconds >= 0 or null"
             )
-        out[(path.parent / key).resolve()] = None if value is None else float(value)
+        out[bag_path(key, path.parent).resolve()] = None if value is None else float(value)
     return out
 
 
@@ -323,11 +329,21 @@ def _start_worker(document: Mapping[str, Any], collect: bool = False) -> None:
     _WORKER = Replayer(document, engine)
 
 
-def _observe(task: tuple[Path, OnsetSpec | None]) -> RunOutcome:
+RunTask = tuple[Path, OnsetSpec | None]
+"""A run to observe: its bag and, for a failed run with an onset, how to find it."""
+
+
+def _observe(task: RunTask) -> RunOutcome:
     assert _WORKER is not None
+    return observe(_WORKER, task, _SAMPLES)
+
+
+def observe(replayer: Replayer, task: RunTask, sampler: Sampler | None = None) -> RunOutcome:
+    """Replay one run with ``replayer`` and keep what classification needs (with
+    ``sampler``, the trace of the replayer's engine: the run's samples too)."""
     bag, spec = task
-    result = _WORKER.run(bag)
-    samples = _SAMPLES.take() if _SAMPLES is not None else {}
+    result = replayer.run(bag)
+    samples = sampler.take() if sampler is not None else {}
     out = RunOutcome(
         bag,
         result.error,
@@ -376,26 +392,27 @@ def observe_runs(
     onsets: Mapping[Path, OnsetSpec] | None = None,
     progress: Progress | None = None,
     collect: bool = False,
+    cluster: Fleet | None = None,
 ) -> dict[Path, RunOutcome]:
-    """Replay each bag (in worker processes) and keep what classification needs; a bag in
-    ``onsets`` also gets its fault's onset; ``progress`` hears of each bag done;
-    ``collect``: each run's samples too (:attr:`RunOutcome.samples`)."""
-    tasks = [(bag, (onsets or {}).get(bag)) for bag in bags]
+    """Replay each bag (in worker processes, or as tasks on ``cluster``) and keep what
+    classification needs; a bag in ``onsets`` also gets its fault's onset; ``progress``
+    hears of each bag done; ``collect``: each run's samples too (:attr:`RunOutcome.samples`)."""
+    tasks: list[RunTask] = [(bag, (onsets or {}).get(bag)) for bag in bags]
     workers = min(workers or default_workers(), max(len(bags), 1))
     found: list[RunOutcome] = []
-    if workers <= 1:
+    if cluster is not None:
+        found = cluster.observe_runs(document, tasks, progress, collect)
+    elif workers <= 1:
         _start_worker(document, collect)
         for task in tasks:
             found.append(_observe(task))
-            if progress is not None:
-                progress(found[-1].bag, found[-1].messages)
+            bag_done(progress, found[-1].bag, found[-1].messages, found[-1].error)
     else:
         context = multiprocessing.get_context("fork")
         with context.Pool(workers, _start_worker, (document, collect)) as pool:
             for outcome in pool.imap(_observe, tasks, chunksize=1):
                 found.append(outcome)
-                if progress is not None:
-                    progress(outcome.bag, outcome.messages)
+                bag_done(progress, outcome.bag, outcome.messages, outcome.error)
     return {outcome.bag: outcome for outcome in found}
 
 
@@ -615,7 +632,10 @@ def refined(
 
 
 def refined_rule(
-    document: Mapping[str, Any], success: Sequence[Path], workers: int | None
+    document: Mapping[str, Any],
+    success: Sequence[Path],
+    workers: int | None,
+    cluster: Fleet | None = None,
 ) -> dict[str, Any]:
     """The alarm rule of the kept invariants: the rule of the whole file asks more of an
     alarm than fewer invariants can give. It is set as calibration sets it (the conformal
@@ -633,7 +653,11 @@ def refined_rule(
     budget = float((document.get("calibration") or {}).get("budget", DEFAULT_BUDGET))
     units = [Unit(bag, []) for bag in success]
     found = calibrate_rule(
-        [(document, list(range(len(units))))], units, budget, workers=workers or 1
+        [(document, list(range(len(units))))],
+        units,
+        budget,
+        workers=workers or 1,
+        replays=cluster.replay_held_out if cluster is not None else None,
     )
     return found.rule.as_json()
 
@@ -788,6 +812,7 @@ def run_check(
     cross_validate: int | None = None,
     before_work: Callable[[Path | None, Path], None] | None = None,
     progress_factory: ProgressFactory | None = None,
+    cluster: Fleet | None = None,
 ) -> CheckResult:
     """The check stage of ``config_path``: classification or comparison.
 
@@ -797,6 +822,8 @@ def run_check(
 
     ``cross_validate`` K: the successful runs that are also ``<detect>`` runs are scored at
     the run level against invariants inferred from the other K-1 folds of the detect bags.
+    ``cluster``: the runs are replayed (and inferred, for cross-validation) as tasks on a
+    Dask cluster (:mod:`imrosc.fleet`) instead of ``workers`` local processes.
     """
     out = CheckResult()
     project, out.diagnostics = load_project(config_path)
@@ -853,7 +880,9 @@ def run_check(
     out.inputs = [inv_path, *everything]
     progress = progress_factory(len(everything)) if progress_factory is not None else None
     logistic = check.mode == "classify" and check.detector == "logistic"
-    observed = observe_runs(document, everything, workers, specs, progress, collect=logistic)
+    observed = observe_runs(
+        document, everything, workers, specs, progress, collect=logistic, cluster=cluster
+    )
     report["errors"] = [
         {"bag": str(bag), "error": o.error} for bag, o in observed.items() if o.error is not None
     ]
@@ -874,7 +903,7 @@ def run_check(
         held: dict[Path, HeldOutRun] = {}
         if cross_validate is not None:
             report["cross_validation"], replaced, problems = cross_validated(
-                config_path, project, found["success"], cross_validate, workers
+                config_path, project, found["success"], cross_validate, workers, cluster
             )
             out.diagnostics += problems
             success_runs.update({b: o for b, o in replaced.items() if o.error is None})
@@ -954,7 +983,9 @@ def run_check(
                 ]
         out.refined = refined(document, scores, report)
         if "alarms" in document and runs["success"]:
-            out.refined["alarms"] = refined_rule(out.refined, list(runs["success"]), workers)
+            out.refined["alarms"] = refined_rule(
+                out.refined, list(runs["success"]), workers, cluster
+            )
         rule = AlarmRule.from_json(out.refined.get("alarms"))
         kept = {inv["id"] for inv in out.refined["invariants"]}
         report["runs"] = [
@@ -1039,6 +1070,7 @@ def cross_validated(
     success: Sequence[Path],
     folds: int,
     workers: int | None,
+    cluster: Fleet | None = None,
 ) -> tuple[dict[str, Any], dict[Path, RunOutcome], list[Diagnostic]]:
     """The successful runs that are detect runs, each replayed against the invariants
     inferred from the folds of the detect bags that do not hold it (stability's folds)."""
@@ -1059,7 +1091,13 @@ def cross_validated(
         train = [b for b in detect if b not in held_out]
         held = {b.resolve() for b in held_out}
         scored = [b for b in success if b.resolve() in held]
-        detected = run_detect(config_path, workers=workers, bags=train)
+        detected = run_detect(
+            config_path,
+            workers=workers,
+            bags=train,
+            reducer=cluster,
+            replays=cluster.replay_held_out if cluster is not None else None,
+        )
         for problem in detected.diagnostics:
             if problem.code.startswith("bag-"):
                 problems.append(problem)
@@ -1072,7 +1110,7 @@ def cross_validated(
                     d.as_text() for d in detected.diagnostics if d.severity.value == "error"
                 )
             )
-        outcomes = observe_runs(inferred, scored, workers) if scored else {}
+        outcomes = observe_runs(inferred, scored, workers, cluster=cluster) if scored else {}
         replaced.update(outcomes)
         rounds.append(
             {

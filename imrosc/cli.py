@@ -22,6 +22,7 @@ from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
 from imrosc.progress import bag_progress, quiet_option
+from imrosc.remote import bag_arguments
 
 if TYPE_CHECKING:
     from imrosc.fleet import Fleet
@@ -83,11 +84,15 @@ graph_option = click.option(
     type=click.Path(dir_okay=False, path_type=Path),
     help="A graph file (YAML) saying who publishes, subscribes and serves what.",
 )
+
+
 bags_option = click.option(
     "--bags",
     multiple=True,
-    type=click.Path(path_type=Path),
-    help="Bags or folders to read (instead of the <detect> bags, where there are some).",
+    metavar="BAG",
+    callback=bag_arguments,
+    help="Bags, folders, globs or URLs to read (instead of the <detect> bags, where there "
+    "are some).",
 )
 
 
@@ -397,7 +402,7 @@ def export_daikon(
 
 
 @main.command()
-@click.argument("bags", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("bags", nargs=-1, required=True, callback=bag_arguments)
 @click.option(
     "--format",
     "output_format",
@@ -527,7 +532,7 @@ def _emit(
 
 @main.command()
 @click.argument("inv", type=click.Path(dir_okay=False, path_type=Path))
-@click.argument("bags", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("bags", nargs=-1, required=True, callback=bag_arguments)
 @format_option
 @click.option("--json", "as_json", is_flag=True, help="Same as --format json.")
 @report_option
@@ -626,6 +631,7 @@ def replay(
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite output files imrosc did not write.")
+@scheduler_option
 @quiet_option
 def classify(
     config: Path,
@@ -636,10 +642,12 @@ def classify(
     output_format: str,
     report_path: Path | None,
     force: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
     """Score each invariant on CONFIG's <check> runs (or compare data sets) and keep the
-    useful ones; with fault onsets, score the alarms and their delays too.
+    useful ones; with fault onsets, score the alarms and their delays too; with
+    --scheduler, each run is a task on a Dask cluster (docs/fleet.md).
 
     Exit status: 0 done, 1 a run that could not be read, 5 a point that checked no sample
     in some run (its invariants went unchecked there).
@@ -671,7 +679,7 @@ def classify(
         target(report_path, REPORT, inputs=(*every, *filter(None, [refined_path])), force=force)
 
     try:
-        with bag_progress("classifying", quiet) as factory:
+        with cluster("classify", scheduler) as fleet, bag_progress("classifying", quiet) as factory:
             result = run_check(
                 config,
                 inv=inv,
@@ -680,6 +688,7 @@ def classify(
                 cross_validate=cross_validate,
                 before_work=before_work,
                 progress_factory=factory,
+                cluster=fleet,
             )
     except CheckStageError as error:
         fail("classify", str(error), EXIT_USAGE)
@@ -731,6 +740,7 @@ def classify(
 @format_option
 @report_option
 @click.option("--force", is_flag=True, help="Overwrite a report file imrosc did not write.")
+@scheduler_option
 @quiet_option
 def stability(
     config: Path,
@@ -740,22 +750,28 @@ def stability(
     output_format: str,
     report_path: Path | None,
     force: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
     """Cross-validate inference over CONFIG's <detect> bags: how many invariants learnt from
-    the other bags does each held-out bag violate (per family)?"""
+    the other bags does each held-out bag violate (per family)? With --scheduler, each bag
+    is a task on a Dask cluster (docs/fleet.md)."""
     from imrosc.classify import CheckStageError
     from imrosc.stability import run_stability
 
     _report_target("stability", report_path, force, (config, *bags))
     try:
-        with bag_progress("cross-validating", quiet) as factory:
+        with (
+            cluster("stability", scheduler) as fleet,
+            bag_progress("cross-validating", quiet) as factory,
+        ):
             report, problems = run_stability(
                 config,
                 folds=folds,
                 workers=jobs,
                 bags=list(bags) or None,
                 progress_factory=factory,
+                cluster=fleet,
             )
     except CheckStageError as error:
         fail("stability", str(error), EXIT_USAGE)

@@ -35,6 +35,7 @@ from imrosc.invariants import PointInfo, document
 from imrosc.lower import lower
 from imrosc.passes.context import PassContext
 from imrosc.passes.pipeline import run_passes
+from imrosc.remote import bag_path
 from imrosc.runtime.families import INFERRED_GROUPS
 from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
@@ -171,7 +172,7 @@ def prepare(
     lowered = lower(config)
     base = config_path.parent
     if bags is None:
-        bags = [base / b for b in lowered.detect.bags] if lowered.detect else []
+        bags = [bag_path(b, base) for b in lowered.detect.bags] if lowered.detect else []
     catalog = build_catalog(bags)
     project, plan, job, found = _compile(lowered, config.path, graph_files, catalog)
     problems = finalize(problems + found + catalog.diagnostics)

@@ -118,7 +118,7 @@ def bag_info(path: Path, warnings: list[Diagnostic] | None = None) -> BagInfo:
         start, end = reader.start_time, reader.end_time
         if not reader.message_count:
             start = end = 0
-        info = BagInfo(path, _storage(path), start, end, reader.message_count)
+        info = BagInfo(path, _storage(Path(str(reader.paths[0]))), start, end, reader.message_count)
         duration = max(end - start, 0) / SECOND
         by_topic: dict[str, list[Any]] = {}
         for connection in reader.connections:

@@ -1,8 +1,10 @@
 """Progress of the commands that read bags, on stderr when it is a terminal.
 
 A bar counts the bags done out of the bags to read, and says the messages read so far, their
-rate and the time left (from the bags' pace). It is drawn only when stderr is a terminal and
-``-q`` was not given, so that pipes, logs and CI output never get it.
+rate, the bags that failed and the time left (from the bags' pace); a bag that fails is named
+with its error above the bar as it fails (the command reports it again at the end, as without a
+bar). It is drawn only when stderr is a terminal and ``-q`` was not given, so that pipes, logs
+and CI output never get it.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ class BagProgress:
         self.clock = time.monotonic
         self.started = self.clock()
         self.messages = 0
+        self.failures = 0
         self.label = label
         self.bar: Any = None
         if enabled and total:
@@ -48,12 +51,22 @@ class BagProgress:
         """One more bag done, ``messages`` read from it."""
         self.messages += messages
         if self.bar is not None:
-            if self.messages:
+            if self.messages or self.failures:
                 rate = self.messages / max(self.clock() - self.started, 1e-9)
-                self.bar.label = f"{self.label}: {self.messages:,} messages ({rate:,.0f} msg/s)"
+                failed = f", {self.failures} failed" if self.failures else ""
+                self.bar.label = (
+                    f"{self.label}: {self.messages:,} messages ({rate:,.0f} msg/s){failed}"
+                )
             self.bar.update(1)
             if self.bar.pos >= self.bar.length:  # done: the next stage's output starts below
                 self.close()
+
+    def failed(self, bag: Path, error: str) -> None:
+        """A bag that could not be read: named with its error above the bar."""
+        self.failures += 1
+        error = error.removeprefix(f"{bag}: ")  # a bag's error may name it already
+        if self.bar is not None:
+            click.echo(f"\r\x1b[Kfailed: {bag}: {error}", err=True)
 
     def close(self) -> None:
         if self.bar is not None:
@@ -76,6 +89,18 @@ def bag_progress(label: str, quiet: bool) -> Iterator[ProgressFactory]:
     finally:
         for bar in bars:
             bar.close()
+
+
+def bag_done(progress: Progress | None, bag: Path, messages: int, error: str | None = None) -> None:
+    """Tell ``progress`` (if any) of a bag done: the messages read from it and, when it
+    could not be read, the error (a progress with a ``failed`` method, a bar, hears of it)."""
+    if progress is None:
+        return
+    if error is not None:
+        failed = getattr(progress, "failed", None)
+        if callable(failed):
+            failed(bag, error)
+    progress(bag, messages)
 
 
 def shared(progress: Progress) -> ProgressFactory:

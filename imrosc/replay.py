@@ -23,7 +23,7 @@ from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
-from imrosc.progress import Progress
+from imrosc.progress import Progress, bag_done
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, alarms_json
 from imrosc.runtime.flatten import make_flattener
@@ -412,8 +412,7 @@ def replay_document(
         answers = []
         for bag in bags:
             answers.append(replay(bag))
-            if progress is not None:
-                progress(bag, answers[-1][0].messages)
+            bag_done(progress, bag, answers[-1][0].messages, answers[-1][0].error)
     results = [result for result, _ in answers]
     runs = [run for _, run in answers]
     out = {

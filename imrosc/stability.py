@@ -11,13 +11,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from imrosc.classify import CheckStageError, bags_of, load_project, observe_runs
 from imrosc.detect import run_detect
 from imrosc.diagnostics import Diagnostic, has_errors
 from imrosc.outputs import REPORT, mark
 from imrosc.progress import ProgressFactory, shared
+
+if TYPE_CHECKING:
+    from imrosc.fleet import Fleet
 
 
 def folds_of(bags: Sequence[Path], folds: int) -> list[list[Path]]:
@@ -42,9 +45,12 @@ def run_stability(
     workers: int | None = None,
     bags: Sequence[Path] | None = None,
     progress_factory: ProgressFactory | None = None,
+    cluster: Fleet | None = None,
 ) -> tuple[dict[str, Any] | None, list[Diagnostic]]:
     """The stability report of ``config_path``'s detect bags, or of ``bags`` (``folds``
-    None: leave-one-out); one progress over every round's training and held-out bags."""
+    None: leave-one-out); one progress over every round's training and held-out bags.
+    ``cluster``: each round's bags are inferred and replayed as tasks on a Dask cluster
+    (:mod:`imrosc.fleet`) instead of ``workers`` local processes."""
     project, problems = load_project(config_path)
     if project is None:
         return None, problems
@@ -76,6 +82,8 @@ def run_stability(
             workers=workers,
             bags=train,
             progress_factory=shared(progress) if progress is not None else None,
+            reducer=cluster,
+            replays=cluster.replay_held_out if cluster is not None else None,
         )
         for found_problem in detected.diagnostics:
             bag_level = found_problem.code.startswith("bag-")
@@ -85,7 +93,7 @@ def run_stability(
         if document is None or has_errors(detected.diagnostics):
             problems += detected.diagnostics
             return None, problems
-        outcomes = observe_runs(document, held_out, workers, progress=progress)
+        outcomes = observe_runs(document, held_out, workers, progress=progress, cluster=cluster)
         violated = {bag: (o.violated, o.error) for bag, o in outcomes.items()}
         broken = set().union(*(ids for ids, _ in violated.values()))
         alarmed = sorted(str(bag) for bag, o in outcomes.items() if o.alarms)

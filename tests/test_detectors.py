@@ -32,9 +32,7 @@ def _run(seed: int, onset: float | None) -> Run:
 
 @pytest.fixture(scope="module")
 def runs() -> list[Run]:
-    return [_run(seed, None) for seed in range(1, 5)] + [
-        _run(seed, 12.0) for seed in range(5, 11)
-    ]
+    return [_run(seed, None) for seed in range(1, 5)] + [_run(seed, 12.0) for seed in range(5, 11)]
 
 
 def test_no_failed_run_no_detector() -> None:

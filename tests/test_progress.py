@@ -13,7 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from imrosc.cli import main
-from imrosc.progress import BagProgress, wanted
+from imrosc.progress import BagProgress, bag_done, wanted
 from tests.bad_input.support import project, template
 
 __all__ = ["project", "template"]
@@ -90,9 +90,20 @@ def test_progress_on_a_terminal_and_not_with_q(command: str, project: Path) -> N
 def test_a_bar_counts_bags_and_messages() -> None:
     bar = BagProgress(2, "reading", enabled=False)
     bar(Path("a.bag"), 10)
-    bar(Path("b.bag"), 5)
+    bag_done(bar, Path("b.bag"), 5)
+    bag_done(bar, Path("c.bag"), 0, "c.bag: cannot open bag")
     bar.close()
-    assert bar.messages == 15 and bar.bar is None
+    assert bar.messages == 15 and bar.failures == 1 and bar.bar is None
+
+
+def test_a_bag_that_fails_is_named_with_its_error_as_it_fails(project: Path) -> None:
+    (project / "notes.bag").write_text("not a bag\n")
+    status, drawn = on_a_terminal(
+        [*args_of("replay", project), str(project / "notes.bag")], project
+    )
+    assert status == 1, drawn
+    assert f"failed: {project / 'notes.bag'}: cannot open bag: not a ROS 1 bag" in drawn, drawn
+    assert "msg/s), 1 failed" in drawn and "4/4" in drawn, drawn
 
 
 def test_progress_is_wanted_only_on_a_terminal_without_q() -> None:

@@ -23,13 +23,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from imrosc.calibrate.envelope import Envelopes, UnitView
 from imrosc.calibrate.rule import HeldOut, Replays, calibrate_rule
 from imrosc.folds import blocked
 from imrosc.infer.engine import Unit
+from imrosc.remote import bag_path
 from imrosc.runtime.alarms import AlarmRule
 
 DEFAULT_BUDGET = 0.05
@@ -119,7 +119,7 @@ def _evidence(
     everyone = set(range(len(units)))
     for unit in held_out:
         training = everyone - set(held[unit.fold][1])
-        at = index[(Path(unit.bag), unit.span)]
+        at = index[(bag_path(unit.bag), unit.span)]
         unit.absent = sorted(envelopes.untested(training) & kept)
         unit.set_breaks = sorted(envelopes.set_breaks(at, training) & kept)
 

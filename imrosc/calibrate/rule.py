@@ -34,6 +34,7 @@ from typing import Any
 
 from imrosc.calibrate.tolerance import conformal, too_many
 from imrosc.infer.engine import Unit
+from imrosc.remote import bag_path
 from imrosc.runtime import Engine
 from imrosc.runtime.alarms import AlarmRule, Fed
 
@@ -229,7 +230,7 @@ def held_out_runs(document: Mapping[str, Any], base: Path) -> dict[Path, HeldOut
         trace = unit.get("trace")
         if not isinstance(trace, Mapping) or not isinstance(unit.get("bag"), str):
             continue
-        written = Path(unit["bag"])
+        written = bag_path(unit["bag"])
         places = {written.resolve()}
         if not written.is_absolute():
             places.add((base / written).resolve())

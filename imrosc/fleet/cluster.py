@@ -1,4 +1,5 @@
-"""Bags as tasks on a Dask cluster (``imrosc infer --scheduler ADDRESS``).
+"""Bags as tasks on a Dask cluster (``--scheduler ADDRESS`` of ``infer``, ``replay``, ``classify``
+and ``stability``).
 
 The client sends the compiled configuration once (one task whose answer every worker
 fetches once), then one task per bag: its path and run number. A worker reads the bag and
@@ -11,7 +12,9 @@ states of every bag. Samples never leave the worker that read them, and the inva
 is byte for byte the one a single process writes.
 
 Calibration's held-out replays are tasks too: each fold's bags in as many groups as give
-every worker one, each fold's document sent once.
+every worker one, each fold's document sent once. The replays of ``imrosc replay``,
+``classify`` and ``stability`` are one task per bag (:meth:`Fleet.replay_runs`,
+:meth:`Fleet.observe_runs`), the document sent once, the answers in bag order.
 
 A bag that cannot be read is answered with its error, as in one process. A task whose worker
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
@@ -33,14 +36,20 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from imrosc import __version__
 from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
+from imrosc.progress import bag_done
 from imrosc.replay import RunResult
 
 from .tree import OrderedTree
+
+if TYPE_CHECKING:
+    from imrosc.classify import RunOutcome, RunTask
+
+T = TypeVar("T")
 
 RETRIES = 2
 """How many times a bag's task that raised is run again."""
@@ -78,9 +87,13 @@ def _answer(task: Task, template: BagJob, bag: Path, run: int, name: Path) -> Me
     return Merged.of(result)
 
 
-def _summary(answer: Merged) -> tuple[int, list[Unit]]:
-    """What the client fetches of a bag's answer: its messages and calibration units."""
-    return answer.messages, answer.units
+Summary = tuple[int, list[Unit], str | None]
+"""What the client fetches of a bag's answer: its messages, calibration units and error."""
+
+
+def _summary(answer: Merged) -> Summary:
+    """A bag's :data:`Summary`."""
+    return answer.messages, answer.units, next(iter(answer.failed.values()), None)
 
 
 def _join(left: Merged, right: Merged) -> Merged:
@@ -147,24 +160,70 @@ def _replay(
     return found
 
 
+def _cached(kind: str, key: str, build: Callable[[], T]) -> T:
+    """This worker thread's engine of kind ``kind`` for the document ``key`` (the last
+    :data:`REPLAYERS` kept)."""
+    cache: OrderedDict[str, Any] | None = getattr(_replayers, kind, None)
+    if cache is None:
+        cache = OrderedDict()
+        setattr(_replayers, kind, cache)
+    found: T | None = cache.get(key)
+    if found is None:
+        found = cache[key] = build()
+        while len(cache) > REPLAYERS:
+            cache.popitem(last=False)
+    return found
+
+
+def _renamed(text: str | None, bag: Path, name: Path) -> str | None:
+    """A message about a bag read at ``bag``, naming it ``name`` as the client does."""
+    if text is None or bag == name:
+        return text
+    return text.replace(str(bag), str(name))
+
+
 def _replay_run(
     document: Mapping[str, Any], key: str, bag: Path, name: Path, plots: bool
 ) -> tuple[RunResult, dict[str, Any]]:
     """A ``replay`` task: one bag replayed (the document's engine built once per thread)."""
     from imrosc.replay import RunReplayer
 
-    cache: OrderedDict[str, Any] | None = getattr(_replayers, "runs", None)
-    if cache is None:
-        cache = _replayers.runs = OrderedDict()
-    replay = cache.get(key)
-    if replay is None:
-        replay = cache[key] = RunReplayer(document, plots)
-        while len(cache) > REPLAYERS:
-            cache.popitem(last=False)
+    replay = _cached("runs", key, lambda: RunReplayer(document, plots))
     result, run = replay(bag)
     result.bag = name
     run["bag"] = str(name)
+    result.error = run["error"] = _renamed(result.error, bag, name)
     return result, run
+
+
+def _observe_run(
+    document: Mapping[str, Any],
+    key: str,
+    bag: Path,
+    task: RunTask,
+    name: Path,
+    collect: bool = False,
+) -> RunOutcome:
+    """A ``classify`` or ``stability`` task: one run replayed and observed (the document's
+    engine built once per thread); ``collect``: its samples too, for learnt detectors."""
+    from imrosc.classify import Sampler, observe
+    from imrosc.replay import Replayer
+    from imrosc.runtime import Engine
+
+    def sampling() -> tuple[Replayer, Sampler]:
+        sampler = Sampler(document)
+        return Replayer(document, Engine(document, trace=sampler.trace)), sampler
+
+    if collect:
+        replayer, sampler = _cached("samplers", key, sampling)
+    else:
+        replayer, sampler = _cached("observers", key, lambda: Replayer(document)), None
+    outcome = observe(replayer, (bag, task[1]), sampler)
+    outcome.bag = name
+    outcome.error = _renamed(outcome.error, bag, name)
+    outcome.onset_problem = _renamed(outcome.onset_problem, bag, name)
+    outcome.warnings = [_renamed(text, bag, name) or text for text in outcome.warnings]
+    return outcome
 
 
 def worker_version() -> str:
@@ -199,6 +258,9 @@ class Fleet:
     address: str
     task: Task = run_remote
     """A bag's task (tests put in one that kills its worker)."""
+    observe: Callable[..., RunOutcome] = _observe_run
+    """A run's task in ``classify`` and ``stability`` (tests put in one that kills its
+    worker)."""
 
     @property
     def workers(self) -> int:
@@ -303,11 +365,10 @@ class Fleet:
             if got is None:
                 doubtful.append(index)
                 continue
-            messages, units[index] = got
+            messages, units[index], error = got
             tree.add(index, answers[index])
             answers[index] = None  # the tree holds it until it is joined
-            if progress is not None:
-                progress(jobs[index].bag, messages)
+            bag_done(progress, jobs[index].bag, messages, error)
         # a worker that dies takes the tasks queued on it along: each bag whose workers died
         # is tried once more, alone on the cluster, before it is called bad
         for index in doubtful:
@@ -315,11 +376,10 @@ class Fleet:
             got = self._summary(client.submit(_summary, answer, pure=False))
             if got is None:
                 bad.add(index)
-                answer, got = killed(index), (0, [])
-            messages, units[index] = got
+                answer, got = killed(index), (0, [], KILLED)
+            messages, units[index], error = got
             tree.add(index, answer)
-            if progress is not None:
-                progress(jobs[index].bag, messages)
+            bag_done(progress, jobs[index].bag, messages, error)
         try:
             merged: Merged = tree.result().result()
         except distributed.KilledWorker:
@@ -380,39 +440,87 @@ class Fleet:
     ) -> list[tuple[RunResult, dict[str, Any]]]:
         """``imrosc replay``: one task per bag (the document sent once), the runs in bag
         order; ``progress`` hears of each bag as it completes."""
+
+        def killed(bag: Path) -> tuple[RunResult, dict[str, Any]]:
+            result = RunResult(bag)
+            result.error = KILLED
+            return result, _failed_run(bag)
+
+        return self._each_bag(
+            document,
+            bags,
+            lambda learnt, key, bag: (_replay_run, learnt, key, bag.absolute(), bag, plots),
+            killed,
+            lambda answer: (answer[0].messages, answer[0].error),
+            progress,
+        )
+
+    def observe_runs(
+        self,
+        document: Mapping[str, Any],
+        tasks: list[RunTask],
+        progress: Progress | None,
+        collect: bool = False,
+    ) -> list[RunOutcome]:
+        """``imrosc classify`` and ``imrosc stability``: one task per run (the document
+        sent once), the outcomes in the runs' order; ``progress`` hears of each run as it
+        completes; ``collect``: the runs' samples too (learnt detectors)."""
+        from imrosc.classify import RunOutcome
+
+        specs = dict(tasks)
+        return self._each_bag(
+            document,
+            [bag for bag, _ in tasks],
+            lambda learnt, key, bag: (
+                self.observe,
+                learnt,
+                key,
+                bag.absolute(),
+                (bag, specs[bag]),
+                bag,
+                collect,
+            ),
+            lambda bag: RunOutcome(bag, KILLED),
+            lambda outcome: (outcome.messages, outcome.error),
+            progress,
+        )
+
+    def _each_bag(
+        self,
+        document: Mapping[str, Any],
+        bags: list[Path],
+        task: Callable[[Any, str, Path], tuple[Any, ...]],
+        killed: Callable[[Path], T],
+        messages: Callable[[T], tuple[int, str | None]],
+        progress: Progress | None,
+    ) -> list[T]:
+        """One task per bag, ``task(document's future, its key, bag)`` (the function and its
+        arguments), the document sent once to every worker; the answers in bag order, a bag
+        whose workers died on every try answered by ``killed``; ``progress`` hears of each
+        bag's ``messages(answer)`` (its messages and error)."""
         if not bags:
             return []
         distributed = _distributed()
         client = self.client
-        key = f"imrosc-replay-document-{uuid.uuid4().hex[:12]}"
+        key = f"imrosc-document-{uuid.uuid4().hex[:12]}"
         try:
             learnt = client.submit(_same, document, key=key)
             client.replicate([learnt])
             futures = {
-                client.submit(
-                    _replay_run,
-                    learnt,
-                    key,
-                    bag.absolute(),
-                    bag,
-                    plots,
-                    key=f"{key}-{index}",
-                    retries=RETRIES,
-                ): index
+                client.submit(*task(learnt, key, bag), key=f"{key}-{index}", retries=RETRIES): index
                 for index, bag in enumerate(bags)
             }
-            answers: list[tuple[RunResult, dict[str, Any]] | None] = [None] * len(bags)
+            answers: list[T | None] = [None] * len(bags)
             for future in distributed.as_completed(list(futures), loop=client.loop):
                 index = futures.pop(future)
                 try:
-                    answers[index] = future.result()
+                    answer: T = future.result()
                 except distributed.KilledWorker:
-                    result = RunResult(bags[index])
-                    result.error = KILLED
-                    answers[index] = (result, _failed_run(bags[index]))
+                    answer = killed(bags[index])
+                answers[index] = answer
                 future.release()
-                if progress is not None:
-                    progress(bags[index], answers[index][0].messages)  # type: ignore[index]
+                bag_done(progress, bags[index], *messages(answer))
+            learnt.release()
         except distributed.client.FutureCancelledError:
             raise FleetError(f"{self.address}: lost the Dask scheduler") from None
         except (OSError, TimeoutError) as error:
@@ -432,11 +540,11 @@ class Fleet:
             pure=False,
         )
 
-    def _summary(self, future: Any) -> tuple[int, list[Unit]] | None:
+    def _summary(self, future: Any) -> Summary | None:
         """A bag's summary; ``None`` when its workers died on every try
         (``distributed.scheduler.allowed-failures``)."""
         try:
-            found: tuple[int, list[Unit]] = future.result()
+            found: Summary = future.result()
         except _distributed().KilledWorker:
             return None
         finally:

@@ -17,6 +17,7 @@ from imrosc.diagnostics import Diagnostic, finalize, has_errors
 from imrosc.graph.file import load_graph_file
 from imrosc.graph.model import Graph
 from imrosc.progress import ProgressFactory, bag_progress, quiet_option
+from imrosc.remote import bag_arguments
 
 __all__ = [
     "EXIT_CLEAN",
@@ -61,9 +62,7 @@ def collect_graph(
 
 
 @click.command("graph")
-@click.argument(
-    "inputs", nargs=-1, required=True, metavar="BAG_OR_FILE...", type=click.Path(path_type=Path)
-)
+@click.argument("inputs", nargs=-1, required=True, metavar="BAG_OR_FILE...", callback=bag_arguments)
 @click.option(
     "--format",
     "output_format",

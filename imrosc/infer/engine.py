@@ -28,6 +28,7 @@ from imrosc.bags import BagError
 from imrosc.infer.core import FamilyState, FinalizeContext, Invariant, Samples, Variable
 from imrosc.infer.registry import make_point_states
 from imrosc.ir import Tunables
+from imrosc.progress import bag_done
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec
 from imrosc.translate.stream import BagTranslator
@@ -404,15 +405,13 @@ def _map(jobs: Sequence[BagJob], workers: int, progress: Progress | None) -> lis
     if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             results.append(run_bag(job))
-            if progress:
-                progress(job.bag, results[-1].messages)
+            bag_done(progress, job.bag, results[-1].messages, results[-1].error)
         return results
     context = multiprocessing.get_context("fork")
     with context.Pool(min(workers, len(jobs))) as pool:
         for result in pool.imap(run_bag, jobs):
             results.append(result)
-            if progress:
-                progress(result.bag, result.messages)
+            bag_done(progress, result.bag, result.messages, result.error)
     return results
 
 

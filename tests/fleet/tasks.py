@@ -5,11 +5,16 @@ from __future__ import annotations
 
 import os
 import signal
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
-from imrosc.fleet.cluster import run_remote
+from imrosc.classify import RunOutcome, RunTask
+from imrosc.fleet.cluster import _observe_run, run_remote
 from imrosc.infer.engine import BagJob, BagResult
 
+VICTIM = "victim"
+"""A run whose name holds this kills the first worker that observes it."""
 POISON = "poison"
 """A bag whose name holds this kills every worker that reads it."""
 
@@ -33,3 +38,14 @@ def kill_always(template: BagJob, bag: Path, run: int) -> BagResult:
     if POISON in bag.name:
         os.kill(os.getpid(), signal.SIGKILL)
     return run_remote(template, bag, run)
+
+
+def kill_once_observing(
+    document: Mapping[str, Any], key: str, bag: Path, task: RunTask, name: Path
+) -> RunOutcome:
+    """Kill the worker the first time it observes a run whose name holds ``victim``, and
+    observe it the next time."""
+    if VICTIM in bag.name and not marker(bag).exists():
+        marker(bag).touch()
+        os.kill(os.getpid(), signal.SIGKILL)
+    return _observe_run(document, key, bag, task, name)

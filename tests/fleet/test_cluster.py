@@ -9,7 +9,6 @@ import shutil
 import socket
 import sys
 import tempfile
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -34,31 +33,6 @@ dask: Any = importlib.import_module("dask")
 pytestmark = pytest.mark.slow
 
 RUNS = 6
-
-
-@pytest.fixture(scope="module")
-def address() -> Iterator[str]:
-    """A scheduler and two single-threaded worker processes on loopback; a task whose
-    worker dies is run again once (a second death is a ``KilledWorker``)."""
-    with (
-        dask.config.set({"distributed.scheduler.allowed-failures": 1}),
-        distributed.LocalCluster(
-            n_workers=2,
-            processes=True,
-            threads_per_worker=1,
-            host="127.0.0.1",
-            scheduler_port=0,
-            dashboard_address=":0",
-            silence_logs=50,
-        ) as local,
-    ):
-        yield local.scheduler_address
-
-
-@pytest.fixture(scope="module")
-def client(address: str) -> Iterator[Any]:
-    with distributed.Client(address, set_as_default=False) as connected:
-        yield connected
 
 
 @pytest.fixture(scope="module")

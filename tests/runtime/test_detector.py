@@ -24,9 +24,7 @@ def _direct(times: Any, rows: Any, window: float) -> Any:
     for k, t in enumerate(times):
         inside = [j for j in range(k + 1) if times[j] > t - window]
         block = filled[inside]
-        found.append(
-            np.concatenate([block.mean(axis=0), block.std(axis=0), filled[k] - block[0]])
-        )
+        found.append(np.concatenate([block.mean(axis=0), block.std(axis=0), filled[k] - block[0]]))
     return np.array(found)
 
 
