@@ -91,6 +91,8 @@ def fit(runs: Sequence[Run], strength: float) -> Model:
     every = max(1, -(-total // FIT_SAMPLES))
     x = np.vstack([r.stats[::every] for r in runs])
     y = np.concatenate([r.faulty[::every] for r in runs]).astype(np.float64)
+    finite = np.isfinite(x).all(axis=1)  # an infinite value: no statistic to weigh
+    x, y = x[finite], y[finite]
     center, scale = x.mean(axis=0), x.std(axis=0)
     scale[scale == 0] = 1.0
     z = np.hstack([(x - center) / scale, np.ones((len(x), 1))])
@@ -142,7 +144,9 @@ def choose(runs: Sequence[Run]) -> Choice | None:
                 continue
             model = fit(training, strength)
             held += [(runs[k], model.scores(runs[k])) for k in fold]
-        nominal = [float(s[~r.faulty].max()) for r, s in held if (~r.faulty).any()]
+        nominal = [
+            float(np.nanmax(s[~r.faulty])) for r, s in held if np.isfinite(s[~r.faulty]).any()
+        ]
         if not nominal:
             continue
         threshold = max(nominal)

@@ -10,7 +10,8 @@ once: the threshold is already the calibrated decision (the largest score any he
 run reached).
 
 The window of a sample at time ``t`` holds the point's samples with times ``> t - window``.
-A value that is NaN is the variable's last value seen (0 before the first). This module
+A value that is NaN or infinite is the variable's last finite value (0 before the
+first): one infinity would otherwise poison the window's running sums for good. This module
 computes each sample's statistics incrementally; :func:`features` computes a whole run's
 with the same class, so what classification learnt from and what the monitor checks agree.
 
@@ -57,7 +58,7 @@ class WindowFeatures:
     def add(self, time: float, values: Any) -> Any:
         """The sample's statistics: ``[means, standard deviations, changes]``."""
         x = np.array(values, dtype=np.float64)
-        missing = np.isnan(x)
+        missing = ~np.isfinite(x)
         if missing.any():
             x[missing] = self.last[missing]
         self.last = x

@@ -73,6 +73,24 @@ def test_classify_on_the_cluster_writes_what_one_process_writes(
     assert f'"bag": "{project.parent / "bags" / "ok" / "notes.bag"}",' in fleet.stdout
 
 
+def test_a_learnt_detector_on_the_cluster_is_the_one_process_learns(
+    project: Path, address: str, tmp_path: Path
+) -> None:
+    """The runs' samples come back from the workers: the detectors (if any is learnt on
+    these few runs) and the report are those of one process."""
+    config = tmp_path / "p.xml"
+    shutil.copytree(project.parent, tmp_path, dirs_exist_ok=True)
+    config.write_text(
+        CONFIG.replace('<check inv="p.inv">', '<check inv="p.inv" detector="logistic">')
+    )
+    common = ["classify", str(config), "--format", "json", "--refined", str(tmp_path / "r.inv")]
+    alone = run(*common, "-j", "1")
+    refined = (tmp_path / "r.inv").read_bytes()
+    fleet = run(*common, "--scheduler", address)
+    assert fleet.stdout == alone.stdout and '"detectors": [' in fleet.stdout
+    assert (tmp_path / "r.inv").read_bytes() == refined
+
+
 def test_classify_cross_validated_on_the_cluster(
     project: Path, address: str, tmp_path: Path
 ) -> None:
