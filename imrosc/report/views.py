@@ -585,11 +585,20 @@ def _cover(data: Any) -> str | None:
     if not isinstance(data, Mapping):
         return None
     chosen = data.get("chosen") or []
-    return (
+    line = (
         f"the chosen set of {plural(len(chosen), 'invariant')} detects "
         f"{_count(data.get('detected'))} fail runs; estimated false-alarm probability per "
         f"nominal run {_count(data.get('false_alarm'))}"
     )
+    held = [w for w in data.get("held_out") or () if isinstance(w, Mapping)]
+    if held:  # learnt detectors competed (<check detector>): which monitor, and why
+        worths = ", ".join(
+            f"{_text(w.get('monitor'))} {_count(w.get('value'))} ({_count(w.get('detected'))} "
+            f"detected, {_count(w.get('early'))} early)"
+            for w in held
+        )
+        line += f"; monitor kept: {_text(data.get('monitor'))} (held-out worth: {worths})"
+    return line
 
 
 # ------------------------------------------------------------------------------- stability
