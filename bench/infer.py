@@ -62,14 +62,27 @@ def synthetic() -> tuple[np.ndarray, np.ndarray]:
 
 
 GROUP = (
-    "a", "b", "c", "k", "m", "t", "p", "q", "n1", "n2", "mx", "ab", "s", "i",
+    "a",
+    "b",
+    "c",
+    "k",
+    "m",
+    "t",
+    "p",
+    "q",
+    "n1",
+    "n2",
+    "mx",
+    "ab",
+    "s",
+    "i",
 )
 """The 14 variables of one planted group (``a3`` is group 3's ``a``)."""
 
 
-def planted(rows: int = ROWS, groups: int = COLUMNS // len(GROUP), seed: int = 2) -> tuple[
-    np.ndarray, np.ndarray, tuple[str, ...]
-]:
+def planted(
+    rows: int = ROWS, groups: int = COLUMNS // len(GROUP), seed: int = 2
+) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     """The planted point: ``groups`` groups of 14 float64 variables with exact relations.
 
     Per group ``g``: ranges (``a`` in [-10, 10], ``p`` in [0.5, 20], ``n1``, ``n2`` normal,
@@ -137,8 +150,11 @@ def planted_missed(invariants: list[Invariant], groups: int = COLUMNS // len(GRO
     """The planted properties not reported: relations by text, ranges as a bounds range
     within 1 % of the planted width of each planted end."""
     texts = {(inv.family, inv.text) for inv in invariants}
-    missed = [f"{family}: {text}" for family, text in planted_properties(groups) if
-              (family, text) not in texts]
+    missed = [
+        f"{family}: {text}"
+        for family, text in planted_properties(groups)
+        if (family, text) not in texts
+    ]
     ranges = {
         inv.variables[0]: (inv.params["min"], inv.params["max"])
         for inv in invariants

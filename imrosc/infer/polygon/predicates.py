@@ -6,9 +6,10 @@ counter-clockwise, ``-1`` clockwise, ``0`` collinear. Stage A is the float deter
 with Shewchuk's error bound; the elements it cannot decide go to stages B and C (products
 and differences as exact two-term expansions, with their bounds); what is still undecided
 (in practice: exactly collinear points whose differences round) gets stage D: the
-determinant as sixteen floats whose sum is exact, summed with ``math.fsum`` (correctly
-rounded, so its sign is exact). Inputs of extreme magnitude, where a product could
-underflow or overflow (Shewchuk's bounds assume neither), get exact rational arithmetic.
+determinant as sixteen floats whose sum is exact, the sign of which vectorised
+error-free summation settles (``math.fsum``, correctly rounded, for the rare rows it does
+not). Inputs of extreme magnitude, where a product could underflow or overflow
+(Shewchuk's bounds assume neither), get exact rational arithmetic.
 Inputs must be finite.
 """
 
@@ -117,6 +118,9 @@ def _adaptive(
         sign = np.where(use_c, np.sign(det_c), np.sign(det))
         decided |= use_c
         decided &= np.isfinite(sign) & big
+        level = _parallel(acx, acx_t, acy, acy_t, bcx, bcx_t, bcy, bcy_t)
+        sign = np.where(level, 0.0, sign)
+        decided |= level
     out[decided] = sign[decided].astype(np.int8)
     rest = np.flatnonzero(~decided)
     if len(rest):
@@ -124,11 +128,47 @@ def _adaptive(
     return out
 
 
+def _parallel(
+    acx: FloatArray,
+    acx_t: FloatArray,
+    acy: FloatArray,
+    acy_t: FloatArray,
+    bcx: FloatArray,
+    bcx_t: FloatArray,
+    bcy: FloatArray,
+    bcy_t: FloatArray,
+) -> npt.NDArray[np.bool_]:
+    """Where ``a - c`` and ``b - c`` are exactly parallel with a power-of-two ratio of
+    coordinates (``y - y' == s * (x - x')`` for both, ``s = +-2**k``): the points lie on
+    one line of such a slope (``q = -p``, ``y = x + c``, ``ab = |n|`` on either side,
+    ``mx = max(n1, n2)`` where it is ``n1``), and the determinant is exactly zero.
+
+    The exact differences are ``hi + tail`` (two-diff); scaling by a power of two is exact
+    away from underflow, which the guard on the operands' magnitudes excludes, so equal
+    scaled parts prove ``a - c == s * (...)`` exactly. A cheap test: exact relations put
+    many points on an edge of their hull, which only stage D could otherwise settle.
+    """
+    with np.errstate(all="ignore"):
+        s = np.where(acx != 0, acy / acx, bcy / bcx)
+        mantissa, exponent = np.frexp(s)
+        ok = (np.abs(mantissa) == 0.5) & (np.abs(exponent) <= 60)
+        for v in (acx, acx_t, bcx, bcx_t):
+            size = np.abs(v)
+            ok &= (size == 0) | ((size >= _SAFE_LOW) & np.isfinite(size))
+        ok &= (acy == s * acx) & (acy_t == s * acx_t) & (bcy == s * bcx) & (bcy_t == s * bcx_t)
+    result: npt.NDArray[np.bool_] = ok
+    return result
+
+
 _SAFE_HIGH = 2.0**400
 _SAFE_LOW = 2.0**-400
 """Inputs of magnitudes in ``[_SAFE_LOW, _SAFE_HIGH)`` (or zero) make every partial product
 of stage D a multiple of ``2**-904`` below ``2**810``: no underflow, no overflow, so
 Dekker's products are exact. Anything else goes to rational arithmetic."""
+
+
+_STAGE_D_BLOCK = 1 << 16
+"""Elements of stage D computed together (its sixteen terms per element stay small)."""
 
 
 def _stage_d(
@@ -139,11 +179,27 @@ def _stage_d(
     cx: FloatArray,
     cy: FloatArray,
 ) -> SignArray:
+    """:func:`_stage_d_block` by blocks of ``_STAGE_D_BLOCK`` elements."""
+    out = np.zeros(len(ax), np.int8)
+    for first in range(0, len(ax), _STAGE_D_BLOCK):
+        part = slice(first, first + _STAGE_D_BLOCK)
+        out[part] = _stage_d_block(ax[part], ay[part], bx[part], by[part], cx[part], cy[part])
+    return out
+
+
+def _stage_d_block(
+    ax: FloatArray,
+    ay: FloatArray,
+    bx: FloatArray,
+    by: FloatArray,
+    cx: FloatArray,
+    cy: FloatArray,
+) -> SignArray:
     """The exact sign from the 16 floats whose sum is the determinant.
 
     Each difference is exactly ``hi + tail``; each product of two such sums is exactly
-    eight floats (Dekker's product). ``math.fsum`` rounds their sum correctly, so its sign
-    is the exact sign. Where a product may have underflowed or a split overflowed, the
+    eight floats (Dekker's product); :func:`exact_sum_signs` finds the exact sign of their
+    sum. Where a product may have underflowed or a split overflowed, the
     sign comes from rational arithmetic instead.
     """
     with np.errstate(all="ignore"):
@@ -173,14 +229,57 @@ def _stage_d(
             size = np.abs(v)
             safe &= (size == 0) | ((size >= _SAFE_LOW) & (size < _SAFE_HIGH))
     out = np.zeros(len(ax), np.int8)
-    for k, row in enumerate(stacked.tolist()):
-        if safe[k]:
-            total = math.fsum(row)
-            out[k] = (total > 0) - (total < 0)
-        else:
-            out[k] = _exact_sign(
-                float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
-            )
+    easy = np.flatnonzero(safe)
+    out[easy] = exact_sum_signs(stacked[easy])
+    for k in np.flatnonzero(~safe).tolist():
+        out[k] = _exact_sign(
+            float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
+        )
+    return out
+
+
+_PASSES = 12
+"""Distillation passes of :func:`exact_sum_signs` before a row falls back to ``math.fsum``."""
+
+
+def exact_sum_signs(terms: FloatArray) -> SignArray:
+    """The exact sign of each row's sum (``(rows, k)`` finite floats whose partial sums
+    neither overflow nor lose bits to underflow), vectorised.
+
+    Each pass is Ogita, Rump and Oishi's ``VecSum``: a cascade of error-free two-sums that
+    leaves the row's exact sum unchanged, its rounded sum in the last column and the
+    rounding errors in the others. The sign is settled once the errors are all zero, or
+    once the rounded sum exceeds the sum of their magnitudes even with that sum's own
+    rounding (``k`` units) doubled; exact cancellations (collinear points) settle in a
+    pass or two. Rows still open after ``_PASSES`` passes get ``math.fsum`` (correctly
+    rounded, so its sign is exact).
+    """
+    rows, width = terms.shape
+    out = np.zeros(rows, np.int8)
+    if not rows:
+        return out
+    work = np.array(terms, dtype=np.float64, order="F")
+    open_ = np.arange(rows)
+    margin = 1.0 + 4 * width * _EPS
+    with np.errstate(all="ignore"):
+        for _ in range(_PASSES):
+            total = work[:, 0].copy()
+            for k in range(1, width):
+                term = work[:, k]
+                total, work[:, k - 1] = _two_sum(total, term)
+            work[:, width - 1] = total
+            rest = np.abs(work[:, : width - 1]).sum(axis=1)
+            done = (rest == 0) | (np.abs(total) > rest * margin)
+            hit = np.flatnonzero(done)
+            out[open_[hit]] = np.sign(total[hit]).astype(np.int8)
+            keep = np.flatnonzero(~done)
+            open_ = open_[keep]
+            if not len(open_):
+                return out
+            work = np.asfortranarray(work[keep])
+    for k, row in zip(open_.tolist(), work.tolist(), strict=True):
+        total = math.fsum(row)
+        out[k] = (total > 0) - (total < 0)
     return out
 
 
