@@ -94,22 +94,55 @@ def _adaptive(
     cy: FloatArray,
     detsum: FloatArray,
 ) -> SignArray:
-    """Stages B, C (vectorised) and D (exact) for the elements stage A left open."""
+    """Stages B, C (vectorised) and D (exact) for the elements stage A left open; first,
+    the exactly parallel differences (:func:`_parallel`), which are zero."""
     out = np.zeros(len(ax), np.int8)
-    big = detsum >= _TINY
     with np.errstate(all="ignore"):
         acx, bcx = ax - cx, bx - cx
         acy, bcy = ay - cy, by - cy
+        acx_t = _two_diff_tail(ax, cx, acx)
+        bcx_t = _two_diff_tail(bx, cx, bcx)
+        acy_t = _two_diff_tail(ay, cy, acy)
+        bcy_t = _two_diff_tail(by, cy, bcy)
+    level = _parallel(acx, acx_t, acy, acy_t, bcx, bcx_t, bcy, bcy_t)
+    todo = np.flatnonzero(~level)
+    if len(todo) == len(ax):
+        todo = np.arange(len(ax))
+    elif not len(todo):
+        return out
+    sub = [v.take(todo) for v in (ax, ay, bx, by, cx, cy, detsum)]
+    tails = [v.take(todo) for v in (acx, bcx, acy, bcy, acx_t, bcx_t, acy_t, bcy_t)]
+    out[todo] = _stages_bcd(*sub, *tails)
+    return out
+
+
+def _stages_bcd(
+    ax: FloatArray,
+    ay: FloatArray,
+    bx: FloatArray,
+    by: FloatArray,
+    cx: FloatArray,
+    cy: FloatArray,
+    detsum: FloatArray,
+    acx: FloatArray,
+    bcx: FloatArray,
+    acy: FloatArray,
+    bcy: FloatArray,
+    acx_t: FloatArray,
+    bcx_t: FloatArray,
+    acy_t: FloatArray,
+    bcy_t: FloatArray,
+) -> SignArray:
+    """Stages B, C and D given the differences and their tails."""
+    out = np.zeros(len(ax), np.int8)
+    big = detsum >= _TINY
+    with np.errstate(all="ignore"):
         left, left_tail = _two_product(acx, bcy)
         right, right_tail = _two_product(acy, bcx)
         j, z, b0 = _two_one_diff(left, left_tail, right_tail)
         b3, b2, b1 = _two_one_diff(j, z, right)
         det = ((b0 + b1) + b2) + b3
         decided = np.abs(det) >= _CCW_ERR_B * detsum
-        acx_t = _two_diff_tail(ax, cx, acx)
-        bcx_t = _two_diff_tail(bx, cx, bcx)
-        acy_t = _two_diff_tail(ay, cy, acy)
-        bcy_t = _two_diff_tail(by, cy, bcy)
         exact = (acx_t == 0) & (bcx_t == 0) & (acy_t == 0) & (bcy_t == 0)
         decided |= exact & np.isfinite(det)
         bound = _CCW_ERR_C * detsum + _RESULT_ERR * np.abs(det)
@@ -118,9 +151,6 @@ def _adaptive(
         sign = np.where(use_c, np.sign(det_c), np.sign(det))
         decided |= use_c
         decided &= np.isfinite(sign) & big
-        level = _parallel(acx, acx_t, acy, acy_t, bcx, bcx_t, bcy, bcy_t)
-        sign = np.where(level, 0.0, sign)
-        decided |= level
     out[decided] = sign[decided].astype(np.int8)
     rest = np.flatnonzero(~decided)
     if len(rest):
