@@ -319,7 +319,8 @@ def main() -> None:
             if args.before is not None:
                 b = measure(case, point, args.repeat, args.before)
                 line += (
-                    f"  | before {b['seconds']:6.2f} s (cpu {b['cpu']:6.2f} s) {b['peak_mb']:5.0f} MB:"
+                    f"  | before {b['seconds']:6.2f} s (cpu {b['cpu']:6.2f} s)"
+                    f" {b['peak_mb']:5.0f} MB:"
                     f" cpu x{r['cpu'] / b['cpu']:.2f},"
                     f" extra memory x{_extra(r) / max(_extra(b), 1.0):.2f}"
                 )

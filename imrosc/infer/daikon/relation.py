@@ -225,7 +225,8 @@ class RelationState:
 
     def usable(self, context: FinalizeContext) -> BoolArray:
         """Variables a relation may use: non-constant, >3 values, equality-class leaders."""
-        return self.leaders(context) & np.array(self.distinct.overflow, dtype=bool)
+        usable: BoolArray = self.leaders(context) & np.array(self.distinct.overflow, dtype=bool)
+        return usable
 
     def leaders(self, context: FinalizeContext) -> BoolArray:
         """Non-constant variables that lead their equality class (whatever their values)."""

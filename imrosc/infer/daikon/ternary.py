@@ -20,11 +20,11 @@ level the relation is a line, held to Daikon's rule for lines); at most one such
 per triple.
 
 Suppressed: triples with a constant variable, a non-leader of an equality class, a variable
-with at most 3 distinct values but as above, a variable linearly related to an earlier one (``y = 2*x +
-3`` makes every relation of ``y`` one of ``x``: the state tracks linear pairs itself), or a
-pair that is itself linear (the linear family reports it, Daikon's rule); fits where a
-printed coefficient of ``x`` or ``y`` is zero; unjustified support (confidence
-``1 - 2**-n``, ``n`` the joint samples).
+with at most 3 distinct values but as above, a variable linearly related to an earlier one
+(``y = 2*x + 3`` makes every relation of ``y`` one of ``x``: the state tracks linear pairs
+itself), or a pair that is itself linear (the linear family reports it, Daikon's rule);
+fits where a printed coefficient of ``x`` or ``y`` is zero; unjustified support
+(confidence ``1 - 2**-n``, ``n`` the joint samples).
 """
 
 from __future__ import annotations
