@@ -90,6 +90,11 @@ _HEAD = 64
 def _more(points: Points, x: FloatArray, y: FloatArray) -> Points | None:
     """``points`` with the distinct ``(x, y)`` (``None`` once ``ENOUGH``): the level's first
     ``_HEAD`` rows first, all of them only if those do not fill it."""
+    if not len(x):
+        return points
+    if (x == x[0]).all() and (y == y[0]).all():  # partners constant on the level here
+        union = points | {(float(x[0]), float(y[0]))}
+        return None if len(union) >= ENOUGH else union
     union = points
     for stop in (_HEAD, len(x)):
         pair = np.empty(min(stop, len(x)), np.complex128)

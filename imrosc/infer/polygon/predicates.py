@@ -106,13 +106,12 @@ def _adaptive(
         bcy_t = _two_diff_tail(by, cy, bcy)
     level = _parallel(acx, acx_t, acy, acy_t, bcx, bcx_t, bcy, bcy_t)
     todo = np.flatnonzero(~level)
-    if len(todo) == len(ax):
-        todo = np.arange(len(ax))
-    elif not len(todo):
+    if not len(todo):
         return out
-    sub = [v.take(todo) for v in (ax, ay, bx, by, cx, cy, detsum)]
-    tails = [v.take(todo) for v in (acx, bcx, acy, bcy, acx_t, bcx_t, acy_t, bcy_t)]
-    out[todo] = _stages_bcd(*sub, *tails)
+    every = (ax, ay, bx, by, cx, cy, detsum, acx, bcx, acy, bcy, acx_t, bcx_t, acy_t, bcy_t)
+    if 2 * len(todo) > len(ax):  # most are open: no gathering, the parallel ones are zero
+        return np.where(level, out, _stages_bcd(*every))
+    out[todo] = _stages_bcd(*(v.take(todo) for v in every))
     return out
 
 
@@ -331,6 +330,8 @@ def orientation(
         sure &= (detsum >= _TINY) | zero
     out = np.sign(det, where=sure, out=np.zeros(det.shape)).astype(np.int8)
     open_ = np.flatnonzero(~sure)
+    if 2 * len(open_) > len(out):  # most are open (samples on an edge): no gathering
+        return np.where(sure, out, _adaptive(ax, ay, bx, by, cx, cy, detsum))
     if len(open_):
         out[open_] = _adaptive(
             ax[open_], ay[open_], bx[open_], by[open_], cx[open_], cy[open_], detsum[open_]
