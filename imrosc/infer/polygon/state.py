@@ -44,6 +44,8 @@ _HEAD = 512
 
 _LOCATE_AT = 4096
 """Candidates of a chunk beyond which those in their current hull are located and dropped."""
+_LOCATE_BLOCK = 1 << 17
+"""Candidates located together (bounds the temporaries of exact location)."""
 
 THIN_RATIO = 1e-9
 """Hulls whose area is at most this fraction of their bounding box are lines, not polygons."""
@@ -252,7 +254,10 @@ class PolygonState:
         if len(found) < _LOCATE_AT:
             return found
         locator = Locator.build(self.hull, len(self.pi))
-        keep = ~locator.covered(found.group, found.x, found.y)
+        keep = np.empty(len(found), bool)
+        for first in range(0, len(found), _LOCATE_BLOCK):  # bounded temporaries
+            part = slice(first, first + _LOCATE_BLOCK)
+            keep[part] = ~locator.covered(found.group[part], found.x[part], found.y[part])
         return found.take(np.flatnonzero(keep))
 
     def end_run(self) -> None:
