@@ -110,7 +110,7 @@ def _adaptive(
         return out
     every = (ax, ay, bx, by, cx, cy, detsum, acx, bcx, acy, bcy, acx_t, bcx_t, acy_t, bcy_t)
     if 2 * len(todo) > len(ax):  # most are open: no gathering, the parallel ones are zero
-        return np.where(level, out, _stages_bcd(*every))
+        return np.where(level, out, _stages_bcd(*every, settled=level))
     out[todo] = _stages_bcd(*(v.take(todo) for v in every))
     return out
 
@@ -131,8 +131,10 @@ def _stages_bcd(
     bcx_t: FloatArray,
     acy_t: FloatArray,
     bcy_t: FloatArray,
+    settled: npt.NDArray[np.bool_] | None = None,
 ) -> SignArray:
-    """Stages B, C and D given the differences and their tails."""
+    """Stages B, C and D given the differences and their tails (none for the elements
+    ``settled`` already, whose result is ignored)."""
     out = np.zeros(len(ax), np.int8)
     big = detsum >= _TINY
     with np.errstate(all="ignore"):
@@ -151,7 +153,7 @@ def _stages_bcd(
         decided |= use_c
         decided &= np.isfinite(sign) & big
     out[decided] = sign[decided].astype(np.int8)
-    rest = np.flatnonzero(~decided)
+    rest = np.flatnonzero(~decided if settled is None else ~decided & ~settled)
     if len(rest):
         out[rest] = _stage_d(ax[rest], ay[rest], bx[rest], by[rest], cx[rest], cy[rest])
     return out
