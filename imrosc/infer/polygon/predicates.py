@@ -131,6 +131,7 @@ def _stages_bcd(
     bcx_t: FloatArray,
     acy_t: FloatArray,
     bcy_t: FloatArray,
+    *,
     settled: npt.NDArray[np.bool_] | None = None,
 ) -> SignArray:
     """Stages B, C and D given the differences and their tails (none for the elements
