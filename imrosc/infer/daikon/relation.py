@@ -225,16 +225,17 @@ class RelationState:
 
     def usable(self, context: FinalizeContext) -> BoolArray:
         """Variables a relation may use: non-constant, >3 values, equality-class leaders."""
+        usable: BoolArray = self.leaders(context) & np.array(self.distinct.overflow, dtype=bool)
+        return usable
+
+    def leaders(self, context: FinalizeContext) -> BoolArray:
+        """Non-constant variables that lead their equality class (whatever their values)."""
         constant = self.extremes.constant()
         eligible = [not bool(constant[v]) for v in range(len(self.names))]
         classes = equality_classes(len(self.names), self.flags.equal_pairs(context), eligible)
         followers = {v for members in classes for v in members[1:]}
         return np.array(
-            [
-                eligible[v] and v not in followers and self.distinct.overflow[v]
-                for v in range(len(self.names))
-            ],
-            dtype=bool,
+            [eligible[v] and v not in followers for v in range(len(self.names))], dtype=bool
         )
 
     def scales(self, members: Sequence[int]) -> tuple[list[float], list[float]]:

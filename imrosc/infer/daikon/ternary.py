@@ -13,12 +13,18 @@ and prints the last variable as the dependent one unless a coefficient then need
 4 significant digits, when the orientation with the fewest digits is printed; coefficients
 are the shortest decimals that still hold.
 
+A variable with 2 or 3 distinct values (a mode: ``t = a - 2*m + 1`` with ``m`` in ``{-1, 0,
+2}``) takes part only beside two variables with more than 3 values each, and only once two
+of its levels each show more than 3 distinct points of the other two (``levels``: on a
+level the relation is a line, held to Daikon's rule for lines); at most one such variable
+per triple.
+
 Suppressed: triples with a constant variable, a non-leader of an equality class, a variable
-with at most 3 distinct values, a variable linearly related to an earlier one (``y = 2*x +
-3`` makes every relation of ``y`` one of ``x``: the state tracks linear pairs itself), or a
-pair that is itself linear (the linear family reports it, Daikon's rule); fits where a
-printed coefficient of ``x`` or ``y`` is zero; unjustified support (confidence
-``1 - 2**-n``, ``n`` the joint samples).
+with at most 3 distinct values but as above, a variable linearly related to an earlier one
+(``y = 2*x + 3`` makes every relation of ``y`` one of ``x``: the state tracks linear pairs
+itself), or a pair that is itself linear (the linear family reports it, Daikon's rule);
+fits where a printed coefficient of ``x`` or ``y`` is zero; unjustified support
+(confidence ``1 - 2**-n``, ``n`` the joint samples).
 """
 
 from __future__ import annotations
@@ -26,8 +32,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
+
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable, confidence
+from imrosc.infer.daikon.chunk import view
 from imrosc.infer.daikon.exact import Fit, Moments, choose
+from imrosc.infer.daikon.levels import LevelSupport
 from imrosc.infer.daikon.linear import LinearState, best_pair_fit
 from imrosc.infer.daikon.relation import RelationState, relation_text
 
@@ -43,20 +54,42 @@ class TernaryState(RelationState):
     def __init__(self, variables: Sequence[Variable]) -> None:
         super().__init__(variables)
         self.pairs = LinearState(variables)
+        self.support = LevelSupport()
 
     def update(self, samples: Samples) -> None:
-        """Consume one chunk (and track linear pairs, to relate only their leaders)."""
+        """Consume one chunk (and track linear pairs, to relate only their leaders, and the
+        levels of variables with few values so far)."""
         self.pairs.update(samples)
         super().update(samples)
+        few = [not overflow for overflow in self.distinct.overflow]
+        if self.live is not None and len(self.live) and any(few):
+            self.support.update(view(samples).columns(self.names), self.live, few)
 
     def merge(self, other: Any) -> None:
         """Absorb a state whose samples come after ours."""
         super().merge(other)
         self.pairs.merge(other.pairs)
+        self.support.merge(other.support)
+
+    def _members_usable(
+        self, members: list[int], usable: npt.NDArray[np.bool_], few: npt.NDArray[np.bool_]
+    ) -> bool:
+        """All members usable, or one with few values supported by its levels beside two
+        usable ones."""
+        if all(usable[v] for v in members):
+            return True
+        rest = [k for k, v in enumerate(members) if not usable[v]]
+        if len(rest) != 1 or not few[members[rest[0]]]:
+            return False
+        triple = (members[0], members[1], members[2])
+        return self.support.supported(triple, rest[0])
 
     def finalize(self, context: FinalizeContext) -> list[Invariant]:
         """The justified ternary relations."""
         usable = self.usable(context)
+        counts = np.array(self.distinct.count)
+        overflow = np.array(self.distinct.overflow, dtype=bool)
+        few = self.leaders(context) & ~overflow & (counts >= 2)
         linked = {(first, second) for first, second, _ in self.pairs.relations(context)}
         for v in range(len(self.names)):
             if any(usable[u] and (u, v) in linked for u in range(v)):
@@ -64,7 +97,7 @@ class TernaryState(RelationState):
         found: list[Invariant] = []
         for candidate, moments in sorted(self.moments.items()):
             members = list(candidate)
-            if not all(usable[v] for v in members):
+            if not self._members_usable(members, usable, few):
                 continue
             if not context.justified(moments.count):
                 continue

@@ -20,9 +20,10 @@ reduced without touching most (pair, row) combinations, using what the
 * pairs without a table whose hull is a segment or a sliver (a variable that is a linear
   function of the other, up to rounding) have every row located exactly in their hull
   (:mod:`~imrosc.infer.polygon.locate`);
-* pairs where a variable takes few values (constants, flags, modes) keep, per value, only
-  the rows with the least and greatest partner value, found in the partner's tails; pairs
-  of identical columns keep their two end points; pairs without any hull keep all.
+* pairs where a variable takes few values (constants, flags, modes, whatever their type)
+  keep, per value, only the rows with the least and greatest partner value, found in the
+  partner's tails; pairs of identical columns keep their two end points; pairs without
+  any hull keep all.
 
 Everything discarded is provably in the current hull and none of its vertices, hence no
 vertex of ``hull(current hull | chunk)``: the exact hull of the current vertices plus the
@@ -48,7 +49,7 @@ from imrosc.infer.polygon.hull import GroupSet, IntArray
 BoolArray = npt.NDArray[np.bool_]
 
 FEW_VALUES = 16
-"""A discrete (int/uint/bool) column with at most this many values in a chunk is grouped."""
+"""A column with at most this many values in a chunk is grouped (see :func:`_few_valued`)."""
 
 SAMPLE = 1024
 """Rows per chunk whose sorted values estimate how many rows a guide lets through."""
@@ -254,12 +255,19 @@ class Chunk:
 
 
 def _few_valued(chunk: Chunk) -> BoolArray:
-    """Constant variables, and discrete ones with at most ``FEW_VALUES`` values here (their
-    values go to ``chunk.levels``)."""
+    """Constant variables, and the others with at most ``FEW_VALUES`` values here (their
+    values go to ``chunk.levels``): discrete ones (int/uint/bool) always looked at, float
+    ones (modes, flags or integer counts stored as floats) when the estimation sample
+    shows few values (a continuous column shows about one per sampled row)."""
     few: BoolArray = np.asarray((chunk.low == chunk.high) & ~chunk.empty, dtype=bool)
     for var in np.flatnonzero(few).tolist():
         chunk.levels[var] = chunk.low[var : var + 1].copy()
-    for var in np.flatnonzero(~few & ~chunk.empty & np.asarray(chunk.discrete, bool)).tolist():
+    discrete = np.asarray(chunk.discrete, bool)
+    for var in np.flatnonzero(~few & ~chunk.empty).tolist():
+        if not discrete[var]:
+            sample = chunk.sorted_sample()[var]
+            if len(sample) and 1 + int(np.count_nonzero(np.diff(sample))) > FEW_VALUES:
+                continue
         levels = np.unique(chunk.values[var][~chunk.nan[var]])
         if len(levels) <= FEW_VALUES:
             few[var] = True

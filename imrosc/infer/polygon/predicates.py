@@ -6,9 +6,10 @@ counter-clockwise, ``-1`` clockwise, ``0`` collinear. Stage A is the float deter
 with Shewchuk's error bound; the elements it cannot decide go to stages B and C (products
 and differences as exact two-term expansions, with their bounds); what is still undecided
 (in practice: exactly collinear points whose differences round) gets stage D: the
-determinant as sixteen floats whose sum is exact, summed with ``math.fsum`` (correctly
-rounded, so its sign is exact). Inputs of extreme magnitude, where a product could
-underflow or overflow (Shewchuk's bounds assume neither), get exact rational arithmetic.
+determinant as sixteen floats whose sum is exact, the sign of which vectorised
+error-free summation settles (``math.fsum``, correctly rounded, for the rare rows it does
+not). Inputs of extreme magnitude, where a product could underflow or overflow
+(Shewchuk's bounds assume neither), get exact rational arithmetic.
 Inputs must be finite.
 """
 
@@ -93,22 +94,57 @@ def _adaptive(
     cy: FloatArray,
     detsum: FloatArray,
 ) -> SignArray:
-    """Stages B, C (vectorised) and D (exact) for the elements stage A left open."""
+    """Stages B, C (vectorised) and D (exact) for the elements stage A left open; first,
+    the exactly parallel differences (:func:`_parallel`), which are zero."""
     out = np.zeros(len(ax), np.int8)
-    big = detsum >= _TINY
     with np.errstate(all="ignore"):
         acx, bcx = ax - cx, bx - cx
         acy, bcy = ay - cy, by - cy
+        acx_t = _two_diff_tail(ax, cx, acx)
+        bcx_t = _two_diff_tail(bx, cx, bcx)
+        acy_t = _two_diff_tail(ay, cy, acy)
+        bcy_t = _two_diff_tail(by, cy, bcy)
+    level = _parallel(acx, acx_t, acy, acy_t, bcx, bcx_t, bcy, bcy_t)
+    todo = np.flatnonzero(~level)
+    if not len(todo):
+        return out
+    every = (ax, ay, bx, by, cx, cy, detsum, acx, bcx, acy, bcy, acx_t, bcx_t, acy_t, bcy_t)
+    if 2 * len(todo) > len(ax):  # most are open: no gathering, the parallel ones are zero
+        return np.where(level, out, _stages_bcd(*every, settled=level))
+    out[todo] = _stages_bcd(*(v.take(todo) for v in every))
+    return out
+
+
+def _stages_bcd(
+    ax: FloatArray,
+    ay: FloatArray,
+    bx: FloatArray,
+    by: FloatArray,
+    cx: FloatArray,
+    cy: FloatArray,
+    detsum: FloatArray,
+    acx: FloatArray,
+    bcx: FloatArray,
+    acy: FloatArray,
+    bcy: FloatArray,
+    acx_t: FloatArray,
+    bcx_t: FloatArray,
+    acy_t: FloatArray,
+    bcy_t: FloatArray,
+    *,
+    settled: npt.NDArray[np.bool_] | None = None,
+) -> SignArray:
+    """Stages B, C and D given the differences and their tails (none for the elements
+    ``settled`` already, whose result is ignored)."""
+    out = np.zeros(len(ax), np.int8)
+    big = detsum >= _TINY
+    with np.errstate(all="ignore"):
         left, left_tail = _two_product(acx, bcy)
         right, right_tail = _two_product(acy, bcx)
         j, z, b0 = _two_one_diff(left, left_tail, right_tail)
         b3, b2, b1 = _two_one_diff(j, z, right)
         det = ((b0 + b1) + b2) + b3
         decided = np.abs(det) >= _CCW_ERR_B * detsum
-        acx_t = _two_diff_tail(ax, cx, acx)
-        bcx_t = _two_diff_tail(bx, cx, bcx)
-        acy_t = _two_diff_tail(ay, cy, acy)
-        bcy_t = _two_diff_tail(by, cy, bcy)
         exact = (acx_t == 0) & (bcx_t == 0) & (acy_t == 0) & (bcy_t == 0)
         decided |= exact & np.isfinite(det)
         bound = _CCW_ERR_C * detsum + _RESULT_ERR * np.abs(det)
@@ -118,10 +154,42 @@ def _adaptive(
         decided |= use_c
         decided &= np.isfinite(sign) & big
     out[decided] = sign[decided].astype(np.int8)
-    rest = np.flatnonzero(~decided)
+    rest = np.flatnonzero(~decided if settled is None else ~decided & ~settled)
     if len(rest):
         out[rest] = _stage_d(ax[rest], ay[rest], bx[rest], by[rest], cx[rest], cy[rest])
     return out
+
+
+def _parallel(
+    acx: FloatArray,
+    acx_t: FloatArray,
+    acy: FloatArray,
+    acy_t: FloatArray,
+    bcx: FloatArray,
+    bcx_t: FloatArray,
+    bcy: FloatArray,
+    bcy_t: FloatArray,
+) -> npt.NDArray[np.bool_]:
+    """Where ``a - c`` and ``b - c`` are exactly parallel with a power-of-two ratio of
+    coordinates (``y - y' == s * (x - x')`` for both, ``s = +-2**k``): the points lie on
+    one line of such a slope (``q = -p``, ``y = x + c``, ``ab = |n|`` on either side,
+    ``mx = max(n1, n2)`` where it is ``n1``), and the determinant is exactly zero.
+
+    The exact differences are ``hi + tail`` (two-diff); scaling by a power of two is exact
+    away from underflow, which the guard on the operands' magnitudes excludes, so equal
+    scaled parts prove ``a - c == s * (...)`` exactly. A cheap test: exact relations put
+    many points on an edge of their hull, which only stage D could otherwise settle.
+    """
+    with np.errstate(all="ignore"):
+        s = np.where(acx != 0, acy / acx, bcy / bcx)
+        mantissa, exponent = np.frexp(s)
+        ok = (np.abs(mantissa) == 0.5) & (np.abs(exponent) <= 60)
+        for v in (acx, acx_t, bcx, bcx_t):
+            size = np.abs(v)
+            ok &= (size == 0) | ((size >= _SAFE_LOW) & np.isfinite(size))
+        ok &= (acy == s * acx) & (acy_t == s * acx_t) & (bcy == s * bcx) & (bcy_t == s * bcx_t)
+    result: npt.NDArray[np.bool_] = ok
+    return result
 
 
 _SAFE_HIGH = 2.0**400
@@ -129,6 +197,10 @@ _SAFE_LOW = 2.0**-400
 """Inputs of magnitudes in ``[_SAFE_LOW, _SAFE_HIGH)`` (or zero) make every partial product
 of stage D a multiple of ``2**-904`` below ``2**810``: no underflow, no overflow, so
 Dekker's products are exact. Anything else goes to rational arithmetic."""
+
+
+_STAGE_D_BLOCK = 1 << 16
+"""Elements of stage D computed together (its sixteen terms per element stay small)."""
 
 
 def _stage_d(
@@ -139,11 +211,27 @@ def _stage_d(
     cx: FloatArray,
     cy: FloatArray,
 ) -> SignArray:
+    """:func:`_stage_d_block` by blocks of ``_STAGE_D_BLOCK`` elements."""
+    out = np.zeros(len(ax), np.int8)
+    for first in range(0, len(ax), _STAGE_D_BLOCK):
+        part = slice(first, first + _STAGE_D_BLOCK)
+        out[part] = _stage_d_block(ax[part], ay[part], bx[part], by[part], cx[part], cy[part])
+    return out
+
+
+def _stage_d_block(
+    ax: FloatArray,
+    ay: FloatArray,
+    bx: FloatArray,
+    by: FloatArray,
+    cx: FloatArray,
+    cy: FloatArray,
+) -> SignArray:
     """The exact sign from the 16 floats whose sum is the determinant.
 
     Each difference is exactly ``hi + tail``; each product of two such sums is exactly
-    eight floats (Dekker's product). ``math.fsum`` rounds their sum correctly, so its sign
-    is the exact sign. Where a product may have underflowed or a split overflowed, the
+    eight floats (Dekker's product); :func:`exact_sum_signs` finds the exact sign of their
+    sum. Where a product may have underflowed or a split overflowed, the
     sign comes from rational arithmetic instead.
     """
     with np.errstate(all="ignore"):
@@ -173,14 +261,57 @@ def _stage_d(
             size = np.abs(v)
             safe &= (size == 0) | ((size >= _SAFE_LOW) & (size < _SAFE_HIGH))
     out = np.zeros(len(ax), np.int8)
-    for k, row in enumerate(stacked.tolist()):
-        if safe[k]:
-            total = math.fsum(row)
-            out[k] = (total > 0) - (total < 0)
-        else:
-            out[k] = _exact_sign(
-                float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
-            )
+    easy = np.flatnonzero(safe)
+    out[easy] = exact_sum_signs(stacked[easy])
+    for k in np.flatnonzero(~safe).tolist():
+        out[k] = _exact_sign(
+            float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
+        )
+    return out
+
+
+_PASSES = 12
+"""Distillation passes of :func:`exact_sum_signs` before a row falls back to ``math.fsum``."""
+
+
+def exact_sum_signs(terms: FloatArray) -> SignArray:
+    """The exact sign of each row's sum (``(rows, k)`` finite floats whose partial sums
+    neither overflow nor lose bits to underflow), vectorised.
+
+    Each pass is Ogita, Rump and Oishi's ``VecSum``: a cascade of error-free two-sums that
+    leaves the row's exact sum unchanged, its rounded sum in the last column and the
+    rounding errors in the others. The sign is settled once the errors are all zero, or
+    once the rounded sum exceeds the sum of their magnitudes even with that sum's own
+    rounding (``k`` units) doubled; exact cancellations (collinear points) settle in a
+    pass or two. Rows still open after ``_PASSES`` passes get ``math.fsum`` (correctly
+    rounded, so its sign is exact).
+    """
+    rows, width = terms.shape
+    out = np.zeros(rows, np.int8)
+    if not rows:
+        return out
+    work = np.array(terms, dtype=np.float64, order="F")
+    open_ = np.arange(rows)
+    margin = 1.0 + 4 * width * _EPS
+    with np.errstate(all="ignore"):
+        for _ in range(_PASSES):
+            total = work[:, 0].copy()
+            for k in range(1, width):
+                term = work[:, k]
+                total, work[:, k - 1] = _two_sum(total, term)
+            work[:, width - 1] = total
+            rest = np.abs(work[:, : width - 1]).sum(axis=1)
+            done = (rest == 0) | (np.abs(total) > rest * margin)
+            hit = np.flatnonzero(done)
+            out[open_[hit]] = np.sign(total[hit]).astype(np.int8)
+            keep = np.flatnonzero(~done)
+            open_ = open_[keep]
+            if not len(open_):
+                return out
+            work = np.asfortranarray(work[keep])
+    for k, row in zip(open_.tolist(), work.tolist(), strict=True):
+        total = math.fsum(row)
+        out[k] = (total > 0) - (total < 0)
     return out
 
 
@@ -202,6 +333,8 @@ def orientation(
         sure &= (detsum >= _TINY) | zero
     out = np.sign(det, where=sure, out=np.zeros(det.shape)).astype(np.int8)
     open_ = np.flatnonzero(~sure)
+    if 2 * len(open_) > len(out):  # most are open (samples on an edge): no gathering
+        return np.where(sure, out, _adaptive(ax, ay, bx, by, cx, cy, detsum))
     if len(open_):
         out[open_] = _adaptive(
             ax[open_], ay[open_], bx[open_], by[open_], cx[open_], cy[open_], detsum[open_]

@@ -29,6 +29,7 @@ from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, V
 from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, heads, seeds
 from imrosc.infer.polygon.guide import Guide
 from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
+from imrosc.infer.polygon.locate import Locator
 from imrosc.infer.polygon.text import polygon_text
 from imrosc.ir import Tunables
 
@@ -40,6 +41,11 @@ _EXTREMES = 16
 """Rows of each variable's least and greatest values that seed a pair without a hull."""
 _HEAD = 512
 """Rows per block whose extremes give a pair whose guide fits badly a head start."""
+
+_LOCATE_AT = 4096
+"""Candidates of a chunk beyond which those in their current hull are located and dropped."""
+_LOCATE_BLOCK = 1 << 17
+"""Candidates located together (bounds the temporaries of exact location)."""
 
 THIN_RATIO = 1e-9
 """Hulls whose area is at most this fraction of their bounding box are lines, not polygons."""
@@ -235,9 +241,24 @@ class PolygonState:
             found = heads(chunk, self.pi, self.pj, self.guide, todo, _HEAD)
             found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
             self._absorb(found, nothing, refresh=True)
-        found = candidates(chunk, self.pi, self.pj, self.guide)
+        found = self._uncovered(candidates(chunk, self.pi, self.pj, self.guide))
         found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
         self._absorb(found, chunk.valid_counts(self.pi, self.pj))
+
+    def _uncovered(self, found: GroupSet) -> GroupSet:
+        """``found`` without the samples located exactly in their pair's closed hull and
+        none of its vertices: no vertex of any later hull. The guide only discards what lies
+        strictly inside by a float margin, so samples on an edge (exact relations put many
+        there: ``t = a - 2*m + 1``, ``ab = |n|``, ``mx = max(n1, n2)``) reach this; locating
+        them here spares the hull computation rounds over them."""
+        if len(found) < _LOCATE_AT:
+            return found
+        locator = Locator.build(self.hull, len(self.pi))
+        keep = np.empty(len(found), bool)
+        for first in range(0, len(found), _LOCATE_BLOCK):  # bounded temporaries
+            part = slice(first, first + _LOCATE_BLOCK)
+            keep[part] = ~locator.covered(found.group[part], found.x[part], found.y[part])
+        return found.take(np.flatnonzero(keep))
 
     def end_run(self) -> None:
         """Hulls do not depend on runs."""
