@@ -199,16 +199,19 @@ def point_data(point: str) -> tuple[np.ndarray, np.ndarray, tuple[Variable, ...]
     return time_s, data, variables
 
 
-def run_point(families: tuple[str, ...], point: str = "synthetic") -> dict[str, Any]:
-    time_s, data, variables = point_data(point)
-    rows = data.shape[1]
+def infer_point(
+    families: tuple[str, ...],
+    time_s: np.ndarray,
+    data: np.ndarray,
+    variables: tuple[Variable, ...],
+    chunk: int = CHUNK,
+) -> list[Any]:
+    """The invariants of one publish point of ``families`` over ``data`` (one row per
+    variable), fed to the families' states in chunks of ``chunk`` samples as a bag's are."""
     spec = PointSpec("a", "publish", variables, families, trigger="/x")
-    baseline = peak_mb()
-    cpu = time.process_time()
-    started = time.perf_counter()
     states = make_point_states(spec, Tunables())
-    for start in range(0, rows, CHUNK):
-        stop = min(start + CHUNK, rows)
+    for start in range(0, data.shape[1], chunk):
+        stop = min(start + chunk, data.shape[1])
         columns = {v.name: data[i, start:stop] for i, v in enumerate(variables)}
         samples = Samples("a", 0, time_s[start:stop], columns, variables)
         for state in states:
@@ -216,7 +219,15 @@ def run_point(families: tuple[str, ...], point: str = "synthetic") -> dict[str, 
     for state in states:
         state.end_run()
     context = FinalizeContext(Tunables(), variables, "a")
-    found = [inv for state in states for inv in state.finalize(context)]
+    return [inv for state in states for inv in state.finalize(context)]
+
+
+def run_point(families: tuple[str, ...], point: str = "synthetic") -> dict[str, Any]:
+    time_s, data, variables = point_data(point)
+    baseline = peak_mb()
+    cpu = time.process_time()
+    started = time.perf_counter()
+    found = infer_point(families, time_s, data, variables)
     seconds = time.perf_counter() - started
     out: dict[str, Any] = {
         "seconds": seconds,

@@ -4,11 +4,8 @@ property (ranges, ``b = 2*a + 3``, ``a < c``, the constant, the one-of, the tern
 
 from __future__ import annotations
 
-from bench.infer import ALL, GROUP, planted, planted_missed
-from imrosc.infer.core import FinalizeContext, Samples, Variable
-from imrosc.infer.registry import make_point_states
-from imrosc.ir import Tunables
-from imrosc.translate.points import PointSpec
+from bench.infer import ALL, GROUP, infer_point, planted, planted_missed
+from imrosc.infer.core import Variable
 
 
 def test_every_planted_property_is_found() -> None:
@@ -16,18 +13,7 @@ def test_every_planted_property_is_found() -> None:
     time_s, data, names = planted(rows, groups=groups, seed=9)
     assert len(names) == groups * len(GROUP)
     variables = tuple(Variable(n, "float") for n in names)
-    spec = PointSpec("a", "publish", variables, ALL, trigger="/x")
-    states = make_point_states(spec, Tunables())
-    for start in range(0, rows, 1500):
-        stop = min(start + 1500, rows)
-        columns = {v.name: data[k, start:stop] for k, v in enumerate(variables)}
-        samples = Samples("a", 0, time_s[start:stop], columns, variables)
-        for state in states:
-            state.update(samples)
-    for state in states:
-        state.end_run()
-    context = FinalizeContext(Tunables(), variables, "a")
-    found = [inv for state in states for inv in state.finalize(context)]
+    found = infer_point(ALL, time_s, data, variables, chunk=1500)
     assert planted_missed(found, groups) == []
     # the lines are the linear family's, not polygons
     polygons = {inv.variables for inv in found if inv.family == "polygon"}
