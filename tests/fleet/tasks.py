@@ -41,11 +41,16 @@ def kill_always(template: BagJob, bag: Path, run: int) -> BagResult:
 
 
 def kill_once_observing(
-    document: Mapping[str, Any], key: str, bag: Path, task: RunTask, name: Path
+    document: Mapping[str, Any],
+    key: str,
+    bag: Path,
+    task: RunTask,
+    name: Path,
+    collect: bool = False,
 ) -> RunOutcome:
     """Kill the worker the first time it observes a run whose name holds ``victim``, and
     observe it the next time."""
     if VICTIM in bag.name and not marker(bag).exists():
         marker(bag).touch()
         os.kill(os.getpid(), signal.SIGKILL)
-    return _observe_run(document, key, bag, task, name)
+    return _observe_run(document, key, bag, task, name, collect)
