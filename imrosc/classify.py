@@ -304,8 +304,6 @@ class Sampler:
     def __init__(self, document: Mapping[str, Any]) -> None:
         self.places: dict[str, Any] = {}
         for key, info in document["points"].items():
-            if info.get("kind") != "publish":
-                continue
             numeric = [v["name"] for v in info["variables"] if v["type"] in NUMERIC_TYPES]
             weighed = variables_of(info)
             if weighed:
@@ -1027,7 +1025,7 @@ def learn_detectors(
     of the successful runs and of the failed runs with an onset."""
     found = []
     for key, info in sorted(document["points"].items()):
-        variables = variables_of(info) if info.get("kind") == "publish" else []
+        variables = variables_of(info)
         runs = [
             run_of(str(bag), o.start, o.onset if bag in failed else None, o.samples[key])
             for group in (success, failed)

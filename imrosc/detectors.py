@@ -161,7 +161,11 @@ def choose(runs: Sequence[Run]) -> Choice | None:
 
 
 def variables_of(point: Mapping[str, Any]) -> list[str]:
-    """The variables a detector of a point weighs: its numeric values as recorded."""
+    """The variables a detector of a point weighs: its numeric values as recorded; none for
+    a point that is not an unconditional publish point (a conditional point's samples are
+    the moments its condition held, not a stretch of time a window can summarise)."""
+    if point.get("kind") != "publish" or point.get("filter") or point.get("condition"):
+        return []
     return [
         v["name"]
         for v in point.get("variables", ())
