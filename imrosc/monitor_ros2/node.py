@@ -162,9 +162,10 @@ class Monitor:
             String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
         )
         document = common.alarm_document(document, spec.get("alarms"))
-        self.engine = engine_class(document)
+        # numba compiles the checks later, in a thread of its own (:meth:`compile`)
+        self.engine = engine_class(document, compile=False)
         self.precheck = (
-            engine_class(common.request_document(document, self.blocked_services))
+            engine_class(common.request_document(document, self.blocked_services), compile=False)
             if self.blocked_services
             else None
         )
@@ -479,6 +480,15 @@ class Monitor:
             if self.warm <= idle <= IDLE:
                 self.guard.run("rehearsal", self.rehearse, relayed)
 
+    def compile(self, compiler: str) -> None:
+        """Compile the checks with numba while the node relays (numpy checks meanwhile) and
+        log what is in use (:func:`common.compile_engines`)."""
+        engines = [e for e in (self.engine, self.precheck) if e is not None]
+        try:
+            self.log.info(common.compile_engines(engines, compiler))
+        except Exception as error:  # numpy's checks go on: nothing is lost but speed
+            self.warn(f"imrosc: compiling the checks failed ({error}): numpy checks them")
+
     def rehearse(self, relayed: Sequence[str]) -> None:
         """One rehearsal of the latest blocked messages."""
         with self.lock:
@@ -584,12 +594,17 @@ def main(
     # a stall of the relay; the objects made later are collected as before)
     gc.collect()
     gc.freeze()
+    compiler = monitor.engine.compiler()
     node.get_logger().info(
         f"imrosc monitor {logic.node_name(node.get_namespace(), node.get_name())}: checking "
-        f"{len(document['invariants'])} invariants from {path}"
+        f"{len(document['invariants'])} invariants from {path}; {common.checks_plan(compiler)}"
     )
     executor = executor_for(monitor)
     executor.add_node(node)
+    if compiler is not None:
+        threading.Thread(
+            target=monitor.compile, args=(compiler,), name="imrosc-compile", daemon=True
+        ).start()
     try:
         executor.spin()
     except KeyboardInterrupt:
