@@ -111,7 +111,7 @@ class Monitor:
         self,
         spec: Mapping[str, Any],
         document: Mapping[str, Any],
-        engine_class: Callable[[Mapping[str, Any]], Any],
+        engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
     ) -> None:
         self.spec = spec
@@ -535,7 +535,7 @@ class Monitor:
 
 def main(
     package: str,
-    engine_class: Callable[[Mapping[str, Any]], Any],
+    engine_class: Callable[..., Any],
     flatteners: Mapping[str, Flatten],
 ) -> None:
     """Run the monitor node of ``package`` until ROS shuts down."""

@@ -125,7 +125,7 @@ class Monitor:
         node: Any,
         spec: Mapping[str, Any],
         document: Mapping[str, Any],
-        engine_class: Callable[[Mapping[str, Any]], Any],
+        engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
     ) -> None:
         self.node = node
@@ -567,7 +567,7 @@ def executor_for(monitor: Monitor) -> Any:
 
 def main(
     package: str,
-    engine_class: Callable[[Mapping[str, Any]], Any],
+    engine_class: Callable[..., Any],
     flatteners: Mapping[str, Flatten],
     args: Optional[List[str]] = None,
 ) -> None:
