@@ -1,13 +1,15 @@
 """What the generated monitor adds to the latency of a relayed topic, on live ROS 1 and ROS 2.
 
     python bench/monitor_latency.py [--rates 100,1000] [--seconds 5] [--invariants 1000]
-                                    [--rounds N] [--middleware ros1,ros2]
+                                    [--rounds N] [--middleware ros1,ros2] [--numpy-too]
 
 Two tables, one per middleware (``--middleware`` chooses; both by default), each with the
 ratio of the monitor to a bare relay of that middleware. ROS 2 is described in
 ``bench/latency_ros2.py``: the same paths with rclpy nodes on ROS 2 Jazzy (the virtualenv of
 ``tools/ros2_venv.sh``, or ``IMROSC_ROS2_PYTHON``), the monitor package built with colcon, the
-message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants. What
+message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants; with
+``--numpy-too`` the ROS 2 table has a fifth path, the same monitor with ``IMROSC_NUMBA=0``,
+run in the same rounds (the compiled checks and numpy's on the same machine load). What
 follows describes ROS 1.
 
 Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free port of
