@@ -10,7 +10,8 @@ ROS1_IMPORTS := rospy, rosbag, roslaunch, numpy, yaml, numba, std_msgs.msg, geom
 	sensor_msgs.msg, std_srvs.srv
 
 # ROS 2 Jazzy, for the ROS 2 live tests (tests/backends/test_ros2*_live.py): a Python 3.11
-# virtualenv outside the checkout with rclpy, rmw_fastrtps and message wheels from PyPI, colcon, and
+# virtualenv outside the checkout with rclpy, rmw_fastrtps and message wheels from PyPI, numpy and
+# numba (the monitor's compiled checks), colcon, and
 # the launch system and `ros2` command from the vendored sources beside the checkout
 # (tools/ros2_venv.sh), built once and reused while complete. The tests run with it and fail,
 # rather than skip, when it is missing; `make test ROS2=no` leaves ROS 2 out (they are skipped).

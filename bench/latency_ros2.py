@@ -15,7 +15,10 @@ variables read from ``position[0]`` .. ``position[55]``.
 * ``raw relay``: the same relay with ``raw=True``: it republishes the CDR bytes;
 * ``monitor``: the package ``imrosc build --backend ros2`` renders, built with ``colcon``,
   blocking the topic (it decodes, flattens, checks, republishes the message on
-  ``/m/bench/wide``), started as its installed console script.
+  ``/m/bench/wide``), started as its installed console script; measured once it logged
+  that its checks are compiled, where numba compiles them;
+* ``monitor, numpy`` (``bench/monitor_latency.py --numpy-too``): the same with
+  ``IMROSC_NUMBA=0``.
 
 Every endpoint is reliable, volatile, keep-last 100 (the monitor's relay takes its source's
 QoS, depth 100). The source is started first and waits for a go file; the harness writes it
@@ -325,15 +328,20 @@ class Ros2Bench:
                 started.append(relay)
                 relay.wait_for("relay up", 60)
                 sink_topic = RELAYED
-            elif path == "monitor":
+            elif path in ("monitor", "monitor, numpy"):
                 script = self.install / "lib" / MONITOR / MONITOR
                 command = [str(script)]
                 if self.profile is not None:  # under cProfile, one file per run
                     stats = self.profile / f"monitor-{tag}.prof"
                     command = [self.python, "-m", "cProfile", "-o", str(stats), str(script)]
-                monitor = Reader(command, self.run_env)
+                environment = self.run_env
+                if path == "monitor, numpy":
+                    environment = {**self.run_env, "IMROSC_NUMBA": "0"}
+                monitor = Reader(command, environment)
                 started.append(monitor)
-                monitor.wait_for(f"imrosc monitor /{MONITOR}: checking", 120)
+                line = monitor.wait_for(f"imrosc monitor /{MONITOR}: checking", 120)
+                if "compiles the checks" in line:  # numba compiles them in the background
+                    monitor.wait_for("imrosc: compiled checks in use", 120)
                 sink_topic = "/m" + TOPIC
             sink = self.node("sink", topic=sink_topic, out=str(out))
             started.append(sink)

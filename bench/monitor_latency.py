@@ -1,13 +1,15 @@
 """What the generated monitor adds to the latency of a relayed topic, on live ROS 1 and ROS 2.
 
     python bench/monitor_latency.py [--rates 100,1000] [--seconds 5] [--invariants 1000]
-                                    [--rounds N] [--middleware ros1,ros2]
+                                    [--rounds N] [--middleware ros1,ros2] [--numpy-too]
 
 Two tables, one per middleware (``--middleware`` chooses; both by default), each with the
 ratio of the monitor to a bare relay of that middleware. ROS 2 is described in
 ``bench/latency_ros2.py``: the same paths with rclpy nodes on ROS 2 Jazzy (the virtualenv of
 ``tools/ros2_venv.sh``, or ``IMROSC_ROS2_PYTHON``), the monitor package built with colcon, the
-message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants. What
+message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants; with
+``--numpy-too`` the ROS 2 table has a fifth path, the same monitor with ``IMROSC_NUMBA=0``,
+run in the same rounds (the compiled checks and numpy's on the same machine load). What
 follows describes ROS 1.
 
 Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free port of
@@ -84,6 +86,9 @@ MSGTYPE = f"{PACKAGE}/Wide"
 PROJECT = "bench_latency"
 MONITOR = f"{PROJECT}_monitor"
 PATHS = ("direct", "plain relay", "raw relay", "monitor")
+NUMPY_MONITOR = "monitor, numpy"
+"""With ``--numpy-too`` (ROS 2): the monitor again with ``IMROSC_NUMBA=0``, in the same
+rounds, so that the compiled checks and numpy's are compared on the same machine load."""
 COLUMNS = 56
 WARMUP = 0.5
 HEADER_MSG = "uint32 seq\ntime stamp\nstring frame_id\n"  # std_msgs/Header, for genpy
@@ -220,17 +225,19 @@ Results = dict[tuple[float, str], dict[str, Any]]
 Measure = Callable[[str, float], dict[str, Any]]
 
 
-def run_rounds(rates: list[float], rounds: int, measure_one: Measure) -> Results:
+def run_rounds(
+    rates: list[float], rounds: int, measure_one: Measure, paths: tuple[str, ...] = PATHS
+) -> Results:
     """Every path at every rate, ``rounds`` times, interleaved (every other round in the
     reverse order, so that no path always runs last)."""
     results: Results = {
         (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": []}
         for rate in rates
-        for path in PATHS
+        for path in paths
     }
     for round_ in range(rounds):
         for rate in rates:
-            for path in PATHS if round_ % 2 == 0 else PATHS[::-1]:
+            for path in paths if round_ % 2 == 0 else paths[::-1]:
                 run = measure_one(path, rate)
                 total = results[(rate, path)]
                 total["received"] += run["received"]
@@ -282,10 +289,12 @@ def bench_ros2(
     load = os.getloadavg()[0]
     (folder / "ros2").mkdir()
     ros2 = Ros2Bench(folder / "ros2", python, document, folder / "rows.npy")
+    paths = (*PATHS, NUMPY_MONITOR) if args.numpy_too else PATHS
     results = run_rounds(
         rates,
         args.rounds,
         lambda path, rate: ros2.measure(path, rate, args.seconds, WARMUP),
+        paths,
     )
     numba = numba_of(python)
     compiled = (
@@ -313,6 +322,11 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=1, help="runs of each path, interleaved")
     parser.add_argument(
         "--middleware", default="ros1,ros2", help="ros1, ros2 or both (comma-separated)"
+    )
+    parser.add_argument(
+        "--numpy-too",
+        action="store_true",
+        help=f"ROS 2: also the path {NUMPY_MONITOR!r}, the same monitor with IMROSC_NUMBA=0",
     )
     args = parser.parse_args()
     chosen = [m.strip() for m in args.middleware.split(",") if m.strip()]
@@ -368,11 +382,11 @@ def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
         figures[(rate, path)] = median, p99
         received = f"{total['received']}/{total['sent']}"
         print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}")
-        if path == "monitor":
+        if path in ("monitor", NUMPY_MONITOR):
             for baseline, note in (("plain relay", "  (target: within 1.2x)"), ("raw relay", "")):
                 base_median, base_p99 = figures[(rate, baseline)]
                 print(
-                    f"{'':>8}  monitor / {baseline}: median {median / base_median:.2f}x "
+                    f"{'':>8}  {path} / {baseline}: median {median / base_median:.2f}x "
                     f"(+{median - base_median:.3f} ms), p99 {p99 / base_p99:.2f}x{note}"
                 )
                 paired = paired_ratios(total["rounds"], results[(rate, baseline)]["rounds"])

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Creates (or reuses) the ROS 2 Jazzy virtualenv of the ROS 2 live tests, outside the checkout:
-# rclpy, rmw_fastrtps and the message packages (wheels from PyPI), colcon (PyPI), and the launch
+# rclpy, rmw_fastrtps and the message packages (wheels from PyPI), numpy and numba (the monitor's
+# compiled checks, imrosc/runtime/compiled.py), colcon (PyPI), and the launch
 # system and `ros2` command from their vendored pure-Python sources, with a stand-in for the
 # `composition_interfaces` message package (not published as a wheel; see the vendor README).
 #
@@ -61,10 +62,10 @@ version=$("$python" -c 'import sys; print("%d.%d" % sys.version_info[:2])')
 pip --upgrade pip setuptools wheel || fail "pip install pip"
 pip "ros-jazzy-rclpy[fastrtps]" ros-jazzy-std-msgs ros-jazzy-std-srvs ros-jazzy-sensor-msgs \
 	ros-jazzy-geometry-msgs ros-jazzy-rcl-interfaces ros-jazzy-builtin-interfaces \
-	ros-jazzy-lifecycle-msgs ros-jazzy-ament-index-python numpy \
+	ros-jazzy-lifecycle-msgs ros-jazzy-ament-index-python numpy numba \
 	colcon-core colcon-python-setup-py colcon-ros \
 	osrf-pycommon psutil packaging pyyaml lark catkin-pkg importlib-metadata ||
-	fail "pip install (rclpy, messages, colcon)"
+	fail "pip install (rclpy, messages, numba, colcon)"
 
 # the vendored sources are read-only material: build from a copy (pip writes build/ beside them)
 for folder in launch launch_xml launch_yaml launch_ros ros2cli ros2pkg ros2run ros2launch; do
@@ -106,7 +107,7 @@ class ListNodes:
     Request = Response = _Missing
 EOF
 
-"$venv/bin/python" -c 'import rclpy, numpy, std_srvs.srv, sensor_msgs.msg, geometry_msgs.msg
+"$venv/bin/python" -c 'import rclpy, numpy, numba, std_srvs.srv, sensor_msgs.msg, geometry_msgs.msg
 import rcl_interfaces.srv, service_msgs.msg, lifecycle_msgs.msg, launch, launch_ros, launch_xml, ros2launch
 import colcon_core, colcon_ros' >>"$log" 2>&1 || fail "the import check"
 [ -x "$venv/bin/ros2" ] && [ -x "$venv/bin/colcon" ] || fail "the ros2 and colcon commands"

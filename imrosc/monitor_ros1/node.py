@@ -111,7 +111,7 @@ class Monitor:
         self,
         spec: Mapping[str, Any],
         document: Mapping[str, Any],
-        engine_class: Callable[[Mapping[str, Any]], Any],
+        engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
     ) -> None:
         self.spec = spec
@@ -149,9 +149,10 @@ class Monitor:
         self.lock = threading.Lock()
         self.guard = logic.Guard(self.stop)
         """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
-        self.engine = engine_class(document)
+        # numba compiles the checks later, in a thread of its own (:meth:`compile`)
+        self.engine = engine_class(document, compile=False)
         self.precheck = (
-            engine_class(logic.request_document(document, self.blocked_services))
+            engine_class(logic.request_document(document, self.blocked_services), compile=False)
             if self.blocked_services
             else None
         )
@@ -437,6 +438,15 @@ class Monitor:
         with self.lock:
             self.engine.rehearse(relayed)
 
+    def compile(self, compiler: str) -> None:
+        """Compile the checks with numba while the node relays (numpy checks meanwhile) and
+        log what is in use (:func:`logic.compile_engines`)."""
+        engines = [e for e in (self.engine, self.precheck) if e is not None]
+        try:
+            rospy.loginfo(logic.compile_engines(engines, compiler))
+        except Exception as error:  # numpy's checks go on: nothing is lost but speed
+            rospy.logwarn(f"imrosc: compiling the checks failed ({error}): numpy checks them")
+
     def heartbeat(self) -> None:
         """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""
         while not rospy.is_shutdown() and self.guard.failure is None:
@@ -525,7 +535,7 @@ class Monitor:
 
 def main(
     package: str,
-    engine_class: Callable[[Mapping[str, Any]], Any],
+    engine_class: Callable[..., Any],
     flatteners: Mapping[str, Flatten],
 ) -> None:
     """Run the monitor node of ``package`` until ROS shuts down."""
@@ -541,10 +551,15 @@ def main(
         rospy.logfatal(f"imrosc monitor: {error}")
         sys.exit(1)
     monitor = Monitor(spec, document, engine_class, flatteners)
+    compiler = monitor.engine.compiler()
     rospy.loginfo(
         f"imrosc monitor {rospy.get_name()}: checking {len(document['invariants'])} "
-        f"invariants from {path}"
+        f"invariants from {path}; {logic.checks_plan(compiler)}"
     )
+    if compiler is not None:
+        threading.Thread(
+            target=monitor.compile, args=(compiler,), name="imrosc-compile", daemon=True
+        ).start()
     rospy.spin()
     if monitor.guard.failure is not None:
         sys.exit(1)  # roslaunch reports the exit (and a required="true" node ends the launch)

@@ -73,6 +73,13 @@ try:  # only a ROS 2 system has these; the helpers above are usable without them
         MultiThreadedExecutor,
         SingleThreadedExecutor,
     )
+
+    try:  # Humble and later: spin() ends with it when SIGINT shut the context down
+        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
+            ExternalShutdownException,
+        )
+    except ImportError:  # Foxy, Galactic
+        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
@@ -125,7 +132,7 @@ class Monitor:
         node: Any,
         spec: Mapping[str, Any],
         document: Mapping[str, Any],
-        engine_class: Callable[[Mapping[str, Any]], Any],
+        engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
     ) -> None:
         self.node = node
@@ -162,9 +169,10 @@ class Monitor:
             String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
         )
         document = common.alarm_document(document, spec.get("alarms"))
-        self.engine = engine_class(document)
+        # numba compiles the checks later, in a thread of its own (:meth:`compile`)
+        self.engine = engine_class(document, compile=False)
         self.precheck = (
-            engine_class(common.request_document(document, self.blocked_services))
+            engine_class(common.request_document(document, self.blocked_services), compile=False)
             if self.blocked_services
             else None
         )
@@ -479,6 +487,15 @@ class Monitor:
             if self.warm <= idle <= IDLE:
                 self.guard.run("rehearsal", self.rehearse, relayed)
 
+    def compile(self, compiler: str) -> None:
+        """Compile the checks with numba while the node relays (numpy checks meanwhile) and
+        log what is in use (:func:`common.compile_engines`)."""
+        engines = [e for e in (self.engine, self.precheck) if e is not None]
+        try:
+            self.log.info(common.compile_engines(engines, compiler))
+        except Exception as error:  # numpy's checks go on: nothing is lost but speed
+            self.warn(f"imrosc: compiling the checks failed ({error}): numpy checks them")
+
     def rehearse(self, relayed: Sequence[str]) -> None:
         """One rehearsal of the latest blocked messages."""
         with self.lock:
@@ -557,7 +574,7 @@ def executor_for(monitor: Monitor) -> Any:
 
 def main(
     package: str,
-    engine_class: Callable[[Mapping[str, Any]], Any],
+    engine_class: Callable[..., Any],
     flatteners: Mapping[str, Flatten],
     args: Optional[List[str]] = None,
 ) -> None:
@@ -584,15 +601,20 @@ def main(
     # a stall of the relay; the objects made later are collected as before)
     gc.collect()
     gc.freeze()
+    compiler = monitor.engine.compiler()
     node.get_logger().info(
         f"imrosc monitor {logic.node_name(node.get_namespace(), node.get_name())}: checking "
-        f"{len(document['invariants'])} invariants from {path}"
+        f"{len(document['invariants'])} invariants from {path}; {common.checks_plan(compiler)}"
     )
     executor = executor_for(monitor)
     executor.add_node(node)
+    if compiler is not None:
+        threading.Thread(
+            target=monitor.compile, args=(compiler,), name="imrosc-compile", daemon=True
+        ).start()
     try:
         executor.spin()
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, either way
         pass
     finally:
         executor.shutdown()

@@ -435,6 +435,8 @@ class Pairing:
         """The last calls given out and the sides they had (at most :data:`DONE`)."""
         self.dropped = 0
         """Calls seen only by their response (the recorder started in between)."""
+        self.unfinished = 0
+        """Calls unanswered when the node stopped, within their time (:meth:`drain`)."""
 
     def add(self, service: str, event: ServiceEvent, now: float) -> List[Call]:
         """Take one event; the calls it completes."""
@@ -523,9 +525,26 @@ class Pairing:
         ]
         return self._take(keys)
 
-    def drain(self) -> List[Call]:
-        """Every waiting call (when the node stops)."""
-        return self._take(list(self.pending))
+    def drain(self, now: Optional[float] = None) -> List[Call]:
+        """The waiting calls when the node stops: the answered ones, and as failed those
+        whose ``timeout`` is over at ``now``. One still unanswered within its time is left
+        out and counted in :attr:`unfinished`: the recording ended before its answer, which
+        does not make it a failed call (the client's call in flight at Ctrl-C). Without
+        ``now`` every waiting call is given out."""
+        keys = list(self.pending)
+        if now is not None:
+            late = [
+                key
+                for key in keys
+                if key not in self.answered and now - self.first.get(key, now) < self.timeout
+            ]
+            self.unfinished += len(late)
+            for key in late:
+                self.pending.pop(key)
+                self.first.pop(key, None)
+            self.aliases = {a: key for a, key in self.aliases.items() if key not in late}
+            keys = [key for key in keys if key not in late]
+        return self._take(keys)
 
 
 def client_node(

@@ -318,7 +318,7 @@ class Recorder:
     def close(self) -> None:
         """Publish the calls still waiting."""
         with self.lock:
-            calls = self.pairing.drain()
+            calls = self.pairing.drain(time.monotonic())
         self.flush(calls)
 
 

@@ -84,6 +84,7 @@ class Checks:
         index: Mapping[str, int],
         strings: Mapping[str, int],
         stats: Sequence[str] = (),
+        compile: bool = True,
     ) -> None:
         self.index = index
         self.string_index = strings
@@ -152,6 +153,8 @@ class Checks:
         """Variables whose bounds say they are never NaN nor infinite."""
         self.finite_inv = [f[1] for f in finite]
         self._compile(bounds, one_of, nonzero, pairs, linear, edges)
+        if compile:
+            self.compile()
 
     def _compile(
         self,
@@ -210,9 +213,31 @@ class Checks:
         """The checks compiled by numba (:mod:`.compiled`): whether a sample breaks
         nothing; ``None`` without numba."""
         self._tables = Tables(None, None, None)
-        if numba_module() is not None and self.numeric_families() <= COMPILED:
-            self._tables = self.tables()
-            self._clears = compile_checks(self._tables, len(self.index))
+
+    def compilable(self) -> bool:
+        """Whether numba is importable and knows every family of these checks."""
+        return numba_module() is not None and self.numeric_families() <= COMPILED
+
+    def compile(self) -> bool:
+        """Compile the checks with numba (:func:`.compiled.compile_checks`) unless done:
+        whether the compiled kernel now clears the samples. Another thread may check
+        samples meanwhile (numpy's path): the tables are in place before the kernel."""
+        if self._clears is not None:
+            return True
+        if not self.compilable():
+            return False
+        tables = self.tables()
+        kernel = compile_checks(tables, len(self.index))
+        if kernel is None:
+            return False
+        self._tables = tables
+        self._clears = kernel
+        return True
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the compiled kernel clears the samples (else numpy checks each)."""
+        return self._clears is not None
 
     def numeric_families(self) -> Set[str]:
         """The families of the invariants :meth:`_numeric` checks. The compiled kernel

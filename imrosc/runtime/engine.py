@@ -21,6 +21,7 @@ import numpy as np
 from .alarms import Alarm, AlarmRule, AlarmTracker, shapes_of
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
+from .compiled import numba_module
 from .conditions import holds
 from .detector import Detector
 from .families import DETECTOR, INTERVAL, PATTERN, VARIANCE
@@ -75,7 +76,13 @@ class _Filter:
 class _Point:
     """One program point: where its values come from, its checks and its windows."""
 
-    def __init__(self, key: str, info: Mapping[str, Any], invariants: List[Mapping[str, Any]]):
+    def __init__(
+        self,
+        key: str,
+        info: Mapping[str, Any],
+        invariants: List[Mapping[str, Any]],
+        compile: bool = True,
+    ):
         self.key = key
         self.kind: str = info["kind"]
         self.trigger: str = info.get("trigger", "")
@@ -99,7 +106,7 @@ class _Point:
         string_index = {name: k for k, name in enumerate(self.string_names)}
         stats = [v["name"] for v in numeric if v.get("derived") in ("avg", "std")]
         self.invariants = invariants
-        self.checks = Checks(invariants, index, string_index, stats)
+        self.checks = Checks(invariants, index, string_index, stats, compile)
         tracked = [
             v["name"] for v in numeric if v.get("trigger", True) and v.get("derived") is None
         ]
@@ -243,7 +250,9 @@ class Engine:
     ``document`` is the parsed invariants file. ``trace`` (optional) sees every checked
     sample (reports draw trajectories and frequencies with it). Every method returns the
     violations it found; the alarms they raise under the file's rule (``alarms``, or
-    ``rule`` when given) are collected by :meth:`take_alarms`.
+    ``rule`` when given) are collected by :meth:`take_alarms`. ``compile=False`` leaves
+    the compiling of the checks by numba to :meth:`compile` (a monitor node does it in a
+    thread of its own once it relays; numpy checks every sample until then).
     """
 
     def __init__(
@@ -251,6 +260,7 @@ class Engine:
         document: Mapping[str, Any],
         trace: Optional[Trace] = None,
         rule: Optional[AlarmRule] = None,
+        compile: bool = True,
     ) -> None:
         self.document = document
         self.trace = trace
@@ -263,7 +273,7 @@ class Engine:
         for inv in document["invariants"]:
             by_point.setdefault(inv["point"], []).append(inv)
         self.points: Dict[str, _Point] = {
-            key: _Point(key, info, by_point.get(key, []))
+            key: _Point(key, info, by_point.get(key, []), compile)
             for key, info in sorted(document["points"].items())
         }
         self.by_id: Dict[str, Tuple[_Point, Mapping[str, Any]]] = {
@@ -331,6 +341,25 @@ class Engine:
             p for p in self.points.values() if p.intervals or (p.windows and p.min_frequency > 0)
         ]
         self.reset()
+
+    def compile(self) -> Tuple[int, int]:
+        """Compile every point's value checks with numba where it can (:mod:`.compiled`),
+        unless done already: how many points with value invariants now have them compiled,
+        of how many. Safe while another thread checks samples (:meth:`Checks.compile`)."""
+        compiled = total = 0
+        for point in self.points.values():
+            done = point.checks.compile()
+            if point.checks.numeric_families():
+                total += 1
+                compiled += done
+        return compiled, total
+
+    @staticmethod
+    def compiler() -> Optional[str]:
+        """numba's version where the checks can be compiled; ``None`` without numba (not
+        importable, or ``IMROSC_NUMBA=0``)."""
+        numba = numba_module()
+        return None if numba is None else str(getattr(numba, "__version__", "?"))
 
     def _plan_gather(self, point: _Point) -> Tuple[List[str], Any, Any]:
         """Sources of a publish point, and where each of its values sits in them."""

@@ -96,6 +96,14 @@ def ros2_environment(folder: Path, **extra: str) -> dict[str, str]:
     return environment
 
 
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    # a test run in the background of a non-interactive shell (`make test &`) ignores
+    # SIGINT, and so would every process it starts: `ros2 launch`, which reacts to SIGINT
+    # only where Python has a handler for it, would never stop on the tests' Ctrl-C (the
+    # launch then killed after its timeout). Handled here, it is default again in children.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 class Reader:
     """A process started with its output (stdout and stderr together) read line by line as
     it comes, for waiting on what it prints."""

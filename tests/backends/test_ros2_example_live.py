@@ -179,11 +179,15 @@ node = Node("driver")
 executor = MultiThreadedExecutor(num_threads=2)
 executor.add_node(node)
 threading.Thread(target=executor.spin, daemon=True).start()
-out = {"relayed": [], "waypoints": 0, "warnings": []}
+out = {"relayed": [], "relayed_info": [], "waypoints": 0, "warnings": []}
 phase = ["good"]
 
-def relayed(message):
+def relayed(message, info):
+    # the writer's sequence number and source time: who sent what, should it go wrong
     out["relayed"].append([phase[0], message.data])
+    out["relayed_info"].append(
+        [info.get("publication_sequence_number"), info.get("source_timestamp"), time.time()]
+    )
 
 def waypoint(message):
     out["waypoints"] += 1
@@ -213,10 +217,14 @@ phase[0] = "bad"
 ask.publish(UInt8(data=200))
 wait(lambda: len(out["warnings"]) >= 3, 20.0)
 time.sleep(2.0)  # about 20 bad commands
+publishers = node.get_publishers_info_by_topic("/m/a/cmd_subject_ctrl_state")
 out["relay_publishers"] = sorted(
-    (i.node_namespace.rstrip("/") + "/" + i.node_name)
-    for i in node.get_publishers_info_by_topic("/m/a/cmd_subject_ctrl_state")
+    (i.node_namespace.rstrip("/") + "/" + i.node_name) for i in publishers
 )
+out["relay_writers"] = [
+    [i.node_namespace, i.node_name, bytes(i.endpoint_gid).hex(), str(i.qos_profile.durability)]
+    for i in publishers
+]
 phase[0] = "recovered"
 ask.publish(UInt8(data=3))
 out["recovered"] = wait(lambda: count("recovered", 3) >= 5, 20.0)

@@ -578,12 +578,15 @@ os._exit(0)
 """
 
 
+@pytest.mark.parametrize("checks", ["compiled", "numpy"])
 def test_a_node_that_relays_no_service_checks_relays_and_acts_in_one_thread(
-    tmp_path: Path, ros2_python: str
+    tmp_path: Path, ros2_python: str, checks: str
 ) -> None:
     """Without relayed services the node spins a SingleThreadedExecutor (``executor_for``):
     it still checks and relays in order, acts (its action's publisher, the action thread)
-    and beats."""
+    and beats. Both ways of checking: compiled by numba (the ROS 2 virtualenv has it; the
+    driver starts once the node logged that the compiled checks are in use) and numpy
+    alone (``IMROSC_NUMBA=0``, as where numba is missing); the start-up line says which."""
     document = ros2_document({"/a/cmd": "std_msgs/msg/UInt8"})
     document["invariants"] = [
         _invariant("cmd_range", "a", "bounds", "range", variables=["cmd.data"], min=0.0, max=3.0)
@@ -595,19 +598,35 @@ def test_a_node_that_relays_no_service_checks_relays_and_acts_in_one_thread(
     assert result.ok, [d.as_text() for d in result.diagnostics]
     package = write_package(result.files, tmp_path / "out")
     environment = ros2_environment(tmp_path, PYTHONPATH=str(package))
-    monitor = start_monitor(ros2_python, package, environment)
+    if checks == "numpy":
+        environment["IMROSC_NUMBA"] = "0"
+    monitor = Reader(
+        [
+            ros2_python,
+            "-c",
+            "from demo_monitor import main; main.monitor()",
+            *("--ros-args", "-p", f"invariants:={package / 'config' / 'invariants.json'}"),
+        ],
+        environment,
+    )
     try:
+        started = monitor.wait_for("imrosc monitor /demo_monitor: checking", 120)
+        if checks == "compiled":
+            assert "numba" in started and "compiles the checks" in started, started
+            monitor.wait_for("imrosc: compiled checks in use (numba", 120)
+        else:
+            assert "numpy checks every sample" in started, started
         driver = drive(ros2_python, TOPIC_ONLY_DRIVER, environment, 180)
     finally:
-        monitor.send_signal(signal.SIGINT)
-        try:
-            log, _ = monitor.communicate(timeout=20)
-        except subprocess.TimeoutExpired:
-            monitor.kill()
-            log, _ = monitor.communicate()
+        returncode = monitor.stop(signal.SIGINT, timeout=20)
+    log = monitor.output
     assert driver.returncode == 0, driver.stdout + driver.stderr + log
     out = json.loads(driver.stdout.strip().splitlines()[-1])
     context = json.dumps(out)[:3000] + "\n" + log
+    if checks == "compiled":
+        assert "compiled checks in use (numba" in log and "on 1 of 1 points," in log, log
+    else:
+        assert "compiled checks" not in log, log
     assert out["ready"] and out["beats"] > 0, context
     relayed = out["relayed"]
     assert relayed[:2] == [1, 2] and 9 not in relayed, context
@@ -619,4 +638,4 @@ def test_a_node_that_relays_no_service_checks_relays_and_acts_in_one_thread(
         9.0,
         ["f"],
     ), context
-    assert monitor.returncode == 0, context
+    assert returncode == 0, context

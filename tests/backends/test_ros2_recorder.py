@@ -543,3 +543,20 @@ def test_live_the_recorder_publishes_graph_parameters_and_calls(
         assert call.response == {"success": True, "message": "done"}
         assert (call.client, call.server) == ("/a/ctrl", "/a/car"), output
         assert 0 <= call.delay < 5
+
+
+def test_a_call_unanswered_when_the_recorder_stops_is_left_out_unless_its_time_is_up() -> None:
+    """The client's call in flight at Ctrl-C is not a failed call: the recording ended
+    before its answer. One waiting longer than ``timeout`` is recorded as failed, and an
+    answered one still settling is given out as usual."""
+    pairing = logic.Pairing(settle=1.0, timeout=10.0)
+    assert pairing.add("/s", event(logic.REQUEST_SENT, 1.0, WRITER, 1, request={"a": 1}), 0.0) == []
+    assert pairing.add("/s", event(logic.REQUEST_SENT, 2.0, WRITER, 2, request={"a": 2}), 5.0) == []
+    assert pairing.add("/s", event(logic.REQUEST_SENT, 3.0, WRITER, 3, request={"a": 3}), 9.0) == []
+    answered = event(logic.RESPONSE_RECEIVED, 3.2, WRITER, 3, response={"b": 1})
+    pairing.add("/s", event(logic.REQUEST_RECEIVED, 3.1, READER, 3, request={"a": 3}), 9.0)
+    assert pairing.add("/s", answered, 9.1) == []  # the server's response event is missing
+    calls = pairing.drain(12.0)
+    assert [(c.request, c.response) for c in calls] == [({"a": 1}, None), ({"a": 3}, {"b": 1})]
+    assert record(calls[0]).ok is False and record(calls[1]).ok
+    assert pairing.unfinished == 1 and pairing.pending == {} and pairing.aliases == {}

@@ -21,6 +21,7 @@ import numpy.typing as npt
 import pytest
 
 import imrosc.runtime
+from imrosc.runtime import checks as checks_module
 from imrosc.runtime import polygons as polygon_module
 from imrosc.runtime.checks import Checks
 from imrosc.runtime.compiled import clears as python_clears
@@ -175,6 +176,8 @@ for case in json.load(open(sys.argv[2])):
     plain = build()
     del os.environ["IMROSC_NUMBA"]
     assert plain._clears is None
+    later = Checks(case["invariants"], case["index"], {"mode": 0}, ["avg(a)"], compile=False)
+    assert not later.compiled and later.compile() and later.compiled
     answers = []
     for sample in case["queries"]:
         row = np.asarray(sample, dtype=np.float64)
@@ -184,6 +187,7 @@ for case in json.load(open(sys.argv[2])):
         assert got == {bool(clears(row, *compiled._tables))}, sample
         with_numba = [v.invariant for v in compiled.check(0.0, "p", kinds[2], ["idle"])]
         without = [v.invariant for v in plain.check(0.0, "p", row, ["idle"])]
+        assert [v.invariant for v in later.check(0.0, "p", row, ["idle"])] == with_numba
         answers.append([got.pop(), with_numba, without])
     out.append(answers)
 print(json.dumps(out))
@@ -232,3 +236,44 @@ def test_turned_off_nothing_is_compiled(monkeypatch: pytest.MonkeyPatch) -> None
     checks = build(every_family(0))
     assert checks._clears is None
     assert compile_checks(checks.tables(), len(checks.index)) is None
+
+
+def test_compiling_waits_until_asked_and_the_violations_stay_the_same(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``compile=False`` (what the monitor nodes do, to compile in a thread of their own):
+    numpy checks until :meth:`Checks.compile`, which compiles once; the kernel (here the
+    uncompiled one, standing in for numba's) then clears the samples, and every sample's
+    violations are the same before and after."""
+    kernels: list[Any] = []
+
+    def compile_checks(tables: Any, width: int) -> Any:
+        kernels.append(tables)
+        return python_clears
+
+    monkeypatch.setattr(checks_module, "numba_module", object)
+    monkeypatch.setattr(checks_module, "compile_checks", compile_checks)
+    case = hulls(1, "walk", 6)
+    later = Checks(case["invariants"], case["index"], {"mode": 0}, ["avg(a)"], compile=False)
+    assert not later.compiled and not kernels
+
+    def violations() -> list[list[str]]:
+        return [
+            [v.invariant for v in later.check(0.0, "p", np.asarray(q, dtype=np.float64))]
+            for q in case["queries"]
+        ]
+
+    before = violations()
+    assert later.compile() and later.compiled and len(kernels) == 1
+    assert later.compile() and len(kernels) == 1  # once
+    assert violations() == before
+    assert any(before) and not all(before)
+
+
+def test_without_numba_compiling_later_leaves_numpy_checking(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("IMROSC_NUMBA", "0")
+    case = hulls(2, "ints", 5)
+    later = Checks(case["invariants"], case["index"], {"mode": 0}, ["avg(a)"], compile=False)
+    assert not later.compile() and not later.compiled
