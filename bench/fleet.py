@@ -64,13 +64,15 @@ def worker_peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def write_bags(folder: Path, count: int, duration: float) -> list[Path]:
+def write_bags(folder: Path, count: int, duration: float, first_seed: int = 0) -> list[Path]:
+    """``count`` simulated nominal runs of ``duration`` s in ``folder`` (kept if there),
+    seeds from ``first_seed`` on."""
     folder.mkdir(parents=True, exist_ok=True)
     bags = []
     for run in range(count):
         bag = folder / f"run_{run:03d}.bag"
         if not bag.exists():
-            write_run(bag, seed=run, fmt="ros1", duration=duration)
+            write_run(bag, seed=first_seed + run, fmt="ros1", duration=duration)
         bags.append(bag)
     return bags
 

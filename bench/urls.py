@@ -26,26 +26,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from bench.fleet import write_bags  # noqa: E402
 from imrosc.demo import example_configs  # noqa: E402
 from imrosc.detect import DetectResult, run_detect  # noqa: E402
 from imrosc.fleet import Fleet  # noqa: E402
 from imrosc.invariants import dumps  # noqa: E402
 from imrosc.remote import BagUrl  # noqa: E402
-from imrosc.sim import write_run  # noqa: E402
 from tests.served import serve  # noqa: E402
 
 CONFIG = "landing_sim.xml"
-
-
-def write_bags(folder: Path, count: int, duration: float) -> list[Path]:
-    folder.mkdir(parents=True, exist_ok=True)
-    bags = []
-    for run in range(count):
-        bag = folder / f"run{run:03d}.bag"
-        if not bag.exists():
-            write_run(bag, seed=1000 + run, fmt="ros1", duration=duration)
-        bags.append(bag)
-    return bags
 
 
 def timed(label: str, run: Callable[[], DetectResult]) -> DetectResult:
@@ -70,7 +59,7 @@ def main() -> None:
     options = parser.parse_args()
     folder = options.folder or Path(tempfile.mkdtemp(prefix="imrosc-bench-urls-"))
     config = next(p for p in example_configs() if p.name == CONFIG)
-    bags = write_bags(folder / "bags", options.bags, options.duration)
+    bags = write_bags(folder / "bags", options.bags, options.duration, first_seed=1000)
     size = sum(bag.stat().st_size for bag in bags)
     print(f"{len(bags)} bags of {options.duration:g} s, {size / 1e6:.1f} MB, in {folder}")
     with serve(folder) as url:

@@ -320,11 +320,18 @@ class Sampler:
         return taken
 
 
+def replayer_of(document: Mapping[str, Any], collect: bool) -> tuple[Replayer, Sampler | None]:
+    """The replayer of classification's runs and, with ``collect``, the :class:`Sampler`
+    tracing its engine (learnt detectors need the runs' samples)."""
+    if not collect:
+        return Replayer(document), None
+    sampler = Sampler(document)
+    return Replayer(document, Engine(document, trace=sampler.trace)), sampler
+
+
 def _start_worker(document: Mapping[str, Any], collect: bool = False) -> None:
-    global _WORKER, _SAMPLES  # noqa: PLW0603 - one replayer per worker process
-    _SAMPLES = Sampler(document) if collect else None
-    engine = Engine(document, trace=_SAMPLES.trace) if _SAMPLES is not None else None
-    _WORKER = Replayer(document, engine)
+    global _WORKER, _SAMPLES
+    _WORKER, _SAMPLES = replayer_of(document, collect)
 
 
 RunTask = tuple[Path, OnsetSpec | None]

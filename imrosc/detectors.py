@@ -34,6 +34,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from imrosc.folds import blocked
+from imrosc.invariants import hashed_id
 from imrosc.runtime.detector import features
 from imrosc.runtime.families import DETECTOR
 
@@ -212,10 +213,7 @@ def learn(key: str, variables: Sequence[str], runs: Sequence[Run]) -> Learnt | N
 
 def detector_id(key: str, variables: Sequence[str]) -> str:
     """A stable id, as :func:`imrosc.invariants.invariant_id` gives."""
-    import hashlib
-
-    subject = "\0".join([key, DETECTOR, "logistic", *variables])
-    return "i" + hashlib.sha1(subject.encode(), usedforsecurity=False).hexdigest()[:11]
+    return hashed_id([key, DETECTOR, "logistic", *variables])
 
 
 def run_of(name: str, start: float, onset: float | None, samples: Sequence[Any]) -> Run:

@@ -40,6 +40,11 @@ def invariant_id(invariant: Invariant) -> str:
         parts += [str(params["first"]), str(params["second"])]
     elif invariant.family == "pattern":
         parts.append(str(params["pattern"]))
+    return hashed_id(parts)
+
+
+def hashed_id(parts: Sequence[str]) -> str:
+    """The id of an invariant about ``parts`` (point, family, kind, variables, ...)."""
     subject = "\0".join(parts)
     return "i" + hashlib.sha1(subject.encode(), usedforsecurity=False).hexdigest()[:11]
 

@@ -206,18 +206,10 @@ def _observe_run(
 ) -> RunOutcome:
     """A ``classify`` or ``stability`` task: one run replayed and observed (the document's
     engine built once per thread); ``collect``: its samples too, for learnt detectors."""
-    from imrosc.classify import Sampler, observe
-    from imrosc.replay import Replayer
-    from imrosc.runtime import Engine
+    from imrosc.classify import observe, replayer_of
 
-    def sampling() -> tuple[Replayer, Sampler]:
-        sampler = Sampler(document)
-        return Replayer(document, Engine(document, trace=sampler.trace)), sampler
-
-    if collect:
-        replayer, sampler = _cached("samplers", key, sampling)
-    else:
-        replayer, sampler = _cached("observers", key, lambda: Replayer(document)), None
+    kind = "samplers" if collect else "observers"
+    replayer, sampler = _cached(kind, key, lambda: replayer_of(document, collect))
     outcome = observe(replayer, (bag, task[1]), sampler)
     outcome.bag = name
     outcome.error = _renamed(outcome.error, bag, name)

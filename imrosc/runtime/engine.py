@@ -38,8 +38,7 @@ Found = List[Violation]
 Trace = Callable[[str, float, Any, Optional[float]], None]
 """``trace(point, time, sample, frequency)``: called for every sample a point checks."""
 
-_NUMERIC = ("float", "int", "uint", "bool", "time")
-NUMERIC_TYPES = _NUMERIC
+NUMERIC_TYPES = ("float", "int", "uint", "bool", "time")
 """The variable types a point's sample vector holds (the others are strings or sets)."""
 
 
@@ -91,7 +90,7 @@ class _Point:
         self.filters = [_Filter(f) for f in info.get("filter", ())]
         variables = info["variables"]
         self.variables = variables
-        numeric = [v for v in variables if v["type"] in _NUMERIC]
+        numeric = [v for v in variables if v["type"] in NUMERIC_TYPES]
         strings = [v for v in variables if v["type"] == "string"]
         self.numeric_names = [v["name"] for v in numeric]
         self.string_names = [v["name"] for v in strings]
@@ -285,7 +284,7 @@ class Engine:
         self._numeric_at: Dict[str, Dict[str, int]] = {}
         self._string_at: Dict[str, Dict[str, int]] = {}
         for topic, variables in self.layouts.items():
-            numeric = [v["name"] for v in variables if v["type"] in _NUMERIC]
+            numeric = [v["name"] for v in variables if v["type"] in NUMERIC_TYPES]
             strings = [v["name"] for v in variables if v["type"] == "string"]
             self._numeric_at[topic] = {name: k for k, name in enumerate(numeric)}
             self._string_at[topic] = {name: k for k, name in enumerate(strings)}
@@ -313,7 +312,7 @@ class Engine:
                 self._events.setdefault(source, []).append(point)
         self._split: Dict[str, Tuple[Any, Any]] = {}
         for topic, variables in self.layouts.items():
-            numeric = [k for k, v in enumerate(variables) if v["type"] in _NUMERIC]
+            numeric = [k for k, v in enumerate(variables) if v["type"] in NUMERIC_TYPES]
             strings = [k for k, v in enumerate(variables) if v["type"] == "string"]
             self._split[topic] = (
                 None if numeric == list(range(len(variables))) else _picker(numeric),
