@@ -1053,6 +1053,7 @@ def detector_entry(learnt: Learnt) -> dict[str, Any]:
         "point": learnt.invariant["point"],
         "variables": len(learnt.invariant["variables"]),
         "penalty": choice.strength,
+        "smooth": choice.smooth,
         "threshold": _number(choice.threshold),
         "held_out_nominal": choice.nominal,
         "detected": sorted(choice.detected),

@@ -11,14 +11,19 @@ threshold. How it is learnt (``docs/families/detector.md``):
    statistics, the two classes weighted equally): every sample of a good run and the
    samples of a failed run before its onset are nominal, the samples from the onset on
    faulty.
-2. **Threshold, cross-fitted**: the runs are cut into blocked folds by their start (as
+2. **Evidence**: a sample's score is the log-odds that its run is faulty; the evidence is
+   their mean over the trailing ``smooth`` seconds, from :data:`SMOOTHING`. A fault
+   persists where a good run's odd moment passes, so a mean over a few seconds separates
+   them better than one sample's score, at the cost of a delay of up to ``smooth``.
+3. **Threshold, cross-fitted**: the runs are cut into blocked folds by their start (as
    calibration cuts its units); each fold's runs are scored by a model fitted without them,
-   and the threshold is the largest score any of them reached while nominal: with ``n``
+   and the threshold is the largest evidence any of them reached while nominal: with ``n``
    such held-out runs, a new good run exceeds it with probability about ``1/(n+1)`` (the
    largest held-out value, as calibration's rule uses with too few runs to certify).
-3. **Penalty**, from :data:`PENALTIES`: the one whose cross-fitted scores detect the most
-   held-out failed runs (a score above the threshold from the onset on), the strongest on
-   ties. No detector is kept when none detects one.
+4. **Penalty and smoothing**, from :data:`PENALTIES` x :data:`SMOOTHING`: the pair whose
+   cross-fitted evidence detects the most held-out failed runs (evidence above the
+   threshold from the onset on), the smallest mean delay on ties, then the strongest
+   penalty and the shortest smoothing. No detector is kept when none detects one.
 
 The runs it detected, held out, and its estimated false-alarm probability are what
 classification's selection weighs it by, as it weighs every invariant.
@@ -35,13 +40,17 @@ from threadpoolctl import threadpool_limits
 
 from imrosc.folds import blocked
 from imrosc.invariants import hashed_id
-from imrosc.runtime.detector import features
+from imrosc.runtime.detector import evidence, features
 from imrosc.runtime.families import DETECTOR
 
 WINDOW = 1.0
 """Seconds of the trailing window of the statistics."""
 PENALTIES = (1.0, 10.0, 100.0, 1e3, 1e4, 1e5)
 """The L2 penalties (on the standardised weights) the cross-fitting chooses from."""
+SMOOTHING = (0.0, 0.5, 1.0, 2.0, 4.0)
+"""Seconds of the trailing mean of the scores the cross-fitting chooses from (0: each
+sample's own score), doubling up to a few seconds: the longest bounds the delay a persistent
+fault is detected with."""
 NEWTON_STEPS = 25
 """Newton steps at most (the regression's loss is convex: a few suffice)."""
 CONVERGED = 1e-9
@@ -65,6 +74,8 @@ class Run:
     times: Any
     stats: Any
     faulty: Any = field(init=False)
+    scored: Any = field(init=False)
+    """Per sample: whether the samples so far span the window (only those are scored)."""
 
     def __post_init__(self) -> None:
         times = np.asarray(self.times, dtype=np.float64)
@@ -72,6 +83,7 @@ class Run:
             self.faulty = np.zeros(len(times), dtype=bool)
         else:
             self.faulty = times - self.start >= self.onset
+        self.scored = times - times[0] >= WINDOW if len(times) else np.zeros(0, dtype=bool)
 
 
 @dataclass(frozen=True)
@@ -88,10 +100,10 @@ class Model:
 def fit(runs: Sequence[Run], strength: float) -> Model:
     """The logistic regression of ``runs`` with the L2 penalty ``strength`` (on every
     ``k``-th sample of each run when they hold more than :data:`FIT_SAMPLES`)."""
-    total = sum(len(r.stats) for r in runs)
+    total = sum(int(r.scored.sum()) for r in runs)
     every = max(1, -(-total // FIT_SAMPLES))
-    x = np.vstack([r.stats[::every] for r in runs])
-    y = np.concatenate([r.faulty[::every] for r in runs]).astype(np.float64)
+    x = np.vstack([r.stats[r.scored][::every] for r in runs])
+    y = np.concatenate([r.faulty[r.scored][::every] for r in runs]).astype(np.float64)
     finite = np.isfinite(x).all(axis=1)  # an infinite value: no statistic to weigh
     x, y = x[finite], y[finite]
     center, scale = x.mean(axis=0), x.std(axis=0)
@@ -119,20 +131,46 @@ def fit(runs: Sequence[Run], strength: float) -> Model:
 
 @dataclass(frozen=True)
 class Choice:
-    """A penalty, its cross-fitted threshold, and the failed runs its held-out scores
-    detected."""
+    """A penalty and smoothing, their cross-fitted threshold, and the failed runs their
+    held-out evidence detected."""
 
     strength: float
+    smooth: float
     threshold: float
     detected: frozenset[str]
     delays: Mapping[str, float]
     nominal: int
     """Held-out runs with nominal samples (the threshold's evidence)."""
 
+    def rank(self) -> tuple[int, float, float, float]:
+        """Larger is better: detections, then a short mean delay, a strong penalty and a
+        short smoothing."""
+        delay = sum(self.delays.values()) / len(self.delays) if self.delays else 0.0
+        return (len(self.detected), -delay, self.strength, -self.smooth)
+
+
+def judged(held: Sequence[tuple[Run, Any]], strength: float, smooth: float) -> Choice | None:
+    """The threshold of held-out scores evidenced over ``smooth`` seconds, and what it
+    detects (``None`` when no held-out run has a nominal sample)."""
+    weighed = [(run, evidence(run.times, scored, WINDOW, smooth)) for run, scored in held]
+    nominal = [
+        float(np.nanmax(e[~r.faulty])) for r, e in weighed if (~np.isnan(e[~r.faulty])).any()
+    ]
+    if not nominal:
+        return None
+    threshold = max(nominal)
+    delays = {}
+    for run, found in weighed:
+        over = np.flatnonzero(run.faulty & (found > threshold))
+        if len(over) and run.onset is not None:
+            delays[run.name] = float(run.times[over[0]] - run.start - run.onset)
+    return Choice(strength, smooth, threshold, frozenset(delays), delays, len(nominal))
+
 
 def choose(runs: Sequence[Run]) -> Choice | None:
-    """The cross-fitted penalty and threshold (module docstring, steps 2 and 3); ``None``
-    with too few runs to hold any out or when no penalty detects a held-out failed run."""
+    """The cross-fitted penalty, smoothing and threshold (module docstring, steps 2 to 4);
+    ``None`` with too few runs to hold any out or when no pair detects a held-out failed
+    run."""
     folds = blocked(runs, lambda r: (r.start, r.name), FOLDS)
     if len(folds) < 2:
         return None
@@ -145,19 +183,10 @@ def choose(runs: Sequence[Run]) -> Choice | None:
                 continue
             model = fit(training, strength)
             held += [(runs[k], model.scores(runs[k])) for k in fold]
-        nominal = [
-            float(np.nanmax(s[~r.faulty])) for r, s in held if np.isfinite(s[~r.faulty]).any()
-        ]
-        if not nominal:
-            continue
-        threshold = max(nominal)
-        delays = {}
-        for run, scored in held:
-            over = np.flatnonzero(run.faulty & (scored > threshold))
-            if len(over) and run.onset is not None:
-                delays[run.name] = float(run.times[over[0]] - run.start - run.onset)
-        if best is None or len(delays) >= len(best.detected):
-            best = Choice(strength, threshold, frozenset(delays), delays, len(nominal))
+        for smooth in SMOOTHING:
+            found = judged(held, strength, smooth)
+            if found is not None and (best is None or found.rank() > best.rank()):
+                best = found
     return best if best is not None and best.detected else None
 
 
@@ -204,11 +233,20 @@ def learn(key: str, variables: Sequence[str], runs: Sequence[Run]) -> Learnt | N
             "weights": weights[:-1],
             "bias": weights[-1],
             "threshold": choice.threshold,
+            "smooth": choice.smooth,
             "penalty": choice.strength,
         },
-        "text": f"detector score of {len(variables)} variables of {key} <= {choice.threshold:.6g}",
+        "text": f"{evidence_text(choice.smooth)} of {len(variables)} variables of {key} "
+        f"<= {choice.threshold:.6g}",
     }
     return Learnt(invariant, choice)
+
+
+def evidence_text(smooth: float) -> str:
+    """What a detector's threshold bounds, in words."""
+    if smooth <= 0.0:
+        return "detector score"
+    return f"detector mean score over {smooth:g} s"
 
 
 def detector_id(key: str, variables: Sequence[str]) -> str:

@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from imrosc.detectors import Run, choose, learn, run_of
+from imrosc import detectors
+from imrosc.detectors import Choice, Run, choose, learn, run_of
 from imrosc.runtime.detector import Detector
 
 RATE = 20.0
@@ -66,3 +67,44 @@ def test_the_learnt_detector_checks_new_runs_as_it_was_learnt(runs: list[Run]) -
     faulty = [first_alarm(_samples(seed, 10.0)) for seed in range(30, 34)]
     found = [t - 100.0 * seed for t, seed in zip(faulty, range(30, 34), strict=True) if t]
     assert len(found) >= 3 and all(t >= 10.0 for t in found)
+
+
+def _spiky(seed: int, onset: float | None) -> list[tuple[float, Any]]:
+    """One noisy variable at 20 Hz. A good run has a moment that passes: two samples of 8
+    at a random time. From ``onset`` on, a failed run's variable drifts 0.6 up and stays."""
+    rng = np.random.default_rng(seed)
+    spike = int(rng.integers(40, int(LENGTH * RATE) - 40))
+    found = []
+    for k in range(int(LENGTH * RATE)):
+        value = rng.normal(0.0, 1.0)
+        if k in (spike, spike + 1):
+            value = 8.0
+        if onset is not None and k / RATE >= onset:
+            value += 0.6
+        found.append((100.0 * seed + k / RATE, np.array([value])))
+    return found
+
+
+def test_the_evidence_of_a_lasting_fault_outweighs_a_good_run_s_passing_moment(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    runs = [run_of(f"r{s}", 100.0 * s, None, _spiky(s, None)) for s in range(1, 7)]
+    runs += [run_of(f"r{s}", 100.0 * s, 15.0, _spiky(s, 15.0)) for s in range(7, 13)]
+    smoothed = choose(runs)
+    assert smoothed is not None and smoothed.smooth > 0.0
+    assert len(smoothed.detected) >= 5  # of the 6 failed runs, each scored held out
+    assert all(0.0 <= delay <= 4.0 + 1.0 for delay in smoothed.delays.values())
+    learnt = learn("p", ["x"], runs)
+    assert learnt is not None and learnt.invariant["params"]["smooth"] == smoothed.smooth
+    assert f"mean score over {smoothed.smooth:g} s" in learnt.invariant["text"]
+    monkeypatch.setattr(detectors, "SMOOTHING", (0.0,))  # each sample's own score
+    instant = choose(runs)
+
+    def mean_delay(choice: Choice) -> float:
+        return sum(choice.delays.values()) / len(choice.delays)
+
+    # each sample's own score must wait for the passing moments' level: later, or never
+    assert instant is None or (
+        len(instant.detected) < len(smoothed.detected)
+        or mean_delay(instant) > mean_delay(smoothed) + 0.5
+    )

@@ -5,11 +5,16 @@ publish point (``docs/families/detector.md``): per sample, over the trailing win
 ``window`` seconds of the point's samples, three statistics of each of its ``variables``:
 the mean, the standard deviation and the change across the window (the sample's value less
 the oldest one in the window). Standardised by ``center`` and ``scale``, they are weighed by
-``weights`` (plus ``bias``); a score above ``threshold`` is a violation, and an alarm at
-once: the threshold is already the calibrated decision (the largest score any held-out good
-run reached).
+``weights`` (plus ``bias``): the sample's score, the log-odds that the run is faulty. The
+evidence is the mean of the scores over the trailing ``smooth`` seconds (the sample's own
+score when ``smooth`` is 0 or absent): a fault persists, a good run's odd moment does not.
+Evidence above ``threshold`` is a violation, and an alarm at once: the threshold is already
+the calibrated decision (the largest evidence any held-out good run reached).
 
-The window of a sample at time ``t`` holds the point's samples with times ``> t - window``.
+The window of a sample at time ``t`` holds the point's samples with times ``> t - window``;
+a run's samples are scored once they span the window (``window`` seconds after the first),
+and weighed once those scores span ``smooth`` seconds: the statistics of a shorter stretch
+are not the ones learnt from.
 A value that is NaN or infinite is the variable's last finite value (0 before the
 first): one infinity would otherwise poison the window's running sums for good. This module
 computes each sample's statistics incrementally; :func:`features` computes a whole run's
@@ -37,6 +42,18 @@ from .violation import Violation
 
 RESUM = 4096
 """Samples after which the running sums are summed again from the window (float drift)."""
+BOUND = 1e6
+"""The largest score's magnitude the evidence sums: far above any threshold a log-odds is
+given (tens), small enough that the running sums keep their precision. An overflowing
+score (values near the float range) is clipped to it and a NaN score is 0: neither may
+poison the sums."""
+
+
+def bounded(score: float) -> float:
+    """``score`` clipped to +-:data:`BOUND`, NaN as 0."""
+    if math.isnan(score):
+        return 0.0
+    return min(BOUND, max(-BOUND, score))
 
 
 class WindowFeatures:
@@ -54,6 +71,12 @@ class WindowFeatures:
         self.squares = np.zeros(self.width)
         self.last = np.zeros(self.width)
         self.added = 0
+        self.first: Optional[float] = None
+
+    def spans(self, time: float) -> bool:
+        """Whether the samples so far span the window (before, the statistics describe a
+        shorter stretch than the ones learnt from, and no score is given)."""
+        return self.first is not None and time - self.first >= self.window
 
     def add(self, time: float, values: Any) -> Any:
         """The sample's statistics: ``[means, standard deviations, changes]``."""
@@ -62,6 +85,8 @@ class WindowFeatures:
         if missing.any():
             x[missing] = self.last[missing]
         self.last = x
+        if self.first is None:
+            self.first = time
         held = self.held
         held.append((time, x))
         self.total += x
@@ -80,6 +105,70 @@ class WindowFeatures:
         mean = self.total / count
         variance = np.maximum(self.squares / count - mean * mean, 0.0)
         return np.concatenate((mean, np.sqrt(variance), x - held[0][1]))
+
+
+class TrailingMean:
+    """The mean of a score over the trailing ``seconds`` (the samples later than
+    ``t - seconds``), sample by sample, once the scores span ``seconds``; the score itself
+    when ``seconds`` is 0."""
+
+    def __init__(self, seconds: float) -> None:
+        self.seconds = float(seconds)
+        self.reset()
+
+    def reset(self) -> None:
+        self.held: Deque[Tuple[float, float]] = collections.deque()
+        self.total = 0.0
+        self.added = 0
+        self.first: Optional[float] = None
+
+    def add(self, time: float, score: float) -> Optional[float]:
+        """The mean with the score of ``time``; ``None`` while the scores span less than
+        ``seconds``."""
+        score = bounded(score)
+        if self.seconds <= 0.0:
+            return score
+        if self.first is None:
+            self.first = time
+        held = self.held
+        held.append((time, score))
+        self.total += score
+        edge = time - self.seconds
+        while held[0][0] <= edge:
+            self.total -= held.popleft()[1]
+        self.added += 1
+        if self.added % RESUM == 0:
+            self.total = math.fsum(s for _, s in held)
+        if time - self.first < self.seconds:
+            return None
+        return self.total / len(held)
+
+
+def evidence(times: Any, scores: Any, window: float, smooth: float) -> Any:
+    """What a :class:`Detector` weighs each sample of a run by, at once (what
+    classification learns from; the monitors compute the same sample by sample): NaN before
+    the samples span ``window``, then the scores' :class:`TrailingMean` over ``smooth``
+    seconds (NaN until those scores span ``smooth`` in turn)."""
+    at = np.asarray(times, dtype=np.float64)
+    values = np.clip(np.nan_to_num(np.asarray(scores, dtype=np.float64)), -BOUND, BOUND)
+    found = np.full(len(values), math.nan)
+    if not len(values):
+        return found
+    spanning = at - at[0] >= window  # as WindowFeatures.spans has it
+    if not spanning.any():
+        return found
+    scored = int(np.argmax(spanning))
+    at, values = at[scored:], values[scored:]
+    if smooth <= 0.0:
+        found[scored:] = values
+        return found
+    starts = np.searchsorted(at, at - smooth, side="right")
+    sums = np.concatenate(([0.0], np.cumsum(values)))
+    ends = np.arange(1, len(values) + 1)
+    means = (sums[ends] - sums[starts]) / (ends - starts)
+    means[at - at[0] < smooth] = math.nan
+    found[scored:] = means
+    return found
 
 
 def features(times: Any, rows: Any, window: float) -> Any:
@@ -104,20 +193,27 @@ class Detector:
         self.weights = np.asarray(params["weights"], dtype=np.float64) / self.scale
         self.offset = float(params["bias"]) - float(self.weights.dot(self.center))
         self.threshold = float(params["threshold"])
-        self.expected = f"score <= {self.threshold:.6g}"
+        self.smooth = float(params.get("smooth", 0.0))
+        what = "score" if self.smooth <= 0.0 else f"mean score over {self.smooth:g} s"
+        self.expected = f"{what} <= {self.threshold:.6g}"
         self.window = WindowFeatures(float(params["window"]), len(self.places))
+        self.evidence = TrailingMean(self.smooth)
 
     def reset(self) -> None:
         self.window.reset()
+        self.evidence.reset()
 
     def score(self, time: float, row: Any) -> float:
         """The score of the sample ``row`` (the window moves on)."""
         return float(self.weights.dot(self.window.add(time, row.take(self.places)))) + self.offset
 
     def sample(self, time: float, row: Any, point: str = "") -> Optional[Violation]:
-        """The violation of the sample ``row``, if its score is above the threshold."""
+        """The violation of the sample ``row``, if the evidence is above the threshold."""
         score = self.score(time, row)
-        if score <= self.threshold or math.isnan(score):
+        if not self.window.spans(time):
+            return None
+        weighed = self.evidence.add(time, score)
+        if weighed is None or weighed <= self.threshold:
             return None
         inv = self.invariant
         return Violation(
@@ -127,6 +223,6 @@ class Detector:
             DETECTOR,
             inv["kind"],
             inv["text"],
-            score,
+            weighed,
             self.expected,
         )

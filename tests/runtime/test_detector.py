@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from imrosc.runtime import Engine
-from imrosc.runtime.detector import Detector, features
+from imrosc.runtime.detector import Detector, TrailingMean, bounded, evidence, features
 from imrosc.runtime.families import DETECTOR
 
 
@@ -90,9 +90,60 @@ def test_the_engine_raises_an_alarm_at_the_first_score_above_the_threshold() -> 
 
 def test_reset_forgets_the_window_and_clear_stops_the_detector() -> None:
     engine = Engine(_document([_invariant(1.5)]))
-    engine.message("/x", 0.0, [0.0])
+    for k in range(5):
+        engine.message("/x", 0.25 * k, [0.0])
     engine.reset()
-    assert engine.message("/x", 0.5, [5.0]) == []  # a first sample changes nothing
-    assert engine.message("/x", 0.75, [10.0]) != []
+    assert engine.message("/x", 1.25, [5.0]) == []  # a first sample again: no score yet
+    assert engine.message("/x", 2.0, [5.0]) == []
+    assert engine.message("/x", 2.25, [10.0]) != []  # spans 1 s: the change is 5
     assert engine.clear("idet")
-    assert engine.message("/x", 1.0, [20.0]) == []
+    assert engine.message("/x", 2.5, [20.0]) == []
+
+
+def test_no_score_before_the_samples_span_the_window() -> None:
+    detector = Detector(_invariant(-5.0), {"x.data": 0})  # any score is above -5
+    found = [detector.sample(0.25 * k, np.array([0.0])) is not None for k in range(6)]
+    assert found == [False] * 4 + [True] * 2
+
+
+def test_the_evidence_of_a_run_matches_the_detector_s_sample_by_sample() -> None:
+    rng = np.random.default_rng(11)
+    times = np.cumsum(rng.uniform(0.01, 0.4, 500))
+    scores = rng.normal(0.0, 3.0, 500)
+    scores[17], scores[90], scores[91] = math.nan, math.inf, -math.inf
+    for window, smooth in ((0.0, 0.0), (1.0, 0.0), (1.0, 0.5), (0.5, 2.0)):
+        weighed = TrailingMean(smooth)
+        spans = times - times[0] >= window
+        one_by_one = [
+            weighed.add(t, s) if spanning else None
+            for t, s, spanning in zip(times, scores, spans, strict=True)
+        ]
+        whole = evidence(times, scores, window, smooth)
+        assert [v is None for v in one_by_one] == list(np.isnan(whole))
+        assert np.allclose(
+            [v for v in one_by_one if v is not None], whole[~np.isnan(whole)], atol=1e-6
+        )
+    first = int(np.argmax(times - times[0] >= 0.5))
+    direct = [  # from scratch: the scores later than t - 2, NaN as 0, infinities clipped
+        np.mean([bounded(scores[j]) for j in range(first, k + 1) if times[j] > t - 2.0])
+        for k, t in enumerate(times)
+        if k >= first and t - times[first] >= 2.0
+    ]
+    whole = evidence(times, scores, 0.5, 2.0)
+    assert np.allclose(whole[~np.isnan(whole)], direct, atol=1e-6)
+
+
+def test_a_smoothed_detector_alarms_on_a_lasting_score_not_a_passing_one() -> None:
+    invariant = _invariant(1.5)
+    invariant["params"]["smooth"] = 1.0
+    detector = Detector(invariant, {"x.data": 0})
+    assert "mean score over 1 s" in detector.expected
+    # a spike: the change is 4 for one window (score 3, then -1, -1, -5), the value comes back
+    spike = [0.0] * 10 + [4.0] + [0.0] * 9
+    assert all(detector.sample(0.25 * k, np.array([v])) is None for k, v in enumerate(spike))
+    instant = Detector(_invariant(1.5), {"x.data": 0})  # each sample's own score
+    assert [k for k, v in enumerate(spike) if instant.sample(0.25 * k, np.array([v]))] == [10]
+    detector.reset()
+    ramp = [float(k) for k in range(12)]  # a lasting change: score 2 once the window spans
+    alarms = [detector.sample(0.25 * k, np.array([v])) is not None for k, v in enumerate(ramp)]
+    assert alarms == [False] * 8 + [True] * 4  # scored from 1 s, weighed from 2 s
