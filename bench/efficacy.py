@@ -36,7 +36,7 @@ Parts:
      invariants ``<check select>`` keeps: imrosc's default, the set whose union detects the
      most failed runs minus its expected false alarms, or with ``--select fscore`` those whose
      F-score reaches the threshold; the alarm rule set again for the kept ones from
-     calibration's held-out traces). With ``<check detector="logistic">`` (this bench's
+     calibration's held-out traces). With ``<check detector="logistic">`` (imrosc's
      default; ``--detector none`` for the invariants alone) classification also learns a
      fault detector per point, and keeps the cover, the detector or both, whichever failed
      runs held out of the choice show worth the most (docs/families/detector.md). The
@@ -983,9 +983,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--detector",
         choices=("none", "logistic"),
-        default="logistic",
-        help="<check detector> of the classified monitors (default: logistic, docs/families/"
-        'detector.md; "none" is imrosc\'s default: invariants only)',
+        default=None,
+        help="<check detector> of the classified monitors (default: imrosc's, logistic, "
+        'docs/families/detector.md; "none": invariants only)',
     )
     args = parser.parse_args(argv)
     BUDGET[0] = args.budget

@@ -38,7 +38,7 @@ import numpy as np
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, held_out_runs
 from imrosc.check import load_checked
-from imrosc.detectors import FOLDS, Learnt, learn, run_of, variables_of
+from imrosc.detectors import FOLDS, Learnt, Sampled, learn, run_of, variables_of
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.folds import blocked
 from imrosc.infer.engine import default_workers
@@ -270,9 +270,9 @@ class RunOutcome:
     unchecked: list[str] = field(default_factory=list)
     """The unconditional publish points that checked no sample in this run."""
     messages: int = 0
-    samples: dict[str, list[tuple[float, Any]]] = field(default_factory=dict, repr=False)
-    """Per point a detector may weigh (``<check detector>``), its checked samples: the time
-    and the values of :func:`imrosc.detectors.variables_of`."""
+    samples: dict[str, Sampled] = field(default_factory=dict, repr=False)
+    """Per point a detector may weigh (``<check detector>``), its checked samples: their
+    times and the values of :func:`imrosc.detectors.variables_of`."""
 
     @property
     def violated(self) -> set[str]:
@@ -308,15 +308,29 @@ class Sampler:
             weighed = variables_of(info)
             if weighed:
                 self.places[key] = np.asarray([numeric.index(n) for n in weighed], np.int64)
-        self.samples: dict[str, list[tuple[float, Any]]] = {}
+        self.times: dict[str, list[float]] = {}
+        self.rows: dict[str, list[Any]] = {}
 
     def trace(self, point: str, time: float, row: Any, frequency: float | None) -> None:
         places = self.places.get(point)
         if places is not None:
-            self.samples.setdefault(point, []).append((time, row.take(places)))
+            if point not in self.times:
+                self.times[point], self.rows[point] = [], []
+            self.times[point].append(time)
+            self.rows[point].append(row.take(places))
 
-    def take(self) -> dict[str, list[tuple[float, Any]]]:
-        taken, self.samples = self.samples, {}
+    def take(self) -> dict[str, Sampled]:
+        """The samples of the run traced since the last call, as arrays."""
+        taken = {
+            point: Sampled(
+                np.asarray(times, dtype=np.float64),
+                np.asarray(self.rows[point], dtype=np.float64).reshape(
+                    len(times), len(self.places[point])
+                ),
+            )
+            for point, times in self.times.items()
+        }
+        self.times, self.rows = {}, {}
         return taken
 
 
@@ -884,7 +898,8 @@ def run_check(
     everything = [b for bags in found.values() for b in bags]
     out.inputs = [inv_path, *everything]
     progress = progress_factory(len(everything)) if progress_factory is not None else None
-    logistic = check.mode == "classify" and check.detector == "logistic"
+    # detectors learn from failed runs with an onset: without one, no samples are kept
+    logistic = check.mode == "classify" and check.detector == "logistic" and bool(specs)
     observed = observe_runs(
         document, everything, workers, specs, progress, collect=logistic, cluster=cluster
     )
@@ -1037,7 +1052,7 @@ def learn_detectors(
             run_of(str(bag), o.start, o.onset if bag in failed else None, o.samples[key])
             for group in (success, failed)
             for bag, o in group.items()
-            if o.samples.get(key)
+            if key in o.samples and len(o.samples[key].times)
         ]
         learnt = learn(key, variables, runs)
         if learnt is not None:

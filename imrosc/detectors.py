@@ -33,7 +33,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -61,6 +61,14 @@ evenly; the thresholds are still set on every sample)."""
 FOLDS = 4
 """Blocked folds of the cross-fitting (fewer with fewer runs)."""
 _VALUE_TYPES = ("float", "int", "uint", "bool")
+
+
+class Sampled(NamedTuple):
+    """One point's checked samples in one run, as classification collects them: their
+    times (s) and, one row per sample, the values of :func:`variables_of`."""
+
+    times: Any
+    rows: Any
 
 
 @dataclass
@@ -254,8 +262,8 @@ def detector_id(key: str, variables: Sequence[str]) -> str:
     return hashed_id([key, DETECTOR, "logistic", *variables])
 
 
-def run_of(name: str, start: float, onset: float | None, samples: Sequence[Any]) -> Run:
-    """One point's :class:`Run` from its samples ``(time, values)`` in one run."""
-    times = np.array([t for t, _ in samples], dtype=np.float64)
-    rows = np.array([values for _, values in samples], dtype=np.float64)
-    return Run(name, start, onset, times, features(times, rows.reshape(len(times), -1), WINDOW))
+def run_of(name: str, start: float, onset: float | None, samples: Sampled) -> Run:
+    """One point's :class:`Run` from its samples in one run."""
+    times = np.asarray(samples.times, dtype=np.float64)
+    rows = np.asarray(samples.rows, dtype=np.float64).reshape(len(times), -1)
+    return Run(name, start, onset, times, features(times, rows, WINDOW))

@@ -221,8 +221,9 @@ class Check:
     """One per ``fail`` entry, in order (the entry's span; its onset if it gives one)."""
     select: Literal["cover", "fscore"] = "cover"
     """How classification chooses the kept invariants (:mod:`imrosc.selection`)."""
-    detector: Literal["none", "logistic"] = "none"
-    """Whether classification also learns fault detectors (:mod:`imrosc.detectors`)."""
+    detector: Literal["none", "logistic"] = "logistic"
+    """Whether classification also learns fault detectors (:mod:`imrosc.detectors`) from
+    the failed runs with an onset."""
 
 
 @dataclass(frozen=True)

@@ -178,7 +178,7 @@ def _check(config: LoadedConfig, element: etree._Element, fallback: str) -> ir.C
         beta=_number(element, "beta", 1.0),
         onsets=tuple(_onset(config, child) for child in children(element, "fail")),
         select="fscore" if element.get("select") == "fscore" else "cover",
-        detector="logistic" if element.get("detector") == "logistic" else "none",
+        detector="none" if element.get("detector") == "none" else "logistic",
     )
 
 

@@ -8,11 +8,16 @@ import numpy as np
 import pytest
 
 from imrosc import detectors
-from imrosc.detectors import Choice, Run, choose, learn, run_of
+from imrosc.detectors import Choice, Run, Sampled, choose, learn, run_of
 from imrosc.runtime.detector import Detector
 
 RATE = 20.0
 LENGTH = 30.0
+
+
+def _sampled(samples: list[tuple[float, Any]]) -> Sampled:
+    """Samples ``(time, values)`` as classification collects them."""
+    return Sampled(np.array([t for t, _ in samples]), np.array([v for _, v in samples]))
 
 
 def _samples(seed: int, onset: float | None) -> list[tuple[float, Any]]:
@@ -28,7 +33,7 @@ def _samples(seed: int, onset: float | None) -> list[tuple[float, Any]]:
 
 
 def _run(seed: int, onset: float | None) -> Run:
-    return run_of(f"run{seed}", 100.0 * seed, onset, _samples(seed, onset))
+    return run_of(f"run{seed}", 100.0 * seed, onset, _sampled(_samples(seed, onset)))
 
 
 @pytest.fixture(scope="module")
@@ -88,8 +93,8 @@ def _spiky(seed: int, onset: float | None) -> list[tuple[float, Any]]:
 def test_the_evidence_of_a_lasting_fault_outweighs_a_good_run_s_passing_moment(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    runs = [run_of(f"r{s}", 100.0 * s, None, _spiky(s, None)) for s in range(1, 7)]
-    runs += [run_of(f"r{s}", 100.0 * s, 15.0, _spiky(s, 15.0)) for s in range(7, 13)]
+    runs = [run_of(f"r{s}", 100.0 * s, None, _sampled(_spiky(s, None))) for s in range(1, 7)]
+    runs += [run_of(f"r{s}", 100.0 * s, 15.0, _sampled(_spiky(s, 15.0))) for s in range(7, 13)]
     smoothed = choose(runs)
     assert smoothed is not None and smoothed.smooth > 0.0
     assert len(smoothed.detected) >= 5  # of the 6 failed runs, each scored held out

@@ -450,7 +450,7 @@ def test_a_learnt_detector_joins_the_monitor_when_held_out_runs_say_it_is_worth_
         '<imROS project="p">\n'
         '  <scope><publish id="a">/x</publish></scope>\n'
         '  <detect inv="p.inv"><bag>bags/train</bag></detect>\n'
-        '  <check inv="p.inv" detector="logistic">\n'
+        '  <check inv="p.inv">\n'  # detector="logistic", the default'
         "    <success>bags/ok</success><success>bags/train</success>\n"
         '    <fail onset="12">bags/bad</fail><fail onset="12">bags/other</fail>\n'
         "  </check>\n"
@@ -476,9 +476,11 @@ def test_a_learnt_detector_joins_the_monitor_when_held_out_runs_say_it_is_worth_
         assert onsets.ONSET <= first < onsets.ONSET + 1.0
 
 
-def test_without_the_attribute_no_detector_is_learnt(prepared: Path, tmp_path: Path) -> None:
+def test_detector_none_learns_no_detector(prepared: Path, tmp_path: Path) -> None:
     folder = onsets.copy(prepared, tmp_path / "p")
-    result = run_check(onsets.project(folder, '<fail onset="12">bags/bad</fail>'), workers=1)
+    config = onsets.project(folder, '<fail onset="12">bags/bad</fail>')
+    config.write_text(config.read_text().replace("<check ", '<check detector="none" '))
+    result = run_check(config, workers=1)
     assert "detectors" not in result.report
     assert result.refined is not None
     assert all(inv["family"] != "detector" for inv in result.refined["invariants"])
