@@ -10,7 +10,12 @@ decision that the system is in trouble. A point's violations raise an alarm when
 
 and an *event* violation (a silent topic, an ordered pair past its maximum time, an
 unexpected or missing node, an event sequence outside its pattern) raises one at once: it
-is already the outcome of a timer or of a whole sequence.
+is already the outcome of a timer or of a whole sequence. So does, at the first sample of
+its episode, a violation that is no matter of degree (:func:`at_once`): a learnt
+detector's (its threshold is the calibrated decision already) and a **frozen variable**'s,
+a variance of exactly 0 over the window where every training window varied (a stuck sensor
+repeats its value bit for bit; noise never does). The samples of such an episode are in
+alarm until the invariant holds again.
 
 Agreement counts evidence, not consequences: a violation of an invariant of several
 variables (a polygon, a relation) whose sample also breaks a range of one of those variables
@@ -37,7 +42,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
-from .families import RANGED
+from .families import DETECTOR, RANGED, VARIANCE
 from .violation import Violation, json_safe
 
 Fed = Tuple[float, str, str, int, bool, float]
@@ -55,6 +60,14 @@ def shapes_of(invariants: Sequence[Mapping[str, Any]]) -> Dict[str, Tuple[bool, 
         )
         for inv in invariants
     }
+
+
+def at_once(violation: Violation) -> bool:
+    """Whether ``violation`` raises an alarm at the first sample of its episode, whatever
+    the rule: a learnt detector's, or a frozen variable's (variance exactly 0 against a
+    positive minimum; see the module's docstring)."""
+    family = violation.family
+    return family == DETECTOR or (family == VARIANCE and violation.observed == 0.0)
 
 
 class AlarmRule(NamedTuple):
@@ -124,6 +137,10 @@ class Alarm(NamedTuple):
             why = f"{len(self.invariants)} invariants broken together"
         elif self.rule == "persist":
             why = "a violation that persists"
+        elif v.family == VARIANCE:
+            why = "a frozen variable"
+        elif v.family == DETECTOR:
+            why = "a fault detector"
         else:
             why = "an event"
         return f"alarm at {self.time:.3f} s, {self.point}: {why}; {v.invariant} {v.text}"
@@ -168,6 +185,17 @@ class AlarmTracker:
         for ident in [i for i in episodes if i not in now_broken]:
             del episodes[ident]
         raised: List[Alarm] = []
+        if found and any(at_once(v) for v in found):
+            for v in found:
+                if at_once(v):
+                    episode = episodes.get(v.invariant)
+                    if episode is None:  # (or a variance that fell below its minimum first)
+                        episode = episodes[v.invariant] = [time, 0.0, 0.0]
+                    episode[1] += 1
+                    if not episode[2]:
+                        episode[2] = 1.0
+                        raised.append(Alarm(time, point, "event", (v.invariant,), v))
+            found = [v for v in found if not at_once(v)]  # nor persistence nor agreement
         counted = self.evidence(found) if found else found
         counted_ids = {id(v) for v in counted} if self.record else set()
         for v in found:

@@ -528,14 +528,6 @@ class Engine:
             return []
         point.checked += 1
         broken = point.sample(time, row, texts, self.trace)
-        if point.detectors and broken:
-            scored = [v for v in broken if v.family == DETECTOR]
-            if scored:  # a detector's threshold is calibrated already: an alarm at once
-                self.alarms.event(scored)
-                rest = [v for v in broken if v.family != DETECTOR]
-                if rest or self.alarms.busy(point.key):
-                    self.alarms.sample(point.key, time, rest)
-                return broken
         if broken or self.alarms.busy(point.key):
             self.alarms.sample(point.key, time, broken)
         return broken

@@ -140,3 +140,30 @@ def test_without_a_rule_every_violation_alarms() -> None:
     strict = Engine(document(None), rule=AlarmRule(persist=2))
     strict.message("/a/x", 0.0, [2.0, 0.0])
     assert strict.take_alarms() == []
+
+
+def frozen(time: float, observed: float = 0.0) -> Violation:
+    """The variance lower bound of x broken: by 0 (the window's values all equal) or less."""
+    return Violation(time, "p", "x_var", "variance", "range", "1e-4 <= var(x)", observed, ">= 1e-4")
+
+
+def test_a_frozen_variable_alarms_at_the_first_sample_of_its_episode() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=100, distinct=2), record=True)
+    assert tracker.sample("p", -1.0, [frozen(-1.0, observed=5e-5)]) == []  # a matter of degree
+    (alarm,) = tracker.sample("p", 0.1, [frozen(0.1)])
+    assert (alarm.rule, alarm.invariants) == ("event", ("x_var",))
+    assert "a frozen variable" in alarm.describe()
+    later = [frozen(0.2), broken("a", 0.2)]
+    assert tracker.sample("p", 0.2, later) == []  # once per episode; not counted by agreement
+    assert tracker.alarmed(later, []) == later[:1]  # its samples stay in alarm
+    assert [f[2] for f in tracker.fed] == ["x_var", "a"]  # calibration's persistence: not it
+    assert tracker.sample("p", 0.3, []) == []  # the variable moves again: the episode ends
+    assert [a.rule for a in tracker.sample("p", 0.4, [frozen(0.4)])] == ["event"]
+
+
+def test_a_detector_alarms_once_per_episode() -> None:
+    tracker = AlarmTracker(AlarmRule(persist=100))
+    scored = [Violation(t, "p", "d", "detector", "logistic", "d", 3.0, "<= 1") for t in (0, 1)]
+    assert [a.rule for a in tracker.sample("p", 0.0, scored[:1])] == ["event"]
+    assert tracker.sample("p", 1.0, scored[1:]) == []
+    assert tracker.alarmed(scored[1:], []) == scored[1:]
