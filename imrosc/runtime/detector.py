@@ -26,7 +26,7 @@ Python 3.8 syntax, numpy and the standard library: the monitors carry this modul
 ...     "text": "t", "variables": ["x"], "params": {"window": 1.0, "center": [0, 0, 0],
 ...     "scale": [1, 1, 1], "weights": [0, 0, 1], "bias": 0.0, "threshold": 2.5}}, {"x": 0})
 >>> [d.sample(0.25 * k, np.array([float(k)])) is not None for k in range(6)]
-[False, False, False, True, True, True]
+[False, False, False, False, True, True]
 """
 
 from __future__ import annotations
