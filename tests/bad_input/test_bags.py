@@ -134,3 +134,56 @@ def test_a_bag_cut_before_its_first_message_is_an_error(project: Path) -> None:
         stderr
     )
     assert "skipped 1 bag" in stdout
+
+
+def make_active(project: Path, *names: str) -> list[Path]:
+    """The bags ``names`` as an interrupted ``rosbag record`` leaves them: unindexed and
+    named ``NAME.bag.active``."""
+    found = []
+    for name in names:
+        bag = project / name
+        unindex(bag)
+        active = bag.with_name(bag.name + ".active")
+        bag.rename(active)
+        found.append(active)
+    return found
+
+
+NOT_INDEXED = "not indexed (the recording was interrupted); recovered 80 messages of the first "
+
+
+def test_an_unfinished_recording_is_read_wherever_a_bag_is_named(project: Path) -> None:
+    """``NAME.bag.active`` files read as they are, not renamed: by name in <bag>, <success>
+    and <fail>, in their folders, on the command line and by glob."""
+    r2, s1, f1 = make_active(project, "bags/train/r2.bag", "bags/ok/s1.bag", "bags/bad/f1.bag")
+    config = (project / "p.xml").read_text()
+    named = config.replace("<bag>bags/train</bag>", "<bag>bags/train/r2.bag.active</bag>")
+    named = named.replace("<success>bags/ok</success>", "<success>bags/ok/s1.bag.active</success>")
+    named = named.replace("<fail>bags/bad</fail>", "<fail>bags/bad/f1.bag.active</fail>")
+    (project / "named.xml").write_text(named)
+    for xml, trained in (("p.xml", "2 bags"), ("named.xml", "1 bag,")):
+        status, stdout, stderr = run(project, ("infer", f"{{d}}/{xml}", "-j", "1", "-q"))
+        assert status == 0 and f"from {trained}" in stdout, (stdout, stderr)
+        (line,) = [line for line in stderr.splitlines() if RECOVERED in line]
+        assert line.startswith(f"{r2}:1:1: warning: {NOT_INDEXED}"), line
+        status, stdout, stderr = run(project, ("classify", f"{{d}}/{xml}", "-j", "1", "-q"))
+        assert status == 0, (stdout, stderr)
+        assert f"success  {s1}" in stdout and f"fail     {f1}" in stdout, stdout
+        assert {bag for bag in (s1, f1) if f"{bag}: warning: {NOT_INDEXED}" in stderr} == {s1, f1}
+    status, stdout, stderr = run(project, ("replay", "{d}/p.inv", str(s1)))
+    assert status in (0, 1, 3) and f"{s1}: warning: {NOT_INDEXED}" in stderr, stderr
+    status, stdout, stderr = run(project, ("info", "{d}/bags/*/*.active", "-q"))
+    assert status == 0 and all(f"bag:       {bag}" in stdout for bag in (r2, s1, f1)), stdout
+    assert len([line for line in stderr.splitlines() if NOT_INDEXED in line]) == 3
+
+
+def test_an_unfinished_recording_is_read_by_url(project: Path) -> None:
+    from tests.served import serve
+
+    (active,) = make_active(project, "bags/ok/s1.bag")
+    with serve(project) as url:
+        named = f"{url}/bags/ok/{active.name}"
+        status, stdout, stderr = run(project, ("info", named, "-q"))
+        assert status == 0 and f"bag:       {named}" in stdout, (stdout, stderr)
+        (line,) = stderr.splitlines()
+        assert line.startswith(f"imrosc info: {named}:1:1: warning: {NOT_INDEXED}"), line
