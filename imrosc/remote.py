@@ -257,7 +257,7 @@ def discover_url(url: BagUrl) -> tuple[list[Path], list[Diagnostic]]:
 def _is_ros1(url: BagUrl) -> bool:
     """Whether a URL names a ROS 1 bag: ``NAME.bag``, or the ``NAME.bag.active`` of a
     recording never closed (read up to its last whole record once downloaded)."""
-    return url.suffix == ROS1_SUFFIX or url.name.endswith(ROS1_SUFFIX + ".active")
+    return url.suffix == ROS1_SUFFIX or str(url.name).endswith(ROS1_SUFFIX + ".active")
 
 
 def _named(fs: Any, url: BagUrl) -> tuple[list[Path], list[Diagnostic]]:
