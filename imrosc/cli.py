@@ -589,6 +589,10 @@ def replay(
     shown = "json" if as_json else output_format
     every = shown != "text" or report_path is not None  # else the report on stdout says them
     for result in results:
+        if result.error is not None:  # in the report, and on stderr as every error is
+            named = str(result.error)
+            named = named if named.startswith(f"{result.bag}: ") else f"{result.bag}: {named}"
+            click.echo(f"imrosc replay: {named}", err=True)
         for warning in result.warnings:
             if every or warning == result.recovered:  # a damaged bag is said on stderr too
                 click.echo(f"imrosc replay: {result.bag}: warning: {warning}", err=True)
