@@ -164,6 +164,29 @@ ROWS: dict[str, Row] = {
         "imrosc replay: {d}/junk.bag: cannot open bag: not a ROS 1 bag",
         config("junk.bag", "junk\n"),
     ),
+    # no bag read: an input error, and nothing written over what was there
+    "infer: no bag could be read": Row(
+        ("infer", "{d}/p.xml", "-j", "1", "-q", "--bags", "{d}/junk.bag"),
+        2,
+        "imrosc infer: no bag could be read: {d}/p.inv not written",
+        config("junk.bag", "junk\n"),
+    ),
+    "replay: no bag could be read": Row(
+        ("replay", INV, "{d}/junk.bag"),
+        2,
+        "imrosc replay: {d}/junk.bag: cannot open bag: not a ROS 1 bag",
+        config("junk.bag", "junk\n"),
+    ),
+    "export-daikon: no bag could be read": Row(
+        ("export-daikon", "{d}/p.xml", "-q", "--bags", "{d}/gone.bag", "-o", "{d}/daikon"),
+        2,
+        "imrosc export-daikon: no bag could be read: nothing written to {d}/daikon",
+    ),
+    "build: no bag could be read": Row(
+        ("build", "{d}/p.xml", "-q", "--bags", "{d}/gone.bag", "-o", "{d}/build"),
+        2,
+        "gone.bag:1:1: error: no such file or directory [bag-error]",
+    ),
     # invariants of another project
     "classify: invariants of another project": Row(
         (
@@ -206,3 +229,5 @@ def test_finding(name: str, project: Path) -> None:
     assert len(lines) == 1, result.output
     after = snapshot(project)
     assert {k: v for k, v in after.items() if k in before} == before  # nothing changed
+    if row.status == 2:  # stopped: nothing written either
+        assert set(after) == set(before), set(after) - set(before)
