@@ -677,7 +677,7 @@ def classify(
     --scheduler, each run is a task on a Dask cluster (docs/fleet.md).
 
     Exit status: 0 done, 1 a run that could not be read, 5 a point that checked no sample
-    in some run (its invariants went unchecked there).
+    in some run (its invariants went unchecked there); 2 when no run could be read.
     """
     from imrosc.build import write_files
     from imrosc.classify import CheckStageError, run_check
@@ -727,6 +727,9 @@ def classify(
             click.echo(f"imrosc classify: {run['bag']}: warning: {warning}", err=True)
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
+    unread = has_errors(result.diagnostics) or bool(result.report.get("errors"))
+    if "runs" in result.report and not result.report["runs"] and unread:
+        fail("classify", "no bag could be read: nothing written", EXIT_USAGE)
     inputs = (config, *result.inputs)
     refined_path = result.output if result.refined is not None else None
     same = refined_path is not None and report_path is not None

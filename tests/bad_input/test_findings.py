@@ -177,6 +177,17 @@ ROWS: dict[str, Row] = {
         "imrosc replay: {d}/junk.bag: cannot open bag: not a ROS 1 bag",
         config("junk.bag", "junk\n"),
     ),
+    "classify: no bag could be read": Row(
+        ("classify", "{d}/c.xml", "-j", "1", "-q"),
+        2,
+        "imrosc classify: no bag could be read: nothing written",
+        config(
+            "c.xml",
+            CONFIG.replace("<success>bags/ok</success>", "<success>gone.bag</success>").replace(
+                "<fail>bags/bad</fail>", "<fail>bags/none</fail>"
+            ),
+        ),
+    ),
     "export-daikon: no bag could be read": Row(
         ("export-daikon", "{d}/p.xml", "-q", "--bags", "{d}/gone.bag", "-o", "{d}/daikon"),
         2,
