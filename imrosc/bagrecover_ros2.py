@@ -12,7 +12,8 @@ missing. The readers here are rosbags' own, reading what is left:
 * :class:`RecoveringSqlite3Reader`: a database shorter than its header says, or one sqlite
   calls malformed, is read with sqlite's own reader (``writable_schema``, which opens a
   database shorter than its header says) in the order the messages were written, up to the
-  first message sqlite cannot read.
+  first message sqlite cannot read; when the table's leaves hold more than its b-tree
+  reaches, they are read page by page (:mod:`imrosc.bagrecover_sqlite`).
 * :class:`RecoveringDirectoryReader`: a bag folder whose ``metadata.yaml`` is missing or
   cannot be read is read from its storage files alone (topics, types, message definitions
   and counts are in them); counts and times of a bag whose storage was recovered are the
@@ -62,6 +63,7 @@ from rosbags.rosbag2.storage_mcap import (
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
 
 from imrosc.bagrecover import Recovery, recovered_text
+from imrosc.bagrecover_sqlite import PageMessage, last_rowid, read_data, scan_messages
 
 if TYPE_CHECKING:
     from rosbags.rosbag2.reader import ReaderProtocol
@@ -380,8 +382,11 @@ class RecoveringSqlite3Reader(Sqlite3Reader):
 
     recovery: Recovery | None = None
     _rows = 0
-    """Rows read by the scan, in the order they were written (of every topic)."""
+    """Rows read through the b-tree, in the order they were written (of every topic)."""
     _ordered = True
+    _pages: list[PageMessage] | None = None
+    """The messages found in the table's leaves, in time order, when they are more than
+    the b-tree reaches (:mod:`imrosc.bagrecover_sqlite`)."""
 
     def open(self) -> None:
         short = _sqlite_short(Path(str(self.path)))
@@ -412,31 +417,45 @@ class RecoveringSqlite3Reader(Sqlite3Reader):
             self.connections = self._topics()
         except apsw.Error as error:
             raise ReaderError(f"{what}, before its first whole message") from error
+        times, damaged = self._walk()
+        if damaged or short is not None:  # the leaves may hold more than the tree reaches
+            with Path(str(self.path)).open("rb") as stream:
+                more = last_rowid(stream, size) > self._rows  # rosbag2's rowids: 1, 2, ...
+                pages = scan_messages(stream, size) if more else []
+            if len(pages) > len(times):
+                self._pages = sorted(pages, key=lambda m: (m.time, m.rowid))
+                times = [(m.topic, m.time) for m in pages]
+        if not times and (damaged or short is not None):
+            raise ReaderError(f"{what}, before its first whole message")
         counts: dict[int, int] = defaultdict(int)
-        first, last, previous = _NO_TIME, 0, -1
+        for topic, _ in times:
+            counts[topic] += 1
+        ids = {c.id for c in self.connections}
+        self.connections = [c._replace(msgcount=counts[c.id]) for c in self.connections]
+        kept = [time for topic, time in times if topic in ids]
+        self.metadata = _metadata(len(kept), min(kept, default=0), max(kept, default=0))
+        ending = "truncated" if short is not None else "damaged"
+        seconds = _seconds(self.metadata)
+        self.recovery = Recovery(size, ending, size, len(kept), seconds, True, described=what)
+
+    def _walk(self) -> tuple[list[tuple[int, int]], bool]:
+        """The topic and time of every row sqlite reads through the table's b-tree, in the
+        order they were written, up to the first it cannot read; whether it met one."""
+        assert self.dbconn
+        found: list[tuple[int, int]] = []
+        previous = -1
         scan = "SELECT topic_id, timestamp, length(substr(data, -1)) FROM messages NOT INDEXED"
-        damaged = False
         try:
             for topic, time, data in self.dbconn.execute(f"{scan} ORDER BY id"):
                 if not (isinstance(topic, int) and isinstance(time, int) and data is not None):
-                    damaged = True  # a row of a damaged page: what it holds is not a message
-                    break
-                counts[topic] += 1
+                    return found, True  # a row of a damaged page: not a message
+                found.append((topic, time))
                 self._rows += 1
                 self._ordered &= time >= previous
-                previous, first, last = time, min(first, time), max(last, time)
+                previous = time
         except apsw.Error:
-            damaged = True
-        count = sum(counts.values())
-        if not count and (damaged or short is not None):
-            raise ReaderError(f"{what}, before its first whole message")
-        ids = {c.id for c in self.connections}
-        self.connections = [c._replace(msgcount=counts[c.id]) for c in self.connections]
-        count = sum(n for topic, n in counts.items() if topic in ids)
-        self.metadata = _metadata(count, first, last)
-        ending = "truncated" if short is not None else "damaged"
-        seconds = _seconds(self.metadata)
-        self.recovery = Recovery(size, ending, size, count, seconds, True, described=what)
+            return found, True
+        return found, False
 
     def _topics(self) -> list[Connection]:
         """The topics table (and message definitions, if any can be read) as connections."""
@@ -482,6 +501,9 @@ class RecoveringSqlite3Reader(Sqlite3Reader):
         if self.recovery is None:
             yield from super().messages(connections, start, stop)
             return
+        if self._pages is not None:
+            yield from self._page_messages(connections, start, stop)
+            return
         assert self.dbconn
         ids = sorted({c.id for c in connections})
         low, high = (0 if start is None else start), (_NO_TIME if stop is None else stop)
@@ -498,6 +520,18 @@ class RecoveringSqlite3Reader(Sqlite3Reader):
         for _, topic, time, data in self.dbconn.execute(rows, args):
             if data is not None:
                 yield by_id[topic], time, data
+
+    def _page_messages(
+        self, connections: Collection[Connection], start: int | None, stop: int | None
+    ) -> Generator[tuple[Connection, int, bytes], None, None]:
+        """The messages found in the table's leaves, read from the file."""
+        assert self._pages is not None
+        wanted = {c.id: c for c in connections}
+        low, high = (0 if start is None else start), (_NO_TIME if stop is None else stop)
+        with Path(str(self.path)).open("rb") as stream:
+            for message in self._pages:
+                if message.topic in wanted and low <= message.time < high:
+                    yield wanted[message.topic], message.time, read_data(stream, message)
 
 
 # --- the bag folder -----------------------------------------------------------------------

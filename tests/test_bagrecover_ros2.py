@@ -14,7 +14,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapReader
+from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
 
+from imrosc.bagrecover_ros2 import RecoveringSqlite3Reader
+from imrosc.bagrecover_sqlite import last_rowid, read_data, scan_messages
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag, recovered
 from tests.graph import ros2_typestore
 
@@ -190,7 +193,7 @@ def test_an_empty_or_foreign_storage_file_is_one_error(tmp_path: Path) -> None:
 
 
 @settings(
-    max_examples=80,
+    max_examples=200,
     deadline=None,
     derandomize=True,
     database=None,
@@ -243,3 +246,52 @@ def test_a_damaged_bag_is_read_or_refused_never_crashes(
 def damaged_sources(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     folder = tmp_path_factory.mktemp("sources")
     return {kind: write(folder / kind, kind, 120) for kind in KINDS}
+
+
+def test_the_leaves_of_a_database_are_read_when_its_tree_leads_to_none(tmp_path: Path) -> None:
+    """Cut at a quarter, a database of 150,000 small messages keeps the leaves of the first
+    ones but not the interior page leading to them: sqlite reads none, the page scan
+    (imrosc.bagrecover_sqlite) reads the leaves."""
+    plugin, _ = KINDS["sqlite3"]
+    bag = tmp_path / "many"
+    store = ros2_typestore()
+    with Writer(bag, version=9, storage_plugin=plugin) as writer:
+        connection = writer.add_connection("/x", "std_msgs/msg/Float64", typestore=store)
+        for i in range(150_000):
+            value = store.types["std_msgs/msg/Float64"](data=float(i))
+            data = store.serialize_cdr(value, "std_msgs/msg/Float64")
+            writer.write(connection, i * 1_000_000, bytes(data))
+    stored = storage(bag)
+    stored.write_bytes(stored.read_bytes()[: len(stored.read_bytes()) // 4])
+    reader = RecoveringSqlite3Reader(stored)
+    reader.open()
+    try:
+        assert reader._rows == 0 and reader._pages is not None  # the tree: none; the leaves
+    finally:
+        reader.close()
+    with open_bag(bag) as opened:
+        found = [
+            opened.deserialize(raw, c.msgtype).data  # type: ignore[attr-defined]
+            for c, _, raw in opened.messages()
+        ]
+        note = recovered(opened)
+    assert found == [float(i) for i in range(len(found))] and len(found) > 30_000
+    assert note is not None and f"recovered {len(found):,} messages" in note
+
+
+def test_the_page_scan_reads_every_message_of_a_whole_database(whole: Path) -> None:
+    """Overflow pages included (2 KiB messages do not fit a leaf's cell)."""
+    stored = storage(whole)
+    if stored.suffix != ".db3":
+        pytest.skip("sqlite3 only")
+    with stored.open("rb") as stream:
+        size = stored.stat().st_size
+        messages = scan_messages(stream, size)
+        assert last_rowid(stream, size) == COUNT
+        found = [read_data(stream, m) for m in messages]
+    reader = Sqlite3Reader(stored)  # the stored bytes (compressed or not), in row order
+    reader.open()
+    expected = [bytes(raw) for _, _, raw in reader.messages(reader.connections)]
+    reader.close()
+    assert [m.rowid for m in messages] == list(range(1, COUNT + 1))
+    assert found == expected
