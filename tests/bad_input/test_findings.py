@@ -18,6 +18,7 @@ from click.testing import CliRunner
 
 from imrosc.cli import main
 from tests.bad_input.support import CONFIG, project, snapshot, template
+from tests.graph import Message, write_ros2_bag
 from tests.translate import Msg, msg, write_bag
 
 __all__ = ["project", "template"]
@@ -80,6 +81,10 @@ def topic_operand(folder: Path) -> None:
     )
     done = CliRunner().invoke(main, ["infer", str(folder / "t.xml"), "-j", "1", "-q"])
     assert done.exit_code == 0, done.output
+
+
+def ros2_bag(folder: Path) -> None:
+    write_ros2_bag(folder / "ros2", [Message("/t", 1, "x", "/talker")])
 
 
 @dataclass(frozen=True)
@@ -197,6 +202,13 @@ ROWS: dict[str, Row] = {
         ("build", "{d}/p.xml", "-q", "--bags", "{d}/gone.bag", "-o", "{d}/build"),
         2,
         "gone.bag:1:1: error: no such file or directory [bag-error]",
+    ),
+    # graph of bags without callerids: said, not an empty listing alone
+    "graph: a ROS 2 bag (no callerids)": Row(
+        ("graph", "{d}/ros2", "-q"),
+        0,
+        "imrosc graph: no node found: the inputs record no publisher",
+        ros2_bag,
     ),
     # invariants of another project
     "classify: invariants of another project": Row(
