@@ -64,21 +64,34 @@ class Recovery:
     """From the first recovered message to the last."""
     indexed: bool
     """Whether the header points at an index (``index_pos`` is not 0)."""
+    described: str = ""
+    """What was wrong, when it is said in other words than where the scan stopped."""
+
+    def what(self) -> str:
+        """What was wrong with the bag, in a few words."""
+        if self.described:
+            return self.described
+        if self.ending == "truncated":
+            return f"truncated at byte {self.size:,}"
+        if self.ending == "damaged":
+            return f"damaged at byte {self.stopped:,}"
+        if self.indexed:
+            return "index damaged"
+        return "not indexed (the recording was interrupted)"
 
     def text(self) -> str:
         """One line: what was wrong and how much was recovered."""
-        if self.ending == "truncated":
-            what = f"truncated at byte {self.size:,}"
-        elif self.ending == "damaged":
-            what = f"damaged at byte {self.stopped:,}"
-        elif self.indexed:
-            what = "index damaged"
-        else:
-            what = "not indexed (the recording was interrupted)"
-        return (
-            f"{what}; recovered {self.messages:,} message{'s' * (self.messages != 1)} "
-            f"of the first {self.seconds:.3f} s"
-        )
+        return recovered_text(self.what(), self.messages, self.seconds)
+
+
+def recovered_text(what: str, messages: int, seconds: float) -> str:
+    """The one line of a recovered bag: ``what`` was wrong, then how much was recovered.
+
+    >>> recovered_text("truncated at byte 1,024", 12, 0.11)
+    'truncated at byte 1,024; recovered 12 messages of the first 0.110 s'
+    """
+    plural = "s" * (messages != 1)
+    return f"{what}; recovered {messages:,} message{plural} of the first {seconds:.3f} s"
 
 
 def _partial(compression: str) -> Callable[[bytes], bytes]:

@@ -26,6 +26,7 @@ from rosbags.typesys import Stores, TypesysError, get_typestore
 from rosbags.typesys.store import Typestore
 
 from imrosc.bagrecover import RecoveringReader
+from imrosc.bagrecover_ros2 import RecoveringReader2, storage_files
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.remote import BagUrl, RemoteError, discover_url, fetched, local_glob
 
@@ -48,6 +49,8 @@ ACTIVE_SUFFIX = ".active"
 ROS2_METADATA = "metadata.yaml"
 ROS2_STORAGE_SUFFIXES = (".db3", ".mcap")
 
+_SQLITE_COMPANIONS = ("-wal", "-shm", "-journal")
+"""What sqlite writes beside a database (a recording's open transaction)."""
 _MAX_MESSAGE = 200
 _ROSBAGS_ERRORS = (AnyReaderError, Ros1ReaderError, Ros2ReaderError, SerdeError, TypesysError)
 
@@ -119,16 +122,27 @@ class _SafeReader(AnyReader):
     """An AnyReader whose reading methods raise only :class:`BagError` on a broken bag."""
 
     def __init__(self, path: Path, name: Path) -> None:
-        named = _AsRos1(path) if is_unfinished(path) else path
-        super().__init__([named], default_typestore=_fallback_typestore())
         self.bag_path = name
-        if not self.is2:  # a ROS 1 bag cut short or never indexed is scanned instead
-            self.readers = [RecoveringReader(path)]
+        if path.suffix == ROS1_SUFFIX or is_unfinished(path):
+            super().__init__([_AsRos1(path)], default_typestore=_fallback_typestore())
+            self.readers = [RecoveringReader(path)]  # scanned when cut short or never indexed
+            return
+        # AnyReader's own ROS 2 reader refuses a folder without metadata.yaml: set up as
+        # AnyReader.__init__ does, with a reader that reads such a folder and cut storage
+        if not path.exists():
+            raise FileNotFoundError(path)
+        self.paths = [path]
+        self.is2 = True
+        self.stack = None
+        self.connections = []
+        self.default_typestore = _fallback_typestore()
+        self.typestore = get_typestore(Stores.EMPTY)
+        self.readers = [RecoveringReader2(path)]
 
     @property
     def recovered(self) -> str | None:
-        """What was recovered from a ROS 1 bag whose index could not be read, in one line
-        (None: the bag was read through its index)."""
+        """What was recovered from a bag cut short, never indexed or without its
+        ``metadata.yaml``, in one line (None: the bag was read whole)."""
         recovery = getattr(self.readers[0], "recovery", None) if self.readers else None
         return None if recovery is None else recovery.text()
 
@@ -212,7 +226,19 @@ def open_bag(path: Path) -> Iterator[AnyReader]:
 
 
 def _is_ros2_bag(directory: Path) -> bool:
-    return (directory / ROS2_METADATA).is_file()
+    """Whether a folder is a ROS 2 bag: it holds ``metadata.yaml``, or it holds storage
+    files and nothing else (a recorder killed before it wrote ``metadata.yaml``)."""
+    if (directory / ROS2_METADATA).is_file():
+        return True
+    storage = storage_files(directory)
+    if not storage:
+        return False
+    names = {p.name for p in storage}
+    try:
+        entries = [e for e in os.listdir(directory) if not e.startswith(".")]
+    except OSError:
+        return False
+    return all(e in names or e.endswith(_SQLITE_COMPANIONS) for e in entries)
 
 
 def _not_a_bag(path: Path) -> Diagnostic:
@@ -255,8 +281,10 @@ def discover_bags(path: Path) -> tuple[list[Path], list[Diagnostic]]:
 
     * a ``.bag`` file is a ROS 1 bag, and so is a ``.bag.active`` file (an unfinished one,
       :func:`is_unfinished`);
-    * a directory holding ``metadata.yaml`` is a ROS 2 bag; its ``metadata.yaml`` or one of
-      its storage files stands for it too;
+    * a directory holding ``metadata.yaml`` is a ROS 2 bag, and so is one holding storage
+      files (``.db3``, ``.mcap``) and nothing else (a recorder killed before it wrote
+      ``metadata.yaml``: read from the storage files); its ``metadata.yaml`` or one of its
+      storage files stands for it too;
     * any other directory is searched recursively: each ``.bag`` file and ROS 2 bag directory
       in it is a bag, each other file is reported as not a bag (hidden files and directories,
       whose names start with ``.``, are skipped), and a directory with no bag is reported.

@@ -18,6 +18,7 @@ import click
 from imrosc import __version__
 from imrosc.backends.registry import names as backend_names
 from imrosc.check import check_files
+from imrosc.codes import Severity
 from imrosc.diagnostics import RENDERERS, Diagnostic, has_errors
 from imrosc.graph.command import graph_command
 from imrosc.outputs import BUILD, REPORT, OutputRefusedError, mark
@@ -156,6 +157,20 @@ def _stopped(diagnostics: list[Diagnostic]) -> int:
     return EXIT_USAGE if any(d.code == "io-error" for d in diagnostics) else EXIT_ERRORS
 
 
+def _none_read(bags: Sequence[Path], diagnostics: list[Diagnostic]) -> bool:
+    """Whether bags were named, none of them could be read and nothing else is wrong (an
+    input error, exit 2, as an unreadable configuration is; some read and some not, or errors
+    in the configuration too: findings, exit 1)."""
+    from imrosc.bags import discover_bags
+
+    errors = [d for d in diagnostics if d.severity is Severity.ERROR]
+    failed = {d.path for d in errors if d.code == "bag-error"}
+    if not bags or not failed or any(d.code != "bag-error" for d in errors):
+        return False
+    found = [bag for path in bags for bag in discover_bags(path)[0]]
+    return all(str(bag) in failed for bag in found)
+
+
 def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
     """Diagnostics of a stage other than check go to stderr, in the chosen format."""
     if diagnostics:
@@ -231,7 +246,7 @@ def build(
     _report(result.diagnostics, output_format)
     if not result.ok or result.project is None:
         sys.exit(
-            EXIT_USAGE if any(d.code == "io-error" for d in result.diagnostics) else EXIT_ERRORS
+            EXIT_USAGE if _none_read(bags, result.diagnostics) else _stopped(result.diagnostics)
         )
     if emit_ir:
         click.echo(json.dumps(ir.to_json(result.project), indent=2))
@@ -319,22 +334,24 @@ def infer(
     if result.document is None or result.output is None:
         sys.exit(_stopped(result.diagnostics))
     written = output or result.output
+    catalog, inferred = result.catalog, result.result
+    assert catalog is not None and inferred is not None
+    good = len(catalog.bags) - len(inferred.failed)
+    if not good:  # invariants of nothing would replace the file's good ones
+        fail("infer", f"no bag could be read: {written} not written", EXIT_USAGE)
     try:
         write_files(
             written.parent,
             {written.name: dumps(result.document).encode()},
             force=force,
             kind=INVARIANTS,
-            inputs=(config, *graph_files, *(result.catalog.bags if result.catalog else ())),
+            inputs=(config, *graph_files, *catalog.bags),
         )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)
-    catalog, inferred = result.catalog, result.result
-    assert catalog is not None and inferred is not None
     counts = result.counts()
     total = sum(counts.values())
     summary = ", ".join(f"{n} {group}" for group, n in counts.items())
-    good = len(catalog.bags) - len(inferred.failed)
     rate = inferred.messages / max(result.seconds, 1e-9)
     click.echo(f"wrote {written}: {total} invariants: {summary}")
     click.echo(
@@ -383,6 +400,8 @@ def export_daikon(
     if prepared is None:
         sys.exit(_stopped(diagnostics))
     catalog = prepared.catalog
+    if not catalog.bags:
+        fail("export-daikon", f"no bag could be read: nothing written to {output}", EXIT_USAGE)
     try:
         paths = targets(output, catalog.bags, force=force, inputs=(config, *catalog.bags))
     except OutputRefusedError as refused:
@@ -554,9 +573,10 @@ def replay(
     """Run the monitor's engine over BAGS as if live and print the violation timeline;
     with --scheduler, each bag is a task on a Dask cluster (docs/fleet.md).
 
-    Exit status: 0 no violation, 1 an alarm (or a bag that could not be read), 3
-    violations that raised no alarm, 5 a point that checked no sample in some run (its
-    invariants went unchecked there); the first that applies, in that order.
+    Exit status: 0 no violation, 1 an alarm (or a bag that could not be read among
+    readable ones), 3 violations that raised no alarm, 5 a point that checked no sample in
+    some run (its invariants went unchecked there); the first that applies, in that order;
+    2 when no bag could be read.
     """
     from imrosc.bags import discover_bags
     from imrosc.invariants import InvariantsFileError, load
@@ -589,6 +609,10 @@ def replay(
     shown = "json" if as_json else output_format
     every = shown != "text" or report_path is not None  # else the report on stdout says them
     for result in results:
+        if result.error is not None:  # in the report, and on stderr as every error is
+            named = str(result.error)
+            named = named if named.startswith(f"{result.bag}: ") else f"{result.bag}: {named}"
+            click.echo(f"imrosc replay: {named}", err=True)
         for warning in result.warnings:
             if every or warning == result.recovered:  # a damaged bag is said on stderr too
                 click.echo(f"imrosc replay: {result.bag}: warning: {warning}", err=True)
@@ -596,8 +620,11 @@ def replay(
     broken = any(r.alarms or r.error for r in results) or has_errors(problems)
     violated = any(r.violations for r in results)
     unchecked = any(r.unchecked for r in results)
+    read = any(r.error is None for r in results)
     sys.exit(
-        EXIT_ERRORS
+        EXIT_USAGE  # no bag could be read: an input error, as in every command
+        if broken and not read
+        else EXIT_ERRORS
         if broken
         else EXIT_VIOLATIONS
         if violated
@@ -650,7 +677,7 @@ def classify(
     --scheduler, each run is a task on a Dask cluster (docs/fleet.md).
 
     Exit status: 0 done, 1 a run that could not be read, 5 a point that checked no sample
-    in some run (its invariants went unchecked there).
+    in some run (its invariants went unchecked there); 2 when no run could be read.
     """
     from imrosc.build import write_files
     from imrosc.classify import CheckStageError, run_check
@@ -700,6 +727,9 @@ def classify(
             click.echo(f"imrosc classify: {run['bag']}: warning: {warning}", err=True)
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
+    unread = has_errors(result.diagnostics) or bool(result.report.get("errors"))
+    if "runs" in result.report and not result.report["runs"] and unread:
+        fail("classify", "no bag could be read: nothing written", EXIT_USAGE)
     inputs = (config, *result.inputs)
     refined_path = result.output if result.refined is not None else None
     same = refined_path is not None and report_path is not None

@@ -172,8 +172,8 @@ CODES: tuple[Code, ...] = (
         "bag-recovered",
         _W,
         "graph",
-        "A ROS 1 bag cut short or never indexed; its messages up to the last whole record "
-        "are read.",
+        "A bag cut short, never indexed or without its metadata.yaml; its messages up to "
+        "the last whole record are read.",
     ),
     Code(
         "bag-empty",

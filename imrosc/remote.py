@@ -254,11 +254,17 @@ def discover_url(url: BagUrl) -> tuple[list[Path], list[Diagnostic]]:
         return [], [_error(text, _problem(error))]
 
 
+def _is_ros1(url: BagUrl) -> bool:
+    """Whether a URL names a ROS 1 bag: ``NAME.bag``, or the ``NAME.bag.active`` of a
+    recording never closed (read up to its last whole record once downloaded)."""
+    return url.suffix == ROS1_SUFFIX or str(url.name).endswith(ROS1_SUFFIX + ".active")
+
+
 def _named(fs: Any, url: BagUrl) -> tuple[list[Path], list[Diagnostic]]:
     text = str(url)
     if url.name == ROS2_METADATA:
         return _named(fs, url.parent)
-    if url.suffix == ROS1_SUFFIX:
+    if _is_ros1(url):
         fs.info(text)  # not found: FileNotFoundError
         return [url], []
     if fs.exists(str(url / ROS2_METADATA)):
@@ -270,7 +276,7 @@ def _named(fs: Any, url: BagUrl) -> tuple[list[Path], list[Diagnostic]]:
     bags: set[Path] = set()
     for found in fs.find(text):
         child = _url_of(fs, url, found)
-        if child.suffix == ROS1_SUFFIX:
+        if _is_ros1(child):
             bags.add(child)
         elif child.name == ROS2_METADATA:
             bags.add(child.parent)
@@ -350,7 +356,7 @@ def _download(url: BagUrl) -> _Copy:
     fs = _filesystem(url)
     target = Path(tempfile.mkdtemp(prefix="imrosc-bag-")) / (url.name or "bag")
     try:
-        if url.suffix == ROS1_SUFFIX:
+        if _is_ros1(url):
             fs.get_file(str(url), str(target))
         else:
             _get_ros2(fs, url, target)

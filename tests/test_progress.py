@@ -114,3 +114,14 @@ def test_progress_is_wanted_only_on_a_terminal_without_q() -> None:
     assert wanted(False, Terminal())  # type: ignore[arg-type]
     assert not wanted(True, Terminal())  # type: ignore[arg-type]
     assert not wanted(False, open(os.devnull, "w"))  # noqa: SIM115
+
+
+@pytest.mark.slow
+def test_the_demo_shows_progress_on_a_terminal_and_not_with_q(tmp_path: Path) -> None:
+    """The demo reads bags in four stages (build's graph, infer, classify, stability)."""
+    args = ["demo", "-o", str(tmp_path / "demo"), "--runs", "2", "-j", "1"]
+    status, drawn = on_a_terminal(args, tmp_path)
+    assert status == 0, drawn
+    assert "reading: " in drawn and " messages (" in drawn and "2/2" in drawn, drawn
+    status, quiet = on_a_terminal([*args, "-q"], tmp_path)
+    assert status == 0 and "reading" not in quiet and "msg/s" not in quiet, quiet

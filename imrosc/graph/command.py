@@ -88,4 +88,10 @@ def graph_command(inputs: tuple[Path, ...], output_format: str, quiet: bool) -> 
     if graph is None:
         sys.exit(EXIT_UNREADABLE)
     click.echo(graph.render_yaml() if output_format == "yaml" else graph.render_text(), nl=False)
+    if not graph.nodes:  # say why, rather than print an empty graph
+        click.echo(
+            "imrosc graph: no node found: the inputs record no publisher (ROS 2 bags hold no "
+            "callerids; imrosc record records the graph); imrosc info lists a bag's topics",
+            err=True,
+        )
     sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)

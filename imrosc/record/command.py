@@ -22,7 +22,9 @@ if TYPE_CHECKING:
     from imrosc.record.scope import CompiledScope, Scope
     from imrosc.record.session import Outcome
 
-EXIT_CLEAN, EXIT_ERRORS = 0, 1
+EXIT_CLEAN, EXIT_ERRORS, EXIT_USAGE, EXIT_ENVIRONMENT = 0, 1, 2, 4
+"""As every command (README, "Exit status"): 2 an input or an output refused, 4 the
+system refused a write."""
 PYTHON_VARIABLE = "IMROSC_ROS_PYTHON"
 ROS2_VARIABLE = "IMROSC_ROS2_PYTHON"
 HELP = """Record CONFIG's scope from the running ROS 1 or ROS 2 system.
@@ -84,9 +86,9 @@ def wants_ros2(ros1: bool | None, environment: Mapping[str, str]) -> bool:
     return environment.get("ROS_VERSION", "").strip() == "2"
 
 
-def _fail(message: str) -> NoReturn:
+def _fail(message: str, status: int = EXIT_ERRORS) -> NoReturn:
     click.echo(f"imrosc record: {message}", err=True)
-    sys.exit(EXIT_ERRORS)
+    sys.exit(status)
 
 
 def _warn(message: str) -> None:
@@ -153,7 +155,8 @@ def _scope(config: Path, graph: Graph | None, name: str | None) -> tuple[Scope, 
     compiled = compile_scope(config, graph)
     _report(compiled.diagnostics)
     if compiled.scope is None or compiled.project is None:
-        sys.exit(EXIT_ERRORS)
+        unreadable = any(d.code == "io-error" for d in compiled.diagnostics)
+        sys.exit(EXIT_USAGE if unreadable else EXIT_ERRORS)
     scope, project = compiled.scope, compiled.project
     if scope.empty:
         _fail(f"{config}: the scope has nothing to record (no <publish>, <call>, <param>, <arch>)")
@@ -248,9 +251,9 @@ def _write_launch(
     try:
         write_files(target.parent, {target.name: rewritten.content}, force=force)
     except OverwriteRefusedError as refused:
-        _fail(str(refused))
+        _fail(str(refused), EXIT_USAGE)
     except OSError as error:
-        _fail(f"{target}: {error.strerror}")
+        _fail(f"{target}: {error.strerror}", EXIT_ENVIRONMENT)
     done = ", ".join(f"{service} on {node}" for node, service in rewritten.remapped) or "nothing"
     click.echo(f"wrote {target}: remapped {done}")
     click.echo(f"start the system with: roslaunch {target}")
@@ -422,12 +425,13 @@ def _record_ros1(
         graph = live if graph is None else Graph.merge(graph, live)
     scope, compiled, bag_name = _scope(config, graph, name)
     if output.exists() and not output.is_dir():
-        _fail(f"{output}: exists and is not a folder")
+        _fail(f"{output}: exists and is not a folder", EXIT_USAGE)
     existing = _existing_bags(output)
     if existing and not force:
         _fail(
             f"{output} holds a bag already ({existing[0].name}): record into a new folder, "
-            f"or use --force"
+            f"or use --force",
+            EXIT_USAGE,
         )
     if launch is not None:
         _write_launch(launch, launch_out, scope.services, given, graph, "/rec", force)
@@ -444,7 +448,7 @@ def _record_ros1(
     except RecordError as error:
         _fail(str(error))
     except OSError as error:
-        _fail(f"{output}: {error.strerror}")
+        _fail(f"{output}: {error.strerror}", EXIT_ENVIRONMENT)
     for stale in (settings.bag, settings.bag.with_name(settings.bag.name + ".active")):
         if stale.exists():
             stale.unlink()

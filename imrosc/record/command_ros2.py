@@ -14,6 +14,8 @@ from imrosc.bags import ROS2_METADATA, ROS2_STORAGE_SUFFIXES
 from imrosc.graph.model import Graph
 from imrosc.record.command import (
     EXIT_CLEAN,
+    EXIT_ENVIRONMENT,
+    EXIT_USAGE,
     _existing_bags,
     _fail,
     _report,
@@ -53,20 +55,21 @@ def _check_output(output: Path, bag: Path, force: bool) -> None:
     """Refuse an output folder that is a file or holds a bag already (unless ``force``);
     with ``force``, the bag of the same name is removed (nothing else is)."""
     if output.exists() and not output.is_dir():
-        _fail(f"{output}: exists and is not a folder")
+        _fail(f"{output}: exists and is not a folder", EXIT_USAGE)
     if bag.is_symlink() or (bag.exists() and not is_ros2_bag(bag)):
-        _fail(f"{bag}: exists and is not a ROS 2 bag; choose another --name")
+        _fail(f"{bag}: exists and is not a ROS 2 bag; choose another --name", EXIT_USAGE)
     existing = existing_ros2_bags(output)
     if existing and not force:
         _fail(
             f"{output} holds a bag already ({existing[0].name}): record into a new folder, "
-            f"or use --force"
+            f"or use --force",
+            EXIT_USAGE,
         )
     if bag.exists():
         try:
             shutil.rmtree(bag)
         except OSError as error:
-            _fail(f"{bag}: cannot remove the old bag: {error.strerror}")
+            _fail(f"{bag}: cannot remove the old bag: {error.strerror}", EXIT_ENVIRONMENT)
 
 
 def record_ros2(
@@ -103,7 +106,7 @@ def record_ros2(
     except RecordError as error:
         _fail(str(error))
     except OSError as error:
-        _fail(f"{output}: {error.strerror}")
+        _fail(f"{output}: {error.strerror}", EXIT_ENVIRONMENT)
     settings = Settings2(output, bag_name, period, all_topics, interpreter)
     final: list[Scope] = [scope]
     warned: list[bool] = []

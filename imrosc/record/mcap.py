@@ -5,7 +5,8 @@ with its type and the ``.msg`` definitions of the running system, and :class:`Ba
 adds the connection (message definition and RIHS01 type hash from those definitions, types
 the tap could not find taken from rosbags' Jazzy types), then writes every message, CDR
 bytes as received, with its receive time. :meth:`BagSink.close` writes the MCAP summary and
-``metadata.yaml``; until then the folder is not a bag for imrosc.
+``metadata.yaml``; until then imrosc reads the folder as a bag cut short (its whole chunks,
+with a ``bag-recovered`` warning: :mod:`imrosc.bagrecover_ros2`).
 
 >>> import tempfile, pathlib
 >>> folder = pathlib.Path(tempfile.mkdtemp()) / "run"

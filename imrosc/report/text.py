@@ -50,6 +50,9 @@ def replay(view: Replay) -> str:
         if len(run.alarms) > ALARMS_SHOWN:
             lines.append(f"  ... {len(run.alarms) - ALARMS_SHOWN} more alarms")
         lines += [f"  warning: {w}" for w in run.warnings]
+        if run.checked:
+            counts = ", ".join(f"{point} {count:,}" for point, count in run.checked.items())
+            lines.append(f"  samples checked: {counts}")
         if not run.episodes:
             if run.violated:  # violations counted without episodes: say so, list nothing
                 lines.append("  no episodes recorded")

@@ -110,6 +110,8 @@ class Run:
     frequencies: list[Mapping[str, Any]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     """What the run could not check (topics of the invariants missing from the bag)."""
+    checked: dict[str, int] = field(default_factory=dict)
+    """Per value point, the samples it checked."""
 
     @property
     def duration(self) -> float:
@@ -217,6 +219,7 @@ def run(data: Mapping[str, Any]) -> Run:
         polygons=list(plots.get("polygons") or []),
         frequencies=list(plots.get("frequencies") or []),
         warnings=[_text(w) for w in data.get("warnings") or []],
+        checked={_text(k): int(v) for k, v in (data.get("checked") or {}).items()},
     )
 
 

@@ -3,10 +3,9 @@ several byte offsets or never indexed, read by every command that reads bags.
 
 A bag cut after some whole messages is read up to its last whole record, with one warning
 naming the bag, where it ends and how much was recovered; a bag cut before its first whole
-message, or a file that is not a bag, is one error line naming it. A ROS 2 bag whose storage
-file was cut short is one error line too (rosbags reads neither a cut MCAP file nor a
-malformed sqlite3 database). No traceback, and no file that was there before changes (the
-bag itself included).
+message, or a file that is not a bag, is one error line naming it (ROS 2 bags cut short:
+tests/bad_input/test_bags_ros2.py). No traceback, and no file that was there before changes
+(the bag itself included).
 """
 
 from __future__ import annotations
@@ -20,7 +19,6 @@ from click.testing import CliRunner
 
 from imrosc.cli import main
 from tests.bad_input.support import project, snapshot, template
-from tests.graph import SECOND, Message, write_ros2_bag
 
 __all__ = ["project", "template"]
 
@@ -138,21 +136,54 @@ def test_a_bag_cut_before_its_first_message_is_an_error(project: Path) -> None:
     assert "skipped 1 bag" in stdout
 
 
-@pytest.mark.parametrize(
-    ("storage", "message"),
-    [
-        ("mcap", "file end magic is invalid"),
-        ("sqlite3", "database disk image is malformed"),
-    ],
-)
-def test_a_ros2_bag_cut_short_is_one_error_line(storage: str, message: str, tmp_path: Path) -> None:
-    messages = [Message("/t", i * SECOND // 10, f"m{i}", "/talker") for i in range(1, 3000)]
-    bag = write_ros2_bag(tmp_path / storage, messages, storage=storage)  # type: ignore[arg-type]
-    (stored,) = [p for p in bag.iterdir() if p.suffix in (".mcap", ".db3")]
-    before = stored.read_bytes()
-    stored.write_bytes(before[: len(before) * 2 // 3])
-    status, stdout, stderr = run(tmp_path, ("info", str(bag)))
-    assert status == 2 and stdout == ""
-    (line,) = stderr.splitlines()
-    assert line.startswith(f"imrosc info: {bag}:1:1: error: cannot open bag: ")
-    assert message in line and line.endswith("[bag-error]")
+def make_active(project: Path, *names: str) -> list[Path]:
+    """The bags ``names`` as an interrupted ``rosbag record`` leaves them: unindexed and
+    named ``NAME.bag.active``."""
+    found = []
+    for name in names:
+        bag = project / name
+        unindex(bag)
+        active = bag.with_name(bag.name + ".active")
+        bag.rename(active)
+        found.append(active)
+    return found
+
+
+NOT_INDEXED = "not indexed (the recording was interrupted); recovered 80 messages of the first "
+
+
+def test_an_unfinished_recording_is_read_wherever_a_bag_is_named(project: Path) -> None:
+    """``NAME.bag.active`` files read as they are, not renamed: by name in <bag>, <success>
+    and <fail>, in their folders, on the command line and by glob."""
+    r2, s1, f1 = make_active(project, "bags/train/r2.bag", "bags/ok/s1.bag", "bags/bad/f1.bag")
+    config = (project / "p.xml").read_text()
+    named = config.replace("<bag>bags/train</bag>", "<bag>bags/train/r2.bag.active</bag>")
+    named = named.replace("<success>bags/ok</success>", "<success>bags/ok/s1.bag.active</success>")
+    named = named.replace("<fail>bags/bad</fail>", "<fail>bags/bad/f1.bag.active</fail>")
+    (project / "named.xml").write_text(named)
+    for xml, trained in (("p.xml", "2 bags"), ("named.xml", "1 bag,")):
+        status, stdout, stderr = run(project, ("infer", f"{{d}}/{xml}", "-j", "1", "-q"))
+        assert status == 0 and f"from {trained}" in stdout, (stdout, stderr)
+        (line,) = [line for line in stderr.splitlines() if RECOVERED in line]
+        assert line.startswith(f"{r2}:1:1: warning: {NOT_INDEXED}"), line
+        status, stdout, stderr = run(project, ("classify", f"{{d}}/{xml}", "-j", "1", "-q"))
+        assert status == 0, (stdout, stderr)
+        assert f"success  {s1}" in stdout and f"fail     {f1}" in stdout, stdout
+        assert {bag for bag in (s1, f1) if f"{bag}: warning: {NOT_INDEXED}" in stderr} == {s1, f1}
+    status, stdout, stderr = run(project, ("replay", "{d}/p.inv", str(s1)))
+    assert status in (0, 1, 3) and f"{s1}: warning: {NOT_INDEXED}" in stderr, stderr
+    status, stdout, stderr = run(project, ("info", "{d}/bags/*/*.active", "-q"))
+    assert status == 0 and all(f"bag:       {bag}" in stdout for bag in (r2, s1, f1)), stdout
+    assert len([line for line in stderr.splitlines() if NOT_INDEXED in line]) == 3
+
+
+def test_an_unfinished_recording_is_read_by_url(project: Path) -> None:
+    from tests.served import serve
+
+    (active,) = make_active(project, "bags/ok/s1.bag")
+    with serve(project) as url:
+        named = f"{url}/bags/ok/{active.name}"
+        status, stdout, stderr = run(project, ("info", named, "-q"))
+        assert status == 0 and f"bag:       {named}" in stdout, (stdout, stderr)
+        (line,) = stderr.splitlines()
+        assert line.startswith(f"imrosc info: {named}:1:1: warning: {NOT_INDEXED}"), line

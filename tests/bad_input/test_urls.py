@@ -85,7 +85,7 @@ def test_a_protocol_without_its_package_says_what_to_install(
 ) -> None:
     monkeypatch.setitem(sys.modules, "s3fs", None)
     result = invoke("replay", str(project / "p.inv"), "s3://fleet/run1.bag")
-    assert result.exit_code == 1
+    assert result.exit_code == 2  # no bag read: an input error, as in info
     assert lines(result) == [
         "s3://fleet/run1.bag:1:1: error: reading s3:// URLs needs s3fs: pip install s3fs "
         "(or pip install 'imrosc[s3]') [bag-error]"

@@ -51,10 +51,13 @@ def test_a_killed_recording_is_read_up_to_its_last_whole_record(ros: Ros, tmp_pa
     assert messages > 100 and note is not None
     assert count(active) == (messages, note)  # as it is, not renamed
     assert note.startswith(f"truncated at byte {bag.stat().st_size:,}; recovered {messages:,} ")
-    result = CliRunner().invoke(main, ["info", str(bag)])
-    assert result.exit_code == 0, result.output
-    (line,) = result.stderr.splitlines()
-    assert "[bag-recovered]" in line and f"recovered {messages:,} messages" in line
+    for named in (bag, active, tmp_path):  # renamed, as rosbag record left it, its folder
+        result = CliRunner().invoke(main, ["info", str(named), "-q"])
+        assert result.exit_code == 0, result.output
+        lines = result.stderr.splitlines()
+        assert len(lines) == (2 if named == tmp_path else 1), lines
+        assert all("[bag-recovered]" in line for line in lines)
+        assert all(f"recovered {messages:,} messages" in line for line in lines)
     reindexed = tmp_path / "reindexed.bag"
     shutil.copyfile(active, reindexed)
     done = subprocess.run(

@@ -101,7 +101,7 @@ def test_configuration_errors_are_diagnostics(tmp_path: Path) -> None:
     assert f"{bad}:1:" in result.stderr
     assert "Traceback" not in result.output
     missing = record(str(tmp_path / "missing.xml"), "-o", str(tmp_path / "out"))
-    assert missing.exit_code == 1
+    assert missing.exit_code == 2  # an input that cannot be read, as in every command
     assert "io-error" in missing.stderr
 
 
@@ -120,7 +120,7 @@ def test_a_folder_with_a_bag_is_refused_unless_forced(config: Path, tmp_path: Pa
     out = tmp_path / "out"
     out.mkdir()
     (out / "earlier.bag").write_bytes(b"")
-    line = one_line_error(record(str(config), "-o", str(out)))
+    line = one_line_error(record(str(config), "-o", str(out)), 2)  # an output refused
     assert line == (
         f"imrosc record: {out} holds a bag already (earlier.bag): record into a new folder, "
         f"or use --force"

@@ -80,7 +80,7 @@ def test_a_bag_in_the_folder_is_refused_unless_forced(config: Path, tmp_path: Pa
     (old / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
     (old / "small_robot.mcap").write_bytes(b"")
     args = (str(config), "-o", str(out), "--ros2", "--python", "/no/python")
-    line = one_line_error(record(*args))
+    line = one_line_error(record(*args), 2)  # an output refused
     assert line == (
         f"imrosc record: {out} holds a bag already (small_robot): record into a new folder, "
         f"or use --force"
@@ -98,7 +98,7 @@ def test_a_folder_of_that_name_that_is_not_a_bag_is_never_removed(
     notes.mkdir(parents=True)
     (notes / "notes.txt").write_text("mine")
     args = (str(config), "-o", str(tmp_path / "out"), "--ros2", "--python", "/no/python")
-    line = one_line_error(record(*args, "--force"))
+    line = one_line_error(record(*args, "--force"), 2)
     assert line == f"imrosc record: {notes}: exists and is not a ROS 2 bag; choose another --name"
     assert (notes / "notes.txt").read_text() == "mine"
 
