@@ -2,9 +2,9 @@
 
 The decisions ROS 1 and ROS 2 share (which actions a batch of violations takes, the JSON
 warning, folding the monitor's relays out of the graph, the invariants checked before a
-blocked call is forwarded, flattening JSON values, the watchdog's decision) are those of
-``imrosc/monitor_ros1/logic.py``, imported here as ``common``; this module adds what differs
-in ROS 2:
+blocked call is forwarded, flattening JSON values, the watchdog's decision, the package's
+files and relay names) are those of ``imrosc/onboard/monitor.py``, imported here as
+``common``; this module adds what differs in ROS 2:
 
 * QoS: a subscription that matches every publisher of its topic
   (:func:`subscription_qos`), the relay's offer on ``/m/<topic>`` (:func:`relay_qos`), and
@@ -19,7 +19,8 @@ in ROS 2:
 * the warning on ``/m/broken_inv``, with a note on an unknown publisher, which ROS 2 cannot
   unregister (:func:`warning`).
 
-Python 3.8 syntax, standard library only: this module is copied into generated packages.
+Python 3.8 syntax, standard library only (and ``..onboard``): this module is copied into
+generated packages.
 
 >>> subscription_qos([Qos(RELIABLE, VOLATILE), Qos(BEST_EFFORT, VOLATILE)], "std_msgs/msg/UInt8")
 Qos(reliability='best_effort', durability='volatile')
@@ -33,7 +34,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 from typing import (
     Any,
@@ -48,10 +48,7 @@ from typing import (
     Tuple,
 )
 
-from ..monitor_ros1 import logic as common
-
-SPEC_FILE = "spec.json"
-INVARIANTS_FORMAT = "imrosc-invariants"
+from ..onboard import monitor as common
 
 RELIABLE, BEST_EFFORT = "reliable", "best_effort"
 VOLATILE, TRANSIENT_LOCAL = "volatile", "transient_local"
@@ -98,34 +95,6 @@ class GraphView(NamedTuple):
 UNKNOWN_NAMESPACE = "_NODE_NAMESPACE_UNKNOWN_"
 UNKNOWN_NAME = "_NODE_NAME_UNKNOWN_"
 """What rclpy's graph API names the node of an endpoint whose node is not discovered yet."""
-
-
-# -- files ----------------------------------------------------------------------------------
-
-
-def load_spec(directory: Optional[str] = None) -> Dict[str, Any]:
-    """The package's monitor spec (``spec.json`` of the package's Python package)."""
-    folder = directory or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
-    with open(os.path.join(folder, SPEC_FILE), encoding="utf-8") as stream:
-        spec: Dict[str, Any] = json.load(stream)
-    return spec
-
-
-def load_invariants(path: str) -> Dict[str, Any]:
-    """An invariants file; ``ValueError`` with the reason if it is not one."""
-    with open(path, encoding="utf-8") as stream:
-        document = json.load(stream)
-    if not isinstance(document, dict) or document.get("format") != INVARIANTS_FORMAT:
-        raise ValueError(f"{path}: not an imrosc invariants file")
-    for key in ("topics", "points", "invariants"):
-        if key not in document:
-            raise ValueError(f"{path}: missing {key!r}")
-    return document
-
-
-def relay_name(namespace: str, name: str) -> str:
-    """``/m`` + ``/a/t`` = ``/m/a/t``."""
-    return namespace.rstrip("/") + name
 
 
 # -- QoS ------------------------------------------------------------------------------------

@@ -57,7 +57,8 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from ..monitor_ros1 import logic as common
+from ..onboard import files
+from ..onboard import monitor as common
 from . import logic, plumbing
 
 try:  # only a ROS 2 system has these; the helpers above are usable without them
@@ -155,9 +156,11 @@ class Monitor:
         self.own: Set[str] = {self.name, logic.resolve_node(node.get_namespace(), watchdog)}
         ns = self.namespace
         self.topic_relays = {
-            t["name"]: logic.relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
+            t["name"]: common.relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
         }
-        self.service_relays = {s["name"]: logic.relay_name(ns, s["name"]) for s in spec["services"]}
+        self.service_relays = {
+            s["name"]: common.relay_name(ns, s["name"]) for s in spec["services"]
+        }
         self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
         self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
         self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
@@ -590,8 +593,8 @@ def main(
     )
     path = str(plumbing.get_param(node, "invariants", "") or default_invariants(package))
     try:
-        spec = logic.load_spec()
-        document = logic.load_invariants(path)
+        spec = files.load_spec()
+        document = files.load_invariants(path)
     except (OSError, ValueError) as error:
         node.get_logger().fatal(f"imrosc monitor: {error}")
         sys.exit(1)

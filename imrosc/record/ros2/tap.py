@@ -38,7 +38,8 @@ from typing import IO, Any, Dict, List, Optional, Set
 
 from ...monitor_ros2 import logic as graph
 from ...monitor_ros2 import plumbing
-from ...record_ros2 import logic as records
+from ...onboard import records
+from ...record_ros2 import logic as recorder_logic
 from ...record_ros2 import node as recorder
 from . import wire
 
@@ -197,7 +198,7 @@ class Tap:
         if topic in records.RECORD_TOPICS:
             return False
         if self.everything:
-            return not records.is_hidden(topic) and records.is_global_name(topic)
+            return not recorder_logic.is_hidden(topic) and records.is_global_name(topic)
         return self.wanted is not None and topic in self.wanted
 
     def poll(self) -> None:
@@ -233,7 +234,7 @@ class Tap:
 
     def describe(self, view: graph.GraphView) -> None:
         """Send the graph (an architecture record, the tap left out) if it changed."""
-        topics, services = records.arch_of(view)
+        topics, services = recorder_logic.arch_of(view)
         text = records.arch_text(topics, services)
         if text != self.described:
             self.described = text

@@ -1,19 +1,23 @@
-"""What the monitor node decides, without ROS: plain functions the node calls.
+"""What a monitor node decides, without ROS: plain functions both nodes call.
 
-The node (``node.py``) is ROS plumbing around the runtime engine; everything it decides is
-here, so it is tested without rospy: the alarm rule the engine runs under
-(:func:`alarm_document`), what the node does about each violation once the engine told which
-raised or belong to an alarm (:func:`reports`: warn, and act only on a newly raised alarm),
-whether a blocked message or call is withheld (:func:`withheld`), which actions a batch of
-alarms takes (:func:`select_actions`), the JSON warning published on ``/m/broken_inv``
-(:func:`violation_json`), the graph as the invariants know it once the monitor's own relays
-are folded back (:func:`logical_graph`), the unknown publishers to unregister
-(:func:`to_unregister`), how an action's YAML value fills a message (:func:`fill`), how a
-service call becomes the values the engine reads (:func:`message_values`,
-:func:`flatten_json`), the invariants checked before a blocked service call is forwarded
-(:func:`request_document`) and the fail-open watchdog's decision (:func:`should_relay`).
+The ROS 1 node (``monitor_ros1/node.py``) and the ROS 2 node (``monitor_ros2/node.py``) are
+middleware plumbing around the runtime engine; everything they decide alike is here, so it
+is tested without rospy or rclpy: the relay names (:func:`relay_name`), the alarm rule the
+engine runs under (:func:`alarm_document`), what the node does about each violation once the
+engine told which raised or belong to an alarm (:func:`reports`: warn, and act only on a
+newly raised alarm), whether a blocked message or call is withheld (:func:`withheld`), which
+actions a batch of alarms takes (:func:`select_actions`), the JSON warning published on
+``/m/broken_inv`` (:func:`violation_json`), the graph as the invariants know it once the
+monitor's own relays are folded back (:func:`logical_graph`), the unknown publishers to
+unregister (:func:`to_unregister`), how an action's YAML value fills a message
+(:func:`fill`), how a service call becomes the values the engine reads
+(:func:`message_values`, :func:`flatten_json`), the invariants checked before a blocked
+service call is forwarded (:func:`request_document`) and the fail-open watchdog's decision
+(:func:`should_relay`).
 
-Python 3.8 syntax, standard library only: this module is copied into generated packages.
+Python 3.8 syntax, the standard library and the runtime engine (imported as ``..runtime``,
+which both backends copy beside this package): this module is copied into generated
+packages.
 
 >>> select_actions([_V("a?1"), _V("v"), _V("z")], {"a": ["f"], "v": ["f", "g"]})
 ['f', 'g']
@@ -25,7 +29,6 @@ from __future__ import annotations
 
 import gc
 import json
-import math
 import re
 import time
 from typing import (
@@ -43,6 +46,9 @@ from typing import (
     Tuple,
 )
 
+from ..runtime import families
+from ..runtime.violation import json_safe
+
 WARM = 0.002
 """Default ``~warm`` (the launch file's ``warm``): seconds between rehearsals of the latest
 blocked messages while the relay is idle (0: never)."""
@@ -52,8 +58,6 @@ SystemState = Sequence[Sequence[Sequence[Any]]]
 """The master's ``getSystemState``: ``[publishers, subscribers, services]``, each a list of
 ``[name, [node, ...]]``."""
 
-WINDOW_FAMILIES = frozenset({"frequency", "variance", "rate"})
-SEQUENCE_FAMILIES = frozenset({"architecture", "interval", "pattern"})
 _INTEGER_RANGES = {
     "int8": (-(2**7), 2**7 - 1),
     "int16": (-(2**15), 2**15 - 1),
@@ -82,6 +86,15 @@ class _A(NamedTuple):
     point: str
     rule: str
     violation: Any
+
+
+def relay_name(namespace: str, name: str) -> str:
+    """Where the monitor relays ``name``: ``/m`` + ``/a/t`` = ``/m/a/t``.
+
+    >>> relay_name("/m/", "/a/t")
+    '/m/a/t'
+    """
+    return namespace.rstrip("/") + name
 
 
 def scope_id(point: str) -> str:
@@ -205,21 +218,6 @@ def log_line(report: Report) -> str:
         return f"imrosc: violation of {v.invariant} at {v.point}: {v.text}"
     why = f" ({report.rule})" if report.rule else ""
     return f"imrosc: alarm{why}: {v.invariant} broken at {v.point}: {v.text}"
-
-
-def json_safe(value: Any) -> Any:
-    """``value`` as JSON data: non-finite numbers as text, sets sorted, numpy scalars plain."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else repr(value)
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    if isinstance(value, (set, frozenset)):
-        return sorted(json_safe(v) for v in value)
-    if isinstance(value, dict):
-        return {str(k): json_safe(v) for k, v in value.items()}
-    if hasattr(value, "item"):
-        return json_safe(value.item())
-    return value
 
 
 def violation_json(
@@ -529,7 +527,7 @@ def request_document(document: Mapping[str, Any], services: Iterable[str]) -> Di
         info = points.get(invariant.get("point"), {})
         if info.get("kind") != "call" or info.get("trigger") not in wanted:
             continue
-        if invariant.get("family") in WINDOW_FAMILIES | SEQUENCE_FAMILIES:
+        if invariant.get("family") in families.WINDOW | families.EVENT:
             continue
         paths = {v.get("name"): v.get("path", "") for v in info.get("variables", ())}
         names = invariant.get("variables") or ()
