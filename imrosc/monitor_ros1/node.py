@@ -49,7 +49,7 @@ import numpy as np
 
 from ..onboard import files
 from ..onboard import monitor as common
-from . import wire
+from . import messages, wire
 
 try:  # only a ROS 1 robot has these; the helpers above are usable without them
     import rosgraph  # type: ignore[import-not-found, unused-ignore]
@@ -62,8 +62,6 @@ except ImportError:  # pragma: no cover - exercised on robots only
     rospy = None
 
 QUEUE = 100
-IDLE = 1.0
-"""Seconds without a blocked message after which the node stops rehearsing."""
 Flatten = Callable[[Any], List[Any]]
 
 
@@ -78,8 +76,9 @@ def default_invariants(package: str) -> str:
         return os.path.normpath(os.path.join(scripts, "..", "config", "invariants.json"))
 
 
-class Monitor:
-    """The node's state: the engine, its ROS endpoints and what it learnt from the master."""
+class Monitor(common.Checking):
+    """The node's state: the engine and what the spec says (:class:`common.Checking`), its
+    ROS endpoints and what it learnt from the master."""
 
     def __init__(
         self,
@@ -88,16 +87,13 @@ class Monitor:
         engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
     ) -> None:
-        self.spec = spec
-        document = common.alarm_document(document, spec.get("alarms"))
-        self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
+        namespace = str(rospy.get_param("~namespace", spec["namespace"]))
+        super().__init__(spec, document, engine_class, namespace, self.stop)
         self.period = float(rospy.get_param("~period", spec["period"]))
         self.wall_clock = not rospy.get_param("/use_sim_time", False)
         """rospy's clock is the wall clock (read directly on the relay's path: warm, 0.06 us
         against 1.6 us for ``rospy.get_time``, which builds a ``Time`` each call)."""
         self.warm = max(0.0, float(rospy.get_param("~warm", common.WARM)))
-        self.last_relayed = 0.0
-        """Wall time of the last message on a blocked topic (``keep_warm``)."""
         self.unregister = bool(rospy.get_param("~unregister", True))
         self.stand_ins = common.learnt_publishers(document.get("invariants", ()))
         """Per topic its learnt publishers, for whom ``rosbag play`` stands in."""
@@ -107,35 +103,14 @@ class Monitor:
             watchdog = rospy.get_namespace() + watchdog
         self.own: Set[str] = {self.name, watchdog}
         ns = self.namespace
-        self.topic_relays = {
-            t["name"]: common.relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
-        }
-        self.service_relays = {
-            s["name"]: common.relay_name(ns, s["name"]) for s in spec["services"]
-        }
-        self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
-        self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
-        self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
         self.flatteners = flatteners
         self.layouts: Mapping[str, Sequence[Mapping[str, Any]]] = {
             name: info.get("variables", []) for name, info in document.get("topics", {}).items()
         }
         self.readers: Dict[str, Tuple[wire.Reader, Any]] = {}
         """Blocked topics relayed as bytes: their reader and their decoded class."""
-        self.lock = threading.Lock()
-        self.guard = common.Guard(self.stop)
-        """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
-        # numba compiles the checks later, in a thread of its own (:meth:`compile`)
-        self.engine = engine_class(document, compile=False)
-        self.precheck = (
-            engine_class(common.request_document(document, self.blocked_services), compile=False)
-            if self.blocked_services
-            else None
-        )
         self.by_id = {inv["id"]: inv for inv in document["invariants"]}
         self.state: Sequence[Any] = ([], [], [])
-        self.graph: Optional[Dict[str, Any]] = None
-        self.params: Optional[Dict[str, Any]] = None
         self.master = rosgraph.Master(self.name)
         self.master_api: Any = xmlrpc.client.ServerProxy(rosgraph.get_master_uri())
         self.broken = rospy.Publisher(ns + "/broken_inv", String, queue_size=QUEUE)
@@ -152,7 +127,10 @@ class Monitor:
         threading.Thread(target=self.worker, name="imrosc-actions", daemon=True).start()
         threading.Thread(target=self.heartbeat, name="imrosc-heartbeat", daemon=True).start()
         if self.warm and self.topic_relays:
-            threading.Thread(target=self.keep_warm, name="imrosc-warm", daemon=True).start()
+            running = lambda: not rospy.is_shutdown()  # noqa: E731 - rospy's, as rclpy.ok
+            threading.Thread(
+                target=self.keep_warm, args=(self.warm, running), name="imrosc-warm", daemon=True
+            ).start()
         self.connect()
         self.tick(None)
         self.timer = rospy.Timer(rospy.Duration(self.period), self.tick)
@@ -241,8 +219,8 @@ class Monitor:
                 continue
             self.pending_actions.discard(ident)
             try:
-                message = common.fill(found(), action["value"], self.message_class)
-            except (common.FillError, TypeError, ValueError) as error:
+                message = messages.fill(found(), action["value"], self.message_class)
+            except (messages.FillError, TypeError, ValueError) as error:
                 rospy.logerr(f"imrosc: action {ident} is disabled: {error}")
                 continue
             publisher = rospy.Publisher(action["destination"], found, queue_size=QUEUE)
@@ -252,7 +230,7 @@ class Monitor:
         """A message class by name (for lists of messages in action values)."""
         found = roslib.message.get_message_class(msgtype)
         if found is None:
-            raise common.FillError(f"unknown message type {msgtype}")
+            raise messages.FillError(f"unknown message type {msgtype}")
         return found
 
     # -- what happens -----------------------------------------------------------------------
@@ -318,9 +296,8 @@ class Monitor:
             precheck = self.precheck
             if blocked and precheck is not None:
                 with self.lock:
-                    refused = precheck.call(
-                        service, rospy.get_time(), common.request_values(request)
-                    )
+                    values = common.request_values(messages.message_data, request)
+                    refused = precheck.call(service, rospy.get_time(), values)
                     raised, alarmed = common.take_alarms(precheck, refused)
                 if common.withheld(refused, alarmed):
                     self.report(refused, raised, alarmed)
@@ -328,7 +305,9 @@ class Monitor:
                     raise rospy.ServiceException(f"imrosc monitor refused the request: {ids}")
             start = rospy.get_time()
             response = rospy.ServiceProxy(service, service_class)(request)
-            values = common.message_values(request, response, rospy.get_time() - start)
+            values = common.call_values(
+                messages.message_data, request, response, rospy.get_time() - start
+            )
             with self.lock:
                 now = rospy.get_time()
                 found = self.engine.advance(now)
@@ -349,11 +328,7 @@ class Monitor:
     def clear(self, message: Any) -> None:
         """:meth:`on_clear` under the guard."""
         ident = str(message.data).strip()
-        with self.lock:
-            known = self.engine.clear(ident)
-            if self.precheck is not None:
-                self.precheck.clear(ident)
-        if known:
+        if self.clear_invariant(ident):
             rospy.loginfo(f"imrosc: invariant {ident} cleared")
         else:
             rospy.logwarn(f"imrosc: /clear_inv names no invariant: {ident!r}")
@@ -381,45 +356,16 @@ class Monitor:
                 state, self.own, self.topic_relays, self.service_relays, self.stand_ins
             )
         with self.lock:
-            now = rospy.get_time()
-            found = self.engine.advance(now)
-            if graph is not None and graph != self.graph:
-                self.graph = graph
-                found += self.engine.graph(now, graph)
-            if params is not None and params != self.params:
-                self.params = params
-                found += self.engine.params(now, params)
-                if self.precheck is not None:
-                    self.precheck.params(now, params)
-            raised, alarmed = common.take_alarms(self.engine, found)
+            found, raised, alarmed = self.poll_engine(rospy.get_time(), graph, params)
         if self.pending_topics or self.pending_services or self.pending_actions:
             self.connect()
         self.report(found, raised, alarmed)
 
-    def keep_warm(self) -> None:
-        """Between sparse messages on the blocked topics, check the latest ones again every
-        ``~warm`` seconds (keeping nothing): other processes evict the checks' code and
-        tables from the caches, and a message that meets them cold waits for the relay
-        several times longer. Nothing is done while messages come faster than that, nor
-        after a second without one."""
-        relayed = sorted(self.topic_relays)
-        while not rospy.is_shutdown():
-            time.sleep(self.warm)
-            idle = time.time() - self.last_relayed
-            if self.warm <= idle <= IDLE:
-                self.guard.run("rehearsal", self.rehearse, relayed)
-
-    def rehearse(self, relayed: Sequence[str]) -> None:
-        """One rehearsal of the latest blocked messages."""
-        with self.lock:
-            self.engine.rehearse(relayed)
-
     def compile(self, compiler: str) -> None:
         """Compile the checks with numba while the node relays (numpy checks meanwhile) and
         log what is in use (:func:`common.compile_engines`)."""
-        engines = [e for e in (self.engine, self.precheck) if e is not None]
         try:
-            rospy.loginfo(common.compile_engines(engines, compiler))
+            rospy.loginfo(self.compile_checks(compiler))
         except Exception as error:  # numpy's checks go on: nothing is lost but speed
             rospy.logwarn(f"imrosc: compiling the checks failed ({error}): numpy checks them")
 
@@ -485,7 +431,7 @@ class Monitor:
         if found is None:
             rospy.logwarn(f"imrosc: action {ident}: service {service} is not available")
             return
-        request = common.fill(found._request_class(), action["value"], self.message_class)
+        request = messages.fill(found._request_class(), action["value"], self.message_class)
         rospy.ServiceProxy(service, found)(request)
 
     def unregister_publisher(self, node: str, topic: str) -> None:

@@ -14,8 +14,8 @@ files and relay names) are those of ``imrosc/onboard/monitor.py``, imported here
 * parameters: which node to ask for which name (:func:`parameter_requests`) and the value
   of an ``rcl_interfaces/ParameterValue`` (:func:`parameter_value`);
 * messages: a ROS 2 message as JSON-like data (:func:`message_data`, through
-  ``get_fields_and_field_types``), a service call as the engine's values
-  (:func:`message_values`), an action's YAML value filled into a message (:func:`fill`);
+  ``get_fields_and_field_types``; ``common.call_values`` makes a service call the
+  engine's values of it), an action's YAML value filled into a message (:func:`fill`);
 * the warning on ``/m/broken_inv``, with a note on an unknown publisher, which ROS 2 cannot
   unregister (:func:`warning`).
 
@@ -48,7 +48,9 @@ from typing import (
     Tuple,
 )
 
+from ..onboard import fill as check
 from ..onboard import monitor as common
+from ..onboard.fill import FillError
 
 RELIABLE, BEST_EFFORT = "reliable", "best_effort"
 VOLATILE, TRANSIENT_LOCAL = "volatile", "transient_local"
@@ -317,16 +319,6 @@ _BOUNDED_STRING = re.compile(r"^w?string<=(?P<bound>\d+)$")
 _INTERFACE = re.compile(
     r"^(?P<pkg>[A-Za-z][A-Za-z0-9_]*)/(?:(?P<kind>msg|srv)/)?(?P<name>[A-Za-z][A-Za-z0-9_]*)$"
 )
-_INTEGERS = {
-    "int8": (-(2**7), 2**7 - 1),
-    "int16": (-(2**15), 2**15 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint8": (0, 2**8 - 1),
-    "uint16": (0, 2**16 - 1),
-    "uint32": (0, 2**32 - 1),
-    "uint64": (0, 2**64 - 1),
-}
 _FLOATS = frozenset({"float", "double", "long double", "float32", "float64"})
 _TIMES = frozenset({"builtin_interfaces/Time", "builtin_interfaces/Duration"})
 
@@ -369,58 +361,22 @@ def message_data(message: Any) -> Any:
     return {name: message_data(getattr(message, name)) for name in fields}
 
 
-def message_values(request: Any, response: Any, delay: float) -> Dict[str, Any]:
-    """The values of a service call as the engine reads them: ``request.*``,
-    ``response.*`` and ``delay``."""
-    values = common.flatten_json(
-        {"request": message_data(request), "response": message_data(response)}
-    )
-    values["delay"] = delay
-    return values
-
-
-def request_values(request: Any) -> Dict[str, Any]:
-    """The values of a request alone (checked before a blocked call is forwarded)."""
-    return common.flatten_json({"request": message_data(request)})
-
-
-class FillError(ValueError):
-    """An action value that does not fit its message."""
-
-
-def _integer(kind: str, value: Any, where: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise FillError(f"{where}: {value!r} is not an integer")
-    if isinstance(value, float) and not value.is_integer():
-        raise FillError(f"{where}: {value!r} is not an integer")
-    low, high = _INTEGERS[kind]
-    if not low <= int(value) <= high:
-        raise FillError(f"{where}: {value!r} is out of range for {kind}")
-    return int(value)
-
-
 def _scalar(kind: str, value: Any, where: str) -> Any:
     if kind == "boolean":
-        if isinstance(value, bool) or value in (0, 1):
-            return bool(value)
-        raise FillError(f"{where}: {value!r} is not a bool")
-    if kind in _INTEGERS:
-        return _integer(kind, value, where)
+        return check.boolean(value, where)
+    if kind in check.INTEGER_RANGES:
+        return check.integer(kind, value, where)
     if kind in ("octet", "byte"):
-        return bytes([_integer("uint8", value, where)])
+        return bytes([check.integer("uint8", value, where)])
     if kind == "char":
         if isinstance(value, str) and len(value) == 1:
             return value
-        return chr(_integer("uint8", value, where))
+        return chr(check.integer("uint8", value, where))
     if kind in _FLOATS:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FillError(f"{where}: {value!r} is not a number")
-        return float(value)
+        return check.number(value, where)
     bounded = _BOUNDED_STRING.match(kind)
     if kind in ("string", "wstring") or bounded:
-        if isinstance(value, (dict, list)):
-            raise FillError(f"{where}: {value!r} is not a string")
-        text = value if isinstance(value, str) else json.dumps(value)
+        text = check.text(value, where)
         if bounded and len(text) > int(bounded["bound"]):
             raise FillError(f"{where}: {text!r} is longer than {bounded['bound']} characters")
         return text

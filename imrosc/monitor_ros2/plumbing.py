@@ -15,6 +15,7 @@ import importlib
 import threading
 from typing import Any, Callable, Dict, List, Optional, Sequence, Set, Tuple
 
+from ..onboard.fill import FillError
 from . import logic
 
 try:  # only a ROS 2 system has these; the functions below need them
@@ -57,7 +58,7 @@ def fill_class(name: str) -> Any:
     """A message class for :func:`logic.fill`: ``FillError`` if it is unknown."""
     found = message_class(name)
     if found is None:
-        raise logic.FillError(f"unknown message type {name}")
+        raise FillError(f"unknown message type {name}")
     return found
 
 

@@ -40,9 +40,11 @@ from imrosc.build import BuildResult, build
 from imrosc.cli import main
 from imrosc.detect import run_detect
 from imrosc.invariants import dumps
+from imrosc.monitor_ros1 import messages as ros1_messages
 from imrosc.monitor_ros2 import logic
 from imrosc.msgtypes import flatten
 from imrosc.onboard import monitor as common
+from imrosc.onboard.fill import FillError
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
@@ -658,7 +660,7 @@ def ros1_flavour(
 
     def call(record: records.ServiceCall) -> dict[str, Any]:
         request, response = ros1_message(record.request), ros1_message(record.response)
-        return common.message_values(request, response, record.delay)
+        return common.call_values(ros1_messages.message_data, request, response, record.delay)
 
     return Flavour(flatteners, graph, params, call)
 
@@ -703,7 +705,7 @@ def ros2_flavour(
 
     def call(record: records.ServiceCall) -> dict[str, Any]:
         request, response = ros2_message(record.request), ros2_message(record.response)
-        return logic.message_values(request, response, record.delay)
+        return common.call_values(logic.message_data, request, response, record.delay)
 
     return Flavour(flatteners, graph, params, call)
 
@@ -1144,7 +1146,7 @@ def test_fill_sets_fields_of_a_ros2_message_from_an_action_value() -> None:
     ],
 )
 def test_fill_refuses_values_that_do_not_fit(value: dict[str, Any], problem: str) -> None:
-    with pytest.raises(logic.FillError, match=problem):
+    with pytest.raises(FillError, match=problem):
         logic.fill(Everything(), value, CLASSES.__getitem__)
 
 
@@ -1164,7 +1166,7 @@ def test_a_ros2_service_call_becomes_request_response_and_delay_values() -> None
     request.task_id, request.names, request.gains = 4, ["a", "b"], np.array([0.5, 1.5])
     response.status = "ok"
     response.stamp.sec, response.stamp.nanosec = 3, 500_000_000
-    assert logic.message_values(request, response, 0.25) == {
+    assert common.call_values(logic.message_data, request, response, 0.25) == {
         "request.task_id": 4,
         "len(request.names)": 2,
         "len(request.gains)": 2,
@@ -1172,7 +1174,7 @@ def test_a_ros2_service_call_becomes_request_response_and_delay_values() -> None
         "response.stamp": 3.5,
         "delay": 0.25,
     }
-    assert logic.request_values(request) == {
+    assert common.request_values(logic.message_data, request) == {
         "request.task_id": 4,
         "len(request.names)": 2,
         "len(request.gains)": 2,
