@@ -645,3 +645,12 @@ def system_launch(
     )
     inputs.diagnostics.extend(rewritten.diagnostics)
     return {} if rewritten.content is None else {target: rewritten.content}
+
+
+def flattener_helpers(spec: MonitorSpec) -> list[str]:
+    """The helpers of ``imrosc/onboard/flat.py`` the generated flatteners call."""
+    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
+    for topic in spec.topics:
+        for value in topic.values:
+            used |= {name for name in HELPERS if f"{name}(" in value.expression}
+    return sorted(used)

@@ -40,7 +40,7 @@ watchdog's node name, left out of the graph like the monitor itself), ``service_
 (seconds to wait for a forwarded call or an action's call; 10), ``warm`` (seconds between
 rehearsals of the checks while the blocked topics are quiet; 0.002; 0: off).
 
-Every decision is a function of ``logic.py`` (or of the shared ``monitor_ros1/logic.py``);
+Every decision is a function of ``logic.py`` or of the shared ``imrosc/onboard/monitor.py``;
 this module only talks to ROS. Python 3.8 syntax.
 """
 

@@ -350,7 +350,7 @@ def test_python_compiles_and_passes_ruff_for_python_38(
     done = subprocess.run(
         [
             *(sys.executable, "-m", "ruff", "check", "--no-cache"),
-            *("--config", str(ADAPTER / "ruff.toml")),  # the project's rules, Python 3.8
+            *("--config", str(RUNTIME / "ruff.toml")),  # the project's rules, Python 3.8
             *scripts,
         ],
         capture_output=True,

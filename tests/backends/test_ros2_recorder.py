@@ -153,7 +153,7 @@ def test_the_recorder_compiles_and_passes_ruff_for_python_38(
     done = subprocess.run(
         [
             *(sys.executable, "-m", "ruff", "check", "--no-cache"),
-            *("--config", str(RECORDER / "ruff.toml")),
+            *("--config", str(ROOT / "imrosc" / "runtime" / "ruff.toml")),  # the rules, Python 3.8
             *scripts,
         ],
         capture_output=True,

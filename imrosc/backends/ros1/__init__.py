@@ -33,13 +33,14 @@ import re
 import textwrap
 from typing import Any
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import Environment
 
 from imrosc import __version__
+from imrosc.backends import quoting
 from imrosc.backends.monitor import (
-    HELPERS,
     MonitorSpec,
     dumps,
+    flattener_helpers,
     invariants_copy,
     monitor_spec,
     system_launch,
@@ -86,27 +87,9 @@ def cmake_name(text: Any) -> str:
 
 def environment() -> Environment:
     """The template environment: strict, XML autoescaped, with the quoting filters."""
-    env = Environment(
-        loader=PackageLoader("imrosc.backends.ros1", "templates"),
-        autoescape=select_autoescape(enabled_extensions=("xml.j2", "launch.j2"), default=False),
-        undefined=StrictUndefined,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-    )
-    env.filters["py"] = py_literal
-    env.filters["hash_comment"] = hash_comment
-    env.filters["xml_comment"] = xml_comment_filter
+    env = quoting.environment("imrosc.backends.ros1", ("xml.j2", "launch.j2"))
     env.filters["cmake_name"] = cmake_name
     return env
-
-
-def _helpers(spec: MonitorSpec) -> list[str]:
-    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
-    for topic in spec.topics:
-        for value in topic.values:
-            used |= {name for name in HELPERS if f"{name}(" in value.expression}
-    return sorted(used)
 
 
 def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
@@ -129,7 +112,7 @@ def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
         f"scripts/{spec.watchdog}": Executable(render("watchdog.py.j2")),
         f"{PACKAGE_DIR}/__init__.py": render("init.py.j2", docstring=docstring),
         f"{PACKAGE_DIR}/flatteners.py": render(
-            "flatteners.py.j2", topics=flattened, helpers=_helpers(spec)
+            "flatteners.py.j2", topics=flattened, helpers=flattener_helpers(spec)
         ),
         f"{PACKAGE_DIR}/spec.json": dumps(spec.runtime_document(banner)),
         spec.invariants_path: invariants_copy(spec, banner),

@@ -41,18 +41,18 @@ import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import Environment
 
 from imrosc import __version__
+from imrosc.backends import quoting
 from imrosc.backends.monitor import (
-    HELPERS,
     MonitorSpec,
     dumps,
+    flattener_helpers,
     invariants_copy,
     monitor_spec,
     system_launch,
 )
-from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, register
 from imrosc.backends.vendor import ONBOARD, VENDOR, vendored
 from imrosc.diagnostics import make
@@ -125,26 +125,8 @@ def recorder_scope(project: ir.Project) -> RecorderScope:
 
 def environment() -> Environment:
     """The template environment: strict, XML autoescaped, with ``ros1``'s quoting filters."""
-    env = Environment(
-        loader=PackageLoader("imrosc.backends.ros2", "templates"),
-        autoescape=select_autoescape(enabled_extensions=("xml.j2",), default=False),
-        undefined=StrictUndefined,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-    )
-    env.filters["py"] = py_literal
-    env.filters["hash_comment"] = hash_comment
-    env.filters["xml_comment"] = xml_comment_filter
+    env = quoting.environment("imrosc.backends.ros2", ("xml.j2",))
     return env
-
-
-def _helpers(spec: MonitorSpec) -> list[str]:
-    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
-    for topic in spec.topics:
-        for value in topic.values:
-            used |= {name for name in HELPERS if f"{name}(" in value.expression}
-    return sorted(used)
 
 
 def chunks(text: str, width: int = 72) -> list[str]:
@@ -243,7 +225,7 @@ def render_package(
         ),
         f"{root}/main.py": render("main.py.j2"),
         f"{root}/flatteners.py": render(
-            "flatteners.py.j2", topics=flattened, helpers=_helpers(spec)
+            "flatteners.py.j2", topics=flattened, helpers=flattener_helpers(spec)
         ),
         f"{root}/spec.json": dumps(spec.runtime_document(banner)),
         spec.invariants_path: invariants_copy(spec, banner),
