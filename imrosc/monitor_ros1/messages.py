@@ -104,17 +104,16 @@ def fill(
     ``null`` value leaves the field at its default.
     """
     slots = list(getattr(message, "__slots__", ()))
-    kinds = list(getattr(message, "_slot_types", ()))
-    for key, value in values.items():
-        path = where + str(key)
-        if key not in slots:
-            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(slots)))
-        if value is None:
-            continue
-        current = getattr(message, key)
-        kind = kinds[slots.index(key)] if len(kinds) == len(slots) else _kind_of(current)
-        setattr(message, key, _convert(current, kind, value, path, message_class))
-    return message
+    types = list(getattr(message, "_slot_types", ()))
+    if len(types) == len(slots):
+        kinds = dict(zip(slots, types))
+    else:
+        kinds = {slot: _kind_of(getattr(message, slot)) for slot in slots}
+
+    def convert(current: Any, kind: str, value: Any, path: str) -> Any:
+        return _convert(current, kind, value, path, message_class)
+
+    return check.fill_fields(message, kinds, values, convert, where)
 
 
 def _kind_of(current: Any) -> str:

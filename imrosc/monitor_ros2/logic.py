@@ -435,16 +435,11 @@ def fill(
     field the message lacks, a value of the wrong kind, out of range or of the wrong length
     raises :class:`FillError`; a ``null`` value leaves the field at its default.
     """
-    fields = fields_of(message) or {}
-    for key, value in values.items():
-        path = where + str(key)
-        if key not in fields:
-            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(fields)))
-        if value is None:
-            continue
-        converted = _convert(getattr(message, key), fields[key], value, path, message_class)
-        setattr(message, key, converted)
-    return message
+
+    def convert(current: Any, kind: str, value: Any, path: str) -> Any:
+        return _convert(current, kind, value, path, message_class)
+
+    return check.fill_fields(message, fields_of(message) or {}, values, convert, where)
 
 
 # -- warnings -------------------------------------------------------------------------------

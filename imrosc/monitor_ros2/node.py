@@ -75,13 +75,6 @@ try:  # only a ROS 2 system has these; the helpers above are usable without them
         MultiThreadedExecutor,
         SingleThreadedExecutor,
     )
-
-    try:  # Humble and later: spin() ends with it when SIGINT shut the context down
-        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-            ExternalShutdownException,
-        )
-    except ImportError:  # Foxy, Galactic
-        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
@@ -562,7 +555,7 @@ def main(
         ).start()
     try:
         executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, either way
+    except plumbing.SPIN_ENDED:  # Ctrl-C, either way
         pass
     finally:
         executor.shutdown()

@@ -36,13 +36,6 @@ try:  # only a ROS 2 system has these
     from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
         MultiThreadedExecutor,
     )
-
-    try:  # Humble and later: spin() ends with it when SIGINT shut the context down
-        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-            ExternalShutdownException,
-        )
-    except ImportError:  # Foxy, Galactic
-        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
     rclpy = None
@@ -248,7 +241,7 @@ def main(package: str, args: Optional[List[str]] = None) -> None:
     executor.add_node(node)
     try:
         executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, either way
+    except plumbing.SPIN_ENDED:  # Ctrl-C, either way
         pass
     finally:
         executor.shutdown()

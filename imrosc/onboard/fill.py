@@ -14,7 +14,7 @@ standard library only.
 from __future__ import annotations
 
 import json
-from typing import Any, Mapping, Tuple
+from typing import Any, Callable, Mapping, Tuple
 
 INTEGER_RANGES = {
     "int8": (-(2**7), 2**7 - 1),
@@ -31,6 +31,33 @@ INTEGER_RANGES = {
 
 class FillError(ValueError):
     """An action value that does not fit its message."""
+
+
+def fill_fields(
+    message: Any,
+    kinds: Mapping[str, str],
+    values: Mapping[str, Any],
+    convert: Callable[[Any, str, Any, str], Any],
+    where: str = "",
+) -> Any:
+    """Set the fields of ``message`` that an action value names (``{data: 3}``); return the
+    message. ``kinds`` are the message's fields and their types, ``convert(current, kind,
+    value, path)`` a field's new value (the middleware's). A field the message lacks raises
+    :class:`FillError`; a ``null`` value leaves the field at its default.
+
+    >>> class M:
+    ...     data = 0
+    >>> fill_fields(M(), {"data": "int8"}, {"data": 3.0}, lambda c, k, v, p: integer(k, v, p)).data
+    3
+    """
+    for key, value in values.items():
+        path = where + str(key)
+        if key not in kinds:
+            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(kinds)))
+        if value is None:
+            continue
+        setattr(message, key, convert(getattr(message, key), kinds[key], value, path))
+    return message
 
 
 def integer(

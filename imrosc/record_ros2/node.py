@@ -43,13 +43,6 @@ try:  # only a ROS 2 system has these
     from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
         MultiThreadedExecutor,
     )
-
-    try:  # Humble and later: spin() ends with it when the context is shut down
-        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-            ExternalShutdownException,
-        )
-    except ImportError:  # Foxy, Galactic
-        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
@@ -350,7 +343,7 @@ def spin(executor: Any, step: float = 0.1) -> None:
     try:
         while not stop.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=step)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except plumbing.SPIN_ENDED:
         pass
     finally:
         for number, handler in previous.items():

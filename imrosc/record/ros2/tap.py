@@ -52,14 +52,7 @@ try:  # only a ROS 2 system has these
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
     rclpy = None
-try:  # Humble and later: spin() ends with it when the context is shut down
-    from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-        ExternalShutdownException,
-    )
-except ImportError:  # Foxy, Galactic, or no ROS 2
-    ExternalShutdownException = KeyboardInterrupt
 
-RECORD_TYPE = "std_msgs/msg/String"
 LEAST, STEADY = 1.5, 1.0
 """Discovery: seconds before the graph is described at the soonest, and without change."""
 DRAIN = 0.3
@@ -120,7 +113,7 @@ class Tap:
         """The last graph sent."""
         for topic in records.RECORD_TOPICS:
             qos = graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL)
-            self.subscribe(topic, RECORD_TYPE, String, qos, [qos])
+            self.subscribe(topic, records.RECORD_TYPE, String, qos, [qos])
 
     # -- the pipe ------------------------------------------------------------------------------
 
@@ -313,7 +306,7 @@ def main(argv: Optional[List[str]] = None) -> None:
         end = time.monotonic() + DRAIN
         while time.monotonic() < end and rclpy.ok():
             executor.spin_once(timeout_sec=0.05)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except plumbing.SPIN_ENDED:
         pass
     finally:
         tap.close()
