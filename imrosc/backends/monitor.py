@@ -48,6 +48,7 @@ from imrosc.backends import launch
 from imrosc.backends.registry import BuildInputs
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.invariants import InvariantsFileError, load
+from imrosc.onboard.monitor import relay_name
 from imrosc.runtime import Engine
 from imrosc.schema.names import BAD_NAME, check_graph_name, is_global_name
 
@@ -255,11 +256,6 @@ class MonitorSpec:
             "params": list(self.params),
             "alarms": dict(self.alarms),
         }
-
-
-def relay_name(namespace: str, name: str) -> str:
-    """``/m`` + ``/a/t`` = ``/m/a/t``."""
-    return namespace.rstrip("/") + name
 
 
 def dumps(document: Mapping[str, Any]) -> bytes:
