@@ -12,8 +12,9 @@ published as a ``std_msgs/msg/String`` message whose ``data`` is one JSON object
 * :data:`SRVS_TOPIC` carries a :class:`ServiceCall` for each service call the node relays.
 
 :func:`encode` writes canonical JSON (sorted keys and lists, no spaces), so one snapshot is one
-string; the ``decode_*`` functions accept exactly that format and raise :class:`RecordError`
-with a one-line message for anything else. ``docs/record-format.md`` documents the format.
+string, through the recorders' own encoder (:mod:`imrosc.onboard.records`); the ``decode_*``
+functions accept exactly that format and raise :class:`RecordError` with a one-line message
+for anything else. ``docs/record-format.md`` documents the format.
 
 >>> snapshot = ArchSnapshot({"/t": TopicEnds(frozenset({"/b", "/a"}), frozenset())}, {})
 >>> encode(snapshot)
@@ -29,6 +30,18 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from imrosc.onboard.records import (
+    ARCH_TOPIC,
+    PARAMS_TOPIC,
+    RECORD_PREFIX,
+    RECORD_TOPICS,
+    RECORD_TYPE,
+    SRVS_TOPIC,
+    VERSION,
+    arch_text,
+    call_text,
+    params_text,
+)
 from imrosc.schema.names import BAD_NAME, check_graph_name
 
 __all__ = [
@@ -50,16 +63,6 @@ __all__ = [
     "decode_params",
     "encode",
 ]
-
-RECORD_PREFIX = "/imrosc/"
-"""Every record topic lives under this namespace."""
-ARCH_TOPIC = "/imrosc/arch"
-PARAMS_TOPIC = "/imrosc/params"
-SRVS_TOPIC = "/imrosc/srvs"
-RECORD_TOPICS = (ARCH_TOPIC, PARAMS_TOPIC, SRVS_TOPIC)
-RECORD_TYPE = "std_msgs/msg/String"
-"""The message type of every record (rosbags' name for ROS 1 ``std_msgs/String`` too)."""
-VERSION = 1
 
 
 class RecordError(ValueError):
@@ -114,44 +117,28 @@ class ServiceCall:
 Record = ArchSnapshot | ParamSnapshot | ServiceCall
 
 
-def _dumps(document: object) -> str:
-    return json.dumps(document, sort_keys=True, separators=(",", ":"))
-
-
-def _arch_document(record: ArchSnapshot) -> dict[str, object]:
-    topics = {
-        name: {"pubs": sorted(ends.pubs), "subs": sorted(ends.subs)}
-        for name, ends in sorted(record.topics.items())
-    }
-    services = {name: sorted(servers) for name, servers in sorted(record.services.items())}
-    return {"version": VERSION, "topics": topics, "services": services}
-
-
-def _call_document(record: ServiceCall) -> dict[str, object]:
-    return {
-        "version": VERSION,
-        "service": record.service,
-        "client": record.client,
-        "server": record.server,
-        "request": dict(record.request),
-        "response": None if record.response is None else dict(record.response),
-        "ok": record.ok,
-        "stamp": float(record.stamp),
-        "delay": float(record.delay),
-    }
-
-
 def encode(record: Record) -> str:
-    """The canonical JSON text of a record: sorted keys, sorted name lists, no spaces.
+    """The canonical JSON text of a record: sorted keys, sorted name lists, no spaces, as
+    the recorders write it (:mod:`imrosc.onboard.records`, the one encoder).
 
     Parameter values and service messages are written as given; NaN and infinities are
     written as ``NaN``/``Infinity`` (as Python's json module does), which the decoders accept.
+    A call's ``ok`` is whether it has a response, its ``delay`` never negative.
     """
     if isinstance(record, ArchSnapshot):
-        return _dumps(_arch_document(record))
+        topics = {name: (ends.pubs, ends.subs) for name, ends in record.topics.items()}
+        return arch_text(topics, record.services)
     if isinstance(record, ParamSnapshot):
-        return _dumps({"version": VERSION, "params": dict(sorted(record.params.items()))})
-    return _dumps(_call_document(record))
+        return params_text(record.params)
+    return call_text(
+        record.service,
+        record.client,
+        record.server,
+        record.request,
+        record.response,
+        record.stamp,
+        record.delay,
+    )
 
 
 def _no_duplicates(pairs: list[tuple[str, object]]) -> dict[str, object]:

@@ -48,6 +48,7 @@ from imrosc.backends import launch
 from imrosc.backends.registry import BuildInputs
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.invariants import InvariantsFileError, load
+from imrosc.onboard.monitor import relay_name
 from imrosc.runtime import Engine
 from imrosc.schema.names import BAD_NAME, check_graph_name, is_global_name
 
@@ -255,11 +256,6 @@ class MonitorSpec:
             "params": list(self.params),
             "alarms": dict(self.alarms),
         }
-
-
-def relay_name(namespace: str, name: str) -> str:
-    """``/m`` + ``/a/t`` = ``/m/a/t``."""
-    return namespace.rstrip("/") + name
 
 
 def dumps(document: Mapping[str, Any]) -> bytes:
@@ -645,3 +641,12 @@ def system_launch(
     )
     inputs.diagnostics.extend(rewritten.diagnostics)
     return {} if rewritten.content is None else {target: rewritten.content}
+
+
+def flattener_helpers(spec: MonitorSpec) -> list[str]:
+    """The helpers of ``imrosc/onboard/flat.py`` the generated flatteners call."""
+    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
+    for topic in spec.topics:
+        for value in topic.values:
+            used |= {name for name in HELPERS if f"{name}(" in value.expression}
+    return sorted(used)

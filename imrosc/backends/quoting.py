@@ -9,6 +9,7 @@ import math
 import textwrap
 from typing import Any
 
+from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 from markupsafe import Markup
 
 from imrosc.backends import launch
@@ -43,3 +44,20 @@ def hash_comment(text: Any) -> str:
 def xml_comment_filter(text: Any) -> Markup:
     """The body of an XML comment (already safe: no ``--``, one line)."""
     return Markup(launch.xml_comment(str(text)))
+
+
+def environment(package: str, xml_extensions: tuple[str, ...]) -> Environment:
+    """The template environment of a backend's package (its ``templates/`` folder): strict,
+    templates ending in ``xml_extensions`` autoescaped, with the quoting filters."""
+    env = Environment(
+        loader=PackageLoader(package, "templates"),
+        autoescape=select_autoescape(enabled_extensions=xml_extensions, default=False),
+        undefined=StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+    env.filters["py"] = py_literal
+    env.filters["hash_comment"] = hash_comment
+    env.filters["xml_comment"] = xml_comment_filter
+    return env

@@ -1,5 +1,10 @@
-"""imrosc's own modules, copied into generated packages (the runtime engine, the monitor
-adapters, the recorder): the robot needs no pip install.
+"""imrosc's own modules, copied into generated packages (the runtime engine, the onboard
+logic, the monitor adapters, the recorder): the robot needs no pip install.
+
+Both monitor backends copy them the same way (:func:`vendored`): into ``imrosc/`` of the
+package's Python package, each imrosc package under its own name, so the relative imports
+between them (``from ..onboard import monitor``, ``from ..runtime import families``) work
+in imrosc and in every generated package alike, and nothing is renamed on the way.
 
 Each copy starts with a banner naming the module it copies, imrosc's version and the
 backend, as rosidl's generated files name their template and input; the rest is the module
@@ -33,4 +38,22 @@ def copied_modules(
             text = item.read_text(encoding="utf-8")
             banner = hash_comment(copy_banner(package, item.name, backend))
             files[f"{folder}/{item.name}"] = f"{banner}\n{text}".encode()
+    return files
+
+
+ONBOARD = ("runtime", "onboard")
+"""The imrosc packages every generated package carries: the runtime engine and the
+middleware-neutral logic of monitors and recorders."""
+VENDOR = "imrosc"
+"""The folder of a package's Python package that holds the copies (imrosc's own name)."""
+
+
+def vendored(root: str, backend: str, adapters: tuple[str, ...]) -> dict[str, bytes]:
+    """The copies a package's Python package at ``root`` carries: ``imrosc/__init__.py``,
+    the :data:`ONBOARD` packages and the middleware ``adapters`` (``monitor_ros1``, ...),
+    each whole, under ``root/imrosc/<name>/``."""
+    folder = f"{root}/{VENDOR}"
+    files = copied_modules("imrosc", folder, backend, only=("__init__.py",))
+    for name in (*ONBOARD, *adapters):
+        files.update(copied_modules(f"imrosc.{name}", f"{folder}/{name}", backend))
     return files

@@ -29,13 +29,12 @@ Parameters: ``~invariants`` (path; default the package's ``config/invariants.jso
 ``~period`` (seconds), ``~namespace`` (``/m``), ``~unregister`` (true), ``~watchdog`` (the
 watchdog's node name, left out of the graph like the monitor itself).
 
-Every decision is a function of ``logic.py``; this module only talks to ROS. Python 3.8
+Every decision is a function of ``common.py``; this module only talks to ROS. Python 3.8
 syntax: it runs on ROS Noetic robots.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import queue
 import struct
@@ -48,7 +47,9 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from . import logic, wire
+from ..onboard import files
+from ..onboard import monitor as common
+from . import messages, wire
 
 try:  # only a ROS 1 robot has these; the helpers above are usable without them
     import rosgraph  # type: ignore[import-not-found, unused-ignore]
@@ -60,32 +61,8 @@ try:  # only a ROS 1 robot has these; the helpers above are usable without them
 except ImportError:  # pragma: no cover - exercised on robots only
     rospy = None
 
-SPEC_FILE = "spec.json"
-INVARIANTS_FORMAT = "imrosc-invariants"
 QUEUE = 100
-IDLE = 1.0
-"""Seconds without a blocked message after which the node stops rehearsing."""
 Flatten = Callable[[Any], List[Any]]
-
-
-def load_spec(directory: Optional[str] = None) -> Dict[str, Any]:
-    """The package's monitor spec (``spec.json`` beside this module)."""
-    folder = directory or os.path.dirname(os.path.abspath(__file__))
-    with open(os.path.join(folder, SPEC_FILE), encoding="utf-8") as stream:
-        spec: Dict[str, Any] = json.load(stream)
-    return spec
-
-
-def load_invariants(path: str) -> Dict[str, Any]:
-    """An invariants file; ``ValueError`` with the reason if it is not one."""
-    with open(path, encoding="utf-8") as stream:
-        document = json.load(stream)
-    if not isinstance(document, dict) or document.get("format") != INVARIANTS_FORMAT:
-        raise ValueError(f"{path}: not an imrosc invariants file")
-    for key in ("topics", "points", "invariants"):
-        if key not in document:
-            raise ValueError(f"{path}: missing {key!r}")
-    return document
 
 
 def default_invariants(package: str) -> str:
@@ -95,17 +72,13 @@ def default_invariants(package: str) -> str:
 
         return os.path.join(rospkg.RosPack().get_path(package), "config", "invariants.json")
     except Exception:
-        here = os.path.dirname(os.path.abspath(__file__))
-        return os.path.normpath(os.path.join(here, "..", "..", "config", "invariants.json"))
+        scripts = os.path.dirname(files.package_folder())  # the package's scripts/
+        return os.path.normpath(os.path.join(scripts, "..", "config", "invariants.json"))
 
 
-def relay_name(namespace: str, name: str) -> str:
-    """``/m`` + ``/a/t`` = ``/m/a/t``."""
-    return namespace.rstrip("/") + name
-
-
-class Monitor:
-    """The node's state: the engine, its ROS endpoints and what it learnt from the master."""
+class Monitor(common.Checking):
+    """The node's state: the engine and what the spec says (:class:`common.Checking`), its
+    ROS endpoints and what it learnt from the master."""
 
     def __init__(
         self,
@@ -114,18 +87,15 @@ class Monitor:
         engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
     ) -> None:
-        self.spec = spec
-        document = logic.alarm_document(document, spec.get("alarms"))
-        self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
+        namespace = str(rospy.get_param("~namespace", spec["namespace"]))
+        super().__init__(spec, document, engine_class, namespace, self.stop)
         self.period = float(rospy.get_param("~period", spec["period"]))
         self.wall_clock = not rospy.get_param("/use_sim_time", False)
         """rospy's clock is the wall clock (read directly on the relay's path: warm, 0.06 us
         against 1.6 us for ``rospy.get_time``, which builds a ``Time`` each call)."""
-        self.warm = max(0.0, float(rospy.get_param("~warm", logic.WARM)))
-        self.last_relayed = 0.0
-        """Wall time of the last message on a blocked topic (``keep_warm``)."""
+        self.warm = max(0.0, float(rospy.get_param("~warm", common.WARM)))
         self.unregister = bool(rospy.get_param("~unregister", True))
-        self.stand_ins = logic.learnt_publishers(document.get("invariants", ()))
+        self.stand_ins = common.learnt_publishers(document.get("invariants", ()))
         """Per topic its learnt publishers, for whom ``rosbag play`` stands in."""
         self.name: str = rospy.get_name()
         watchdog = str(rospy.get_param("~watchdog", spec["watchdog"]))
@@ -133,33 +103,14 @@ class Monitor:
             watchdog = rospy.get_namespace() + watchdog
         self.own: Set[str] = {self.name, watchdog}
         ns = self.namespace
-        self.topic_relays = {
-            t["name"]: relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
-        }
-        self.service_relays = {s["name"]: relay_name(ns, s["name"]) for s in spec["services"]}
-        self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
-        self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
-        self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
         self.flatteners = flatteners
         self.layouts: Mapping[str, Sequence[Mapping[str, Any]]] = {
             name: info.get("variables", []) for name, info in document.get("topics", {}).items()
         }
         self.readers: Dict[str, Tuple[wire.Reader, Any]] = {}
         """Blocked topics relayed as bytes: their reader and their decoded class."""
-        self.lock = threading.Lock()
-        self.guard = logic.Guard(self.stop)
-        """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
-        # numba compiles the checks later, in a thread of its own (:meth:`compile`)
-        self.engine = engine_class(document, compile=False)
-        self.precheck = (
-            engine_class(logic.request_document(document, self.blocked_services), compile=False)
-            if self.blocked_services
-            else None
-        )
         self.by_id = {inv["id"]: inv for inv in document["invariants"]}
         self.state: Sequence[Any] = ([], [], [])
-        self.graph: Optional[Dict[str, Any]] = None
-        self.params: Optional[Dict[str, Any]] = None
         self.master = rosgraph.Master(self.name)
         self.master_api: Any = xmlrpc.client.ServerProxy(rosgraph.get_master_uri())
         self.broken = rospy.Publisher(ns + "/broken_inv", String, queue_size=QUEUE)
@@ -176,7 +127,10 @@ class Monitor:
         threading.Thread(target=self.worker, name="imrosc-actions", daemon=True).start()
         threading.Thread(target=self.heartbeat, name="imrosc-heartbeat", daemon=True).start()
         if self.warm and self.topic_relays:
-            threading.Thread(target=self.keep_warm, name="imrosc-warm", daemon=True).start()
+            running = lambda: not rospy.is_shutdown()  # noqa: E731 - rospy's, as rclpy.ok
+            threading.Thread(
+                target=self.keep_warm, args=(self.warm, running), name="imrosc-warm", daemon=True
+            ).start()
         self.connect()
         self.tick(None)
         self.timer = rospy.Timer(rospy.Duration(self.period), self.tick)
@@ -185,10 +139,10 @@ class Monitor:
         """A check raised: report it on ``/m/broken_inv`` and in the log, stop the heartbeat
         and shut the node down (the guard already keeps every callback from checking or
         relaying)."""
-        text = logic.failure_text(where, error)
+        text = common.failure_text(where, error)
         rospy.logfatal(f"{text}\n{traceback.format_exc()}")
         try:
-            self.broken.publish(String(data=logic.failure_json(where, error, time.time())))
+            self.broken.publish(String(data=common.failure_json(where, error, time.time())))
         except Exception as failed:  # the report is best effort; the shutdown is not
             rospy.logerr(f"imrosc: cannot publish the failure: {failed}")
         # let the report reach its subscribers before the node's connections close
@@ -265,8 +219,8 @@ class Monitor:
                 continue
             self.pending_actions.discard(ident)
             try:
-                message = logic.fill(found(), action["value"], self.message_class)
-            except (logic.FillError, TypeError, ValueError) as error:
+                message = messages.fill(found(), action["value"], self.message_class)
+            except (messages.FillError, TypeError, ValueError) as error:
                 rospy.logerr(f"imrosc: action {ident} is disabled: {error}")
                 continue
             publisher = rospy.Publisher(action["destination"], found, queue_size=QUEUE)
@@ -276,7 +230,7 @@ class Monitor:
         """A message class by name (for lists of messages in action values)."""
         found = roslib.message.get_message_class(msgtype)
         if found is None:
-            raise logic.FillError(f"unknown message type {msgtype}")
+            raise messages.FillError(f"unknown message type {msgtype}")
         return found
 
     # -- what happens -----------------------------------------------------------------------
@@ -299,17 +253,17 @@ class Monitor:
             now = time.time() if self.wall_clock else rospy.get_time()
             found = self.engine.advance(now)
             caused = self.engine.message(topic, now, values) if values is not None else []
-            raised, alarmed = logic.take_alarms(self.engine, found + caused)
+            raised, alarmed = common.take_alarms(self.engine, found + caused)
             precheck = self.precheck
             if precheck is not None and values is not None and topic in precheck.condition_topics:
                 precheck.message(topic, now, values)
         relay = self.relays.get(topic)
         if relay is not None:
             self.last_relayed = time.time()
-            if not logic.withheld(caused, alarmed):
+            if not common.withheld(caused, alarmed):
                 relay.publish(message)
             else:
-                rospy.logwarn_throttle(1.0, logic.blocked_line(topic, caused, alarmed))
+                rospy.logwarn_throttle(1.0, common.blocked_line(topic, caused, alarmed))
         self.report(found + caused, raised, alarmed)
 
     def read(self, message: Any, topic: str, raw: Tuple[wire.Reader, Any]) -> Optional[List[Any]]:
@@ -342,25 +296,26 @@ class Monitor:
             precheck = self.precheck
             if blocked and precheck is not None:
                 with self.lock:
-                    refused = precheck.call(
-                        service, rospy.get_time(), logic.request_values(request)
-                    )
-                    raised, alarmed = logic.take_alarms(precheck, refused)
-                if logic.withheld(refused, alarmed):
+                    values = common.request_values(messages.message_data, request)
+                    refused = precheck.call(service, rospy.get_time(), values)
+                    raised, alarmed = common.take_alarms(precheck, refused)
+                if common.withheld(refused, alarmed):
                     self.report(refused, raised, alarmed)
-                    ids = logic.withheld_for(refused, alarmed)
+                    ids = common.withheld_for(refused, alarmed)
                     raise rospy.ServiceException(f"imrosc monitor refused the request: {ids}")
             start = rospy.get_time()
             response = rospy.ServiceProxy(service, service_class)(request)
-            values = logic.message_values(request, response, rospy.get_time() - start)
+            values = common.call_values(
+                messages.message_data, request, response, rospy.get_time() - start
+            )
             with self.lock:
                 now = rospy.get_time()
                 found = self.engine.advance(now)
                 caused = self.engine.call(service, now, values)
-                raised, alarmed = logic.take_alarms(self.engine, found + caused)
+                raised, alarmed = common.take_alarms(self.engine, found + caused)
             self.report(found + caused, raised, alarmed)
-            if blocked and logic.withheld(caused, alarmed):
-                ids = logic.withheld_for(caused, alarmed)
+            if blocked and common.withheld(caused, alarmed):
+                ids = common.withheld_for(caused, alarmed)
                 raise rospy.ServiceException(f"imrosc monitor withheld the response: {ids}")
             return response
 
@@ -373,11 +328,7 @@ class Monitor:
     def clear(self, message: Any) -> None:
         """:meth:`on_clear` under the guard."""
         ident = str(message.data).strip()
-        with self.lock:
-            known = self.engine.clear(ident)
-            if self.precheck is not None:
-                self.precheck.clear(ident)
-        if known:
+        if self.clear_invariant(ident):
             rospy.loginfo(f"imrosc: invariant {ident} cleared")
         else:
             rospy.logwarn(f"imrosc: /clear_inv names no invariant: {ident!r}")
@@ -395,55 +346,26 @@ class Monitor:
             state = None
         params: Optional[Dict[str, Any]]
         try:
-            params = logic.param_values(rospy.get_param, self.spec["params"])
+            params = common.param_values(rospy.get_param, self.spec["params"])
         except Exception:
             params = self.params
         graph = None
         if state is not None:
             self.state = state
-            graph = logic.logical_graph(
+            graph = common.logical_graph(
                 state, self.own, self.topic_relays, self.service_relays, self.stand_ins
             )
         with self.lock:
-            now = rospy.get_time()
-            found = self.engine.advance(now)
-            if graph is not None and graph != self.graph:
-                self.graph = graph
-                found += self.engine.graph(now, graph)
-            if params is not None and params != self.params:
-                self.params = params
-                found += self.engine.params(now, params)
-                if self.precheck is not None:
-                    self.precheck.params(now, params)
-            raised, alarmed = logic.take_alarms(self.engine, found)
+            found, raised, alarmed = self.poll_engine(rospy.get_time(), graph, params)
         if self.pending_topics or self.pending_services or self.pending_actions:
             self.connect()
         self.report(found, raised, alarmed)
 
-    def keep_warm(self) -> None:
-        """Between sparse messages on the blocked topics, check the latest ones again every
-        ``~warm`` seconds (keeping nothing): other processes evict the checks' code and
-        tables from the caches, and a message that meets them cold waits for the relay
-        several times longer. Nothing is done while messages come faster than that, nor
-        after a second without one."""
-        relayed = sorted(self.topic_relays)
-        while not rospy.is_shutdown():
-            time.sleep(self.warm)
-            idle = time.time() - self.last_relayed
-            if self.warm <= idle <= IDLE:
-                self.guard.run("rehearsal", self.rehearse, relayed)
-
-    def rehearse(self, relayed: Sequence[str]) -> None:
-        """One rehearsal of the latest blocked messages."""
-        with self.lock:
-            self.engine.rehearse(relayed)
-
     def compile(self, compiler: str) -> None:
         """Compile the checks with numba while the node relays (numpy checks meanwhile) and
-        log what is in use (:func:`logic.compile_engines`)."""
-        engines = [e for e in (self.engine, self.precheck) if e is not None]
+        log what is in use (:func:`common.compile_engines`)."""
         try:
-            rospy.loginfo(logic.compile_engines(engines, compiler))
+            rospy.loginfo(self.compile_checks(compiler))
         except Exception as error:  # numpy's checks go on: nothing is lost but speed
             rospy.logwarn(f"imrosc: compiling the checks failed ({error}): numpy checks them")
 
@@ -460,16 +382,16 @@ class Monitor:
     ) -> None:
         """Warn on ``/m/broken_inv`` and in the log (an alarm or a violation alone); queue
         the actions and the unregistrations of the newly raised alarms."""
-        for report in logic.reports(violations, raised, alarmed, self.violation_map):
-            self.broken.publish(String(data=logic.report_json(report)))
+        for report in common.reports(violations, raised, alarmed, self.violation_map):
+            self.broken.publish(String(data=common.report_json(report)))
             if report.alarm:  # two call sites: alarms and violations are throttled apart
-                rospy.logwarn_throttle(1.0, logic.log_line(report))
+                rospy.logwarn_throttle(1.0, common.log_line(report))
             else:
-                rospy.logwarn_throttle(1.0, logic.log_line(report))
-        for ident in logic.select_actions(raised, self.violation_map):
+                rospy.logwarn_throttle(1.0, common.log_line(report))
+        for ident in common.select_actions(raised, self.violation_map):
             self.work.put(("action", ident))
         if self.unregister and raised:
-            for node, topic in logic.to_unregister(
+            for node, topic in common.to_unregister(
                 [alarm.violation for alarm in raised],
                 self.by_id,
                 self.state,
@@ -509,7 +431,7 @@ class Monitor:
         if found is None:
             rospy.logwarn(f"imrosc: action {ident}: service {service} is not available")
             return
-        request = logic.fill(found._request_class(), action["value"], self.message_class)
+        request = messages.fill(found._request_class(), action["value"], self.message_class)
         rospy.ServiceProxy(service, found)(request)
 
     def unregister_publisher(self, node: str, topic: str) -> None:
@@ -545,8 +467,8 @@ def main(
     rospy.init_node(package)
     path = rospy.get_param("~invariants", "") or default_invariants(package)
     try:
-        spec = load_spec()
-        document = load_invariants(path)
+        spec = files.load_spec()
+        document = files.load_invariants(path)
     except (OSError, ValueError) as error:
         rospy.logfatal(f"imrosc monitor: {error}")
         sys.exit(1)
@@ -554,7 +476,7 @@ def main(
     compiler = monitor.engine.compiler()
     rospy.loginfo(
         f"imrosc monitor {rospy.get_name()}: checking {len(document['invariants'])} "
-        f"invariants from {path}; {logic.checks_plan(compiler)}"
+        f"invariants from {path}; {common.checks_plan(compiler)}"
     )
     if compiler is not None:
         threading.Thread(

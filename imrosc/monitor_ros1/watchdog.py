@@ -20,8 +20,8 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Mapping, Optional, Set
 
-from . import logic
-from .node import load_spec, relay_name
+from ..onboard import files
+from ..onboard import monitor as common
 
 try:  # only a ROS 1 robot has these
     import rosgraph  # type: ignore[import-not-found, unused-ignore]
@@ -61,7 +61,7 @@ class Watchdog:
         """Check the heartbeat four times per timeout; start or stop relaying; while
         relaying, relay what was not found yet."""
         while not rospy.is_shutdown():
-            wanted = logic.should_relay(self.last_beat, time.monotonic(), self.timeout)
+            wanted = common.should_relay(self.last_beat, time.monotonic(), self.timeout)
             with self.lock:
                 try:
                     if wanted and not self.relaying:
@@ -105,7 +105,7 @@ class Watchdog:
             self.not_yet(topic["name"], "type unknown")
             return False
         ns = self.namespace
-        publisher = rospy.Publisher(relay_name(ns, topic["name"]), found, queue_size=100)
+        publisher = rospy.Publisher(common.relay_name(ns, topic["name"]), found, queue_size=100)
         subscriber = rospy.Subscriber(topic["name"], found, publisher.publish, queue_size=100)
         self.endpoints += [subscriber, publisher]
         return True
@@ -118,7 +118,9 @@ class Watchdog:
             self.not_yet(name, "not served")
             return False
         forward = self.forward(name, found)
-        self.endpoints.append(rospy.Service(relay_name(self.namespace, name), found, forward))
+        self.endpoints.append(
+            rospy.Service(common.relay_name(self.namespace, name), found, forward)
+        )
         if name in self.reported:
             rospy.logwarn(f"imrosc watchdog: relaying {name} now")
         return True
@@ -154,6 +156,6 @@ def main(package: str) -> None:
     if rospy is None:
         sys.exit("imrosc watchdog: rospy is not importable; run it on a ROS 1 system")
     rospy.init_node(package + "_watchdog")
-    spec: Dict[str, Any] = load_spec()
+    spec: Dict[str, Any] = files.load_spec()
     Watchdog(spec)
     rospy.spin()

@@ -2,9 +2,9 @@
 
 The decisions ROS 1 and ROS 2 share (which actions a batch of violations takes, the JSON
 warning, folding the monitor's relays out of the graph, the invariants checked before a
-blocked call is forwarded, flattening JSON values, the watchdog's decision) are those of
-``imrosc/monitor_ros1/logic.py``, imported here as ``common``; this module adds what differs
-in ROS 2:
+blocked call is forwarded, flattening JSON values, the watchdog's decision, the package's
+files and relay names) are those of ``imrosc/onboard/monitor.py``, imported here as
+``common``; this module adds what differs in ROS 2:
 
 * QoS: a subscription that matches every publisher of its topic
   (:func:`subscription_qos`), the relay's offer on ``/m/<topic>`` (:func:`relay_qos`), and
@@ -14,12 +14,13 @@ in ROS 2:
 * parameters: which node to ask for which name (:func:`parameter_requests`) and the value
   of an ``rcl_interfaces/ParameterValue`` (:func:`parameter_value`);
 * messages: a ROS 2 message as JSON-like data (:func:`message_data`, through
-  ``get_fields_and_field_types``), a service call as the engine's values
-  (:func:`message_values`), an action's YAML value filled into a message (:func:`fill`);
+  ``get_fields_and_field_types``; ``common.call_values`` makes a service call the
+  engine's values of it), an action's YAML value filled into a message (:func:`fill`);
 * the warning on ``/m/broken_inv``, with a note on an unknown publisher, which ROS 2 cannot
   unregister (:func:`warning`).
 
-Python 3.8 syntax, standard library only: this module is copied into generated packages.
+Python 3.8 syntax, standard library only (and ``..onboard``): this module is copied into
+generated packages.
 
 >>> subscription_qos([Qos(RELIABLE, VOLATILE), Qos(BEST_EFFORT, VOLATILE)], "std_msgs/msg/UInt8")
 Qos(reliability='best_effort', durability='volatile')
@@ -33,7 +34,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 from typing import (
     Any,
@@ -48,10 +48,9 @@ from typing import (
     Tuple,
 )
 
-from ..monitor_ros1 import logic as common
-
-SPEC_FILE = "spec.json"
-INVARIANTS_FORMAT = "imrosc-invariants"
+from ..onboard import fill as check
+from ..onboard import monitor as common
+from ..onboard.fill import FillError
 
 RELIABLE, BEST_EFFORT = "reliable", "best_effort"
 VOLATILE, TRANSIENT_LOCAL = "volatile", "transient_local"
@@ -98,34 +97,6 @@ class GraphView(NamedTuple):
 UNKNOWN_NAMESPACE = "_NODE_NAMESPACE_UNKNOWN_"
 UNKNOWN_NAME = "_NODE_NAME_UNKNOWN_"
 """What rclpy's graph API names the node of an endpoint whose node is not discovered yet."""
-
-
-# -- files ----------------------------------------------------------------------------------
-
-
-def load_spec(directory: Optional[str] = None) -> Dict[str, Any]:
-    """The package's monitor spec (``spec.json`` of the package's Python package)."""
-    folder = directory or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
-    with open(os.path.join(folder, SPEC_FILE), encoding="utf-8") as stream:
-        spec: Dict[str, Any] = json.load(stream)
-    return spec
-
-
-def load_invariants(path: str) -> Dict[str, Any]:
-    """An invariants file; ``ValueError`` with the reason if it is not one."""
-    with open(path, encoding="utf-8") as stream:
-        document = json.load(stream)
-    if not isinstance(document, dict) or document.get("format") != INVARIANTS_FORMAT:
-        raise ValueError(f"{path}: not an imrosc invariants file")
-    for key in ("topics", "points", "invariants"):
-        if key not in document:
-            raise ValueError(f"{path}: missing {key!r}")
-    return document
-
-
-def relay_name(namespace: str, name: str) -> str:
-    """``/m`` + ``/a/t`` = ``/m/a/t``."""
-    return namespace.rstrip("/") + name
 
 
 # -- QoS ------------------------------------------------------------------------------------
@@ -348,16 +319,6 @@ _BOUNDED_STRING = re.compile(r"^w?string<=(?P<bound>\d+)$")
 _INTERFACE = re.compile(
     r"^(?P<pkg>[A-Za-z][A-Za-z0-9_]*)/(?:(?P<kind>msg|srv)/)?(?P<name>[A-Za-z][A-Za-z0-9_]*)$"
 )
-_INTEGERS = {
-    "int8": (-(2**7), 2**7 - 1),
-    "int16": (-(2**15), 2**15 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint8": (0, 2**8 - 1),
-    "uint16": (0, 2**16 - 1),
-    "uint32": (0, 2**32 - 1),
-    "uint64": (0, 2**64 - 1),
-}
 _FLOATS = frozenset({"float", "double", "long double", "float32", "float64"})
 _TIMES = frozenset({"builtin_interfaces/Time", "builtin_interfaces/Duration"})
 
@@ -400,58 +361,22 @@ def message_data(message: Any) -> Any:
     return {name: message_data(getattr(message, name)) for name in fields}
 
 
-def message_values(request: Any, response: Any, delay: float) -> Dict[str, Any]:
-    """The values of a service call as the engine reads them: ``request.*``,
-    ``response.*`` and ``delay``."""
-    values = common.flatten_json(
-        {"request": message_data(request), "response": message_data(response)}
-    )
-    values["delay"] = delay
-    return values
-
-
-def request_values(request: Any) -> Dict[str, Any]:
-    """The values of a request alone (checked before a blocked call is forwarded)."""
-    return common.flatten_json({"request": message_data(request)})
-
-
-class FillError(ValueError):
-    """An action value that does not fit its message."""
-
-
-def _integer(kind: str, value: Any, where: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise FillError(f"{where}: {value!r} is not an integer")
-    if isinstance(value, float) and not value.is_integer():
-        raise FillError(f"{where}: {value!r} is not an integer")
-    low, high = _INTEGERS[kind]
-    if not low <= int(value) <= high:
-        raise FillError(f"{where}: {value!r} is out of range for {kind}")
-    return int(value)
-
-
 def _scalar(kind: str, value: Any, where: str) -> Any:
     if kind == "boolean":
-        if isinstance(value, bool) or value in (0, 1):
-            return bool(value)
-        raise FillError(f"{where}: {value!r} is not a bool")
-    if kind in _INTEGERS:
-        return _integer(kind, value, where)
+        return check.boolean(value, where)
+    if kind in check.INTEGER_RANGES:
+        return check.integer(kind, value, where)
     if kind in ("octet", "byte"):
-        return bytes([_integer("uint8", value, where)])
+        return bytes([check.integer("uint8", value, where)])
     if kind == "char":
         if isinstance(value, str) and len(value) == 1:
             return value
-        return chr(_integer("uint8", value, where))
+        return chr(check.integer("uint8", value, where))
     if kind in _FLOATS:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FillError(f"{where}: {value!r} is not a number")
-        return float(value)
+        return check.number(value, where)
     bounded = _BOUNDED_STRING.match(kind)
     if kind in ("string", "wstring") or bounded:
-        if isinstance(value, (dict, list)):
-            raise FillError(f"{where}: {value!r} is not a string")
-        text = value if isinstance(value, str) else json.dumps(value)
+        text = check.text(value, where)
         if bounded and len(text) > int(bounded["bound"]):
             raise FillError(f"{where}: {text!r} is longer than {bounded['bound']} characters")
         return text
@@ -510,16 +435,11 @@ def fill(
     field the message lacks, a value of the wrong kind, out of range or of the wrong length
     raises :class:`FillError`; a ``null`` value leaves the field at its default.
     """
-    fields = fields_of(message) or {}
-    for key, value in values.items():
-        path = where + str(key)
-        if key not in fields:
-            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(fields)))
-        if value is None:
-            continue
-        converted = _convert(getattr(message, key), fields[key], value, path, message_class)
-        setattr(message, key, converted)
-    return message
+
+    def convert(current: Any, kind: str, value: Any, path: str) -> Any:
+        return _convert(current, kind, value, path, message_class)
+
+    return check.fill_fields(message, fields_of(message) or {}, values, convert, where)
 
 
 # -- warnings -------------------------------------------------------------------------------

@@ -40,7 +40,7 @@ watchdog's node name, left out of the graph like the monitor itself), ``service_
 (seconds to wait for a forwarded call or an action's call; 10), ``warm`` (seconds between
 rehearsals of the checks while the blocked topics are quiet; 0.002; 0: off).
 
-Every decision is a function of ``logic.py`` (or of the shared ``monitor_ros1/logic.py``);
+Every decision is a function of ``logic.py`` or of the shared ``imrosc/onboard/monitor.py``;
 this module only talks to ROS. Python 3.8 syntax.
 """
 
@@ -57,7 +57,9 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from ..monitor_ros1 import logic as common
+from ..onboard import files
+from ..onboard import monitor as common
+from ..onboard.fill import FillError
 from . import logic, plumbing
 
 try:  # only a ROS 2 system has these; the helpers above are usable without them
@@ -73,13 +75,6 @@ try:  # only a ROS 2 system has these; the helpers above are usable without them
         MultiThreadedExecutor,
         SingleThreadedExecutor,
     )
-
-    try:  # Humble and later: spin() ends with it when SIGINT shut the context down
-        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-            ExternalShutdownException,
-        )
-    except ImportError:  # Foxy, Galactic
-        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
@@ -91,8 +86,6 @@ THREADS = 4
 group (messages are checked and relayed in order); relayed service calls wait for the real
 service in the others. A node that relays no service spins one thread (:func:`executor_for`)."""
 SERVICE_TIMEOUT = 10.0
-IDLE = 1.0
-"""Seconds without a blocked message after which the node stops rehearsing (``warm``)."""
 Flatten = Callable[[Any], List[Any]]
 
 
@@ -124,8 +117,9 @@ class Topic:
         self.relay: Any = None
 
 
-class Monitor:
-    """The node's state: the engine, its ROS endpoints and what it learnt from the graph."""
+class Monitor(common.Checking):
+    """The node's state: the engine and what the spec says (:class:`common.Checking`), its
+    ROS endpoints and what it learnt from the graph."""
 
     def __init__(
         self,
@@ -138,13 +132,11 @@ class Monitor:
         self.node = node
         self.log = node.get_logger()
         self.warn = getattr(self.log, "warning", None) or self.log.warn  # Foxy has warn only
-        self.spec = spec
-        self.namespace = str(plumbing.get_param(node, "namespace", spec["namespace"]))
+        namespace = str(plumbing.get_param(node, "namespace", spec["namespace"]))
+        super().__init__(spec, document, engine_class, namespace, self.stop)
         self.period = float(plumbing.get_param(node, "period", spec["period"]))
         self.timeout = float(plumbing.get_param(node, "service_timeout", SERVICE_TIMEOUT))
         self.warm = max(0.0, float(plumbing.get_param(node, "warm", common.WARM)))
-        self.last_relayed = 0.0
-        """Wall time of the last message on a blocked topic (:meth:`keep_warm`)."""
         self.clock = node.get_clock()
         self.wall_clock = False
         """Whether ROS time is the system clock (no ``use_sim_time``): :meth:`now` then reads
@@ -154,32 +146,12 @@ class Monitor:
         watchdog = str(plumbing.get_param(node, "watchdog", spec["watchdog"]))
         self.own: Set[str] = {self.name, logic.resolve_node(node.get_namespace(), watchdog)}
         ns = self.namespace
-        self.topic_relays = {
-            t["name"]: logic.relay_name(ns, t["name"]) for t in spec["topics"] if t.get("relay")
-        }
-        self.service_relays = {s["name"]: logic.relay_name(ns, s["name"]) for s in spec["services"]}
-        self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
-        self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
-        self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
         self.flatteners = flatteners
-        self.lock = threading.Lock()
-        self.guard = common.Guard(self.stop)
-        """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
         self.broken = node.create_publisher(
             String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
         )
-        document = common.alarm_document(document, spec.get("alarms"))
-        # numba compiles the checks later, in a thread of its own (:meth:`compile`)
-        self.engine = engine_class(document, compile=False)
-        self.precheck = (
-            engine_class(common.request_document(document, self.blocked_services), compile=False)
-            if self.blocked_services
-            else None
-        )
         self.checks = MutuallyExclusiveCallbackGroup()
         self.calls = ReentrantCallbackGroup()
-        self.graph: Optional[Dict[str, Any]] = None
-        self.params: Optional[Dict[str, Any]] = None
         self.parameters = plumbing.ParameterAsker(
             node, self.calls, self.lock, lambda text: self.warn("imrosc: " + text)
         )
@@ -203,7 +175,9 @@ class Monitor:
         threading.Thread(target=self.worker, name="imrosc-actions", daemon=True).start()
         threading.Thread(target=self.heartbeat, name="imrosc-heartbeat", daemon=True).start()
         if self.warm and self.topic_relays:
-            threading.Thread(target=self.keep_warm, name="imrosc-warm", daemon=True).start()
+            threading.Thread(
+                target=self.keep_warm, args=(self.warm, rclpy.ok), name="imrosc-warm", daemon=True
+            ).start()
         self.guard.run("the timer", self.tick)
         self.timer = node.create_timer(
             self.period, self.checked("the timer", self.tick), callback_group=self.checks
@@ -321,7 +295,7 @@ class Monitor:
             self.pending_actions.discard(ident)
             try:
                 message = logic.fill(found(), action["value"], plumbing.fill_class)
-            except (logic.FillError, TypeError, ValueError, AssertionError) as error:
+            except (FillError, TypeError, ValueError, AssertionError) as error:
                 self.log.error(f"imrosc: action {ident} is disabled: {error}")
                 return
             offer = logic.relay_qos(logic.publisher_qos(view, name, self.own), msgtype)
@@ -398,7 +372,7 @@ class Monitor:
         def forward(request: Any, default: Any) -> Any:
             precheck = self.precheck
             if blocked and precheck is not None:
-                values = logic.request_values(request)
+                values = common.request_values(logic.message_data, request)
                 done = self.guard.run(f"call of {service}", check, precheck, values)
                 if done is None:
                     return default
@@ -410,7 +384,7 @@ class Monitor:
                     return default
             start = self.now()
             answer = plumbing.call(client, request, self.timeout)
-            values = logic.message_values(request, answer, self.now() - start)
+            values = common.call_values(logic.message_data, request, answer, self.now() - start)
             done = self.guard.run(f"call of {service}", check, self.engine, values)
             if done is None:
                 return default
@@ -427,11 +401,7 @@ class Monitor:
     def on_clear(self, message: Any) -> None:
         """``/m/clear_inv``: stop checking the invariant named by the message."""
         ident = str(message.data).strip()
-        with self.lock:
-            known = self.engine.clear(ident)
-            if self.precheck is not None:
-                self.precheck.clear(ident)
-        if known:
+        if self.clear_invariant(ident):
             self.log.info(f"imrosc: invariant {ident} cleared")
         else:
             self.warn(f"imrosc: /clear_inv names no invariant: {ident!r}")
@@ -450,17 +420,7 @@ class Monitor:
         with self.lock:
             answers = self.parameters.answers
             params = logic.param_values(answers, self.spec["params"]) if answers else None
-            now = self.now()
-            found = self.engine.advance(now)
-            if graph is not None and graph != self.graph:
-                self.graph = graph
-                found += self.engine.graph(now, graph)
-            if params is not None and params != self.params:
-                self.params = params
-                found += self.engine.params(now, params)
-                if self.precheck is not None:
-                    self.precheck.params(now, params)
-            raised, alarmed = common.take_alarms(self.engine, found)
+            found, raised, alarmed = self.poll_engine(self.now(), graph, params)
         if view is not None:
             self.connect(view)
             self.ask_params(view)
@@ -474,32 +434,13 @@ class Monitor:
             if owner not in self.own:
                 self.parameters.ask(owner, asked)
 
-    def keep_warm(self) -> None:
-        """Between sparse messages on the blocked topics, check the latest ones again every
-        ``warm`` seconds, keeping nothing (``Engine.rehearse``): other processes evict the
-        checks' code and tables from the caches, and a message that meets them cold waits
-        for the relay several times longer. Nothing is done while messages come faster than
-        that, nor after a second without one (as the ROS 1 node, docs/monitor.md)."""
-        relayed = sorted(self.topic_relays)
-        while rclpy.ok() and self.guard.failure is None:
-            time.sleep(self.warm)
-            idle = time.time() - self.last_relayed
-            if self.warm <= idle <= IDLE:
-                self.guard.run("rehearsal", self.rehearse, relayed)
-
     def compile(self, compiler: str) -> None:
         """Compile the checks with numba while the node relays (numpy checks meanwhile) and
         log what is in use (:func:`common.compile_engines`)."""
-        engines = [e for e in (self.engine, self.precheck) if e is not None]
         try:
-            self.log.info(common.compile_engines(engines, compiler))
+            self.log.info(self.compile_checks(compiler))
         except Exception as error:  # numpy's checks go on: nothing is lost but speed
             self.warn(f"imrosc: compiling the checks failed ({error}): numpy checks them")
-
-    def rehearse(self, relayed: Sequence[str]) -> None:
-        """One rehearsal of the latest blocked messages."""
-        with self.lock:
-            self.engine.rehearse(relayed)
 
     def heartbeat(self) -> None:
         """Beat on ``/m/heartbeat`` every period of wall time while the node runs."""
@@ -590,8 +531,8 @@ def main(
     )
     path = str(plumbing.get_param(node, "invariants", "") or default_invariants(package))
     try:
-        spec = logic.load_spec()
-        document = logic.load_invariants(path)
+        spec = files.load_spec()
+        document = files.load_invariants(path)
     except (OSError, ValueError) as error:
         node.get_logger().fatal(f"imrosc monitor: {error}")
         sys.exit(1)
@@ -614,7 +555,7 @@ def main(
         ).start()
     try:
         executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, either way
+    except plumbing.SPIN_ENDED:  # Ctrl-C, either way
         pass
     finally:
         executor.shutdown()

@@ -15,6 +15,7 @@ import importlib
 import threading
 from typing import Any, Callable, Dict, List, Optional, Sequence, Set, Tuple
 
+from ..onboard.fill import FillError
 from . import logic
 
 try:  # only a ROS 2 system has these; the functions below need them
@@ -29,6 +30,14 @@ try:  # only a ROS 2 system has these; the functions below need them
     )
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
     QoSProfile = None
+try:  # Humble and later: spin() ends with it when SIGINT shut the context down
+    from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
+        ExternalShutdownException,
+    )
+except ImportError:  # Foxy, Galactic (and no ROS 2 at all)
+    ExternalShutdownException = KeyboardInterrupt
+SPIN_ENDED = (KeyboardInterrupt, ExternalShutdownException)
+"""What ends an executor's ``spin()`` on Ctrl-C or SIGINT, in every ROS 2 release."""
 
 QUEUE = 100
 """Depth of the monitor's subscriptions and relays (KEEP_LAST), as ROS 1's queue_size."""
@@ -57,7 +66,7 @@ def fill_class(name: str) -> Any:
     """A message class for :func:`logic.fill`: ``FillError`` if it is unknown."""
     found = message_class(name)
     if found is None:
-        raise logic.FillError(f"unknown message type {name}")
+        raise FillError(f"unknown message type {name}")
     return found
 
 

@@ -21,7 +21,8 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Mapping, Optional, Set, Tuple
 
-from ..monitor_ros1 import logic as common
+from ..onboard import files
+from ..onboard import monitor as common
 from . import logic, plumbing
 
 try:  # only a ROS 2 system has these
@@ -35,13 +36,6 @@ try:  # only a ROS 2 system has these
     from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
         MultiThreadedExecutor,
     )
-
-    try:  # Humble and later: spin() ends with it when SIGINT shut the context down
-        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-            ExternalShutdownException,
-        )
-    except ImportError:  # Foxy, Galactic
-        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
     rclpy = None
@@ -160,7 +154,9 @@ class Watchdog:
                 self.node.destroy_publisher(relay.publisher)
             relay.offer = offer
             relay.publisher = self.node.create_publisher(
-                relay.message_class, logic.relay_name(self.namespace, name), plumbing.profile(offer)
+                relay.message_class,
+                common.relay_name(self.namespace, name),
+                plumbing.profile(offer),
             )
         wanted = logic.qos_update(relay.qos, publishers, relay.msgtype)
         if wanted is not None:
@@ -181,7 +177,7 @@ class Watchdog:
         client = self.node.create_client(found, name, callback_group=self.calls)
         server = self.node.create_service(
             found,
-            logic.relay_name(self.namespace, name),
+            common.relay_name(self.namespace, name),
             self.forward(client),
             callback_group=self.calls,
         )
@@ -240,12 +236,12 @@ def main(package: str, args: Optional[List[str]] = None) -> None:
         allow_undeclared_parameters=True,
         automatically_declare_parameters_from_overrides=True,
     )
-    Watchdog(node, logic.load_spec())
+    Watchdog(node, files.load_spec())
     executor = MultiThreadedExecutor(num_threads=THREADS)
     executor.add_node(node)
     try:
         executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):  # Ctrl-C, either way
+    except plumbing.SPIN_ENDED:  # Ctrl-C, either way
         pass
     finally:
         executor.shutdown()

@@ -1,7 +1,7 @@
 """What the ROS 2 recorder decides, without rclpy: plain functions the node calls.
 
-* the record format of ``docs/record-format.md``, written as ``imrosc.records.encode``
-  writes it (:func:`arch_text`, :func:`params_text`, :func:`call_text`);
+* the call record of a paired call (:func:`call_record`), written with the one record
+  encoder (``imrosc/onboard/records.py``, imported as ``records``);
 * the architecture of one reading of rclpy's graph API (``monitor_ros2``'s
   :class:`GraphView`) with the recorder, rosbag2 and hidden names left out
   (:func:`arch_of`);
@@ -13,8 +13,8 @@
   request and response events of one call by client gid and sequence number into a
   :class:`Call`, :func:`client_node` names the client from its gid.
 
-Python 3.8 syntax, standard library only (and ``monitor_ros2``'s plain logic): this module
-is copied into generated packages.
+Python 3.8 syntax, standard library only (and ``monitor_ros2``'s plain logic, ``onboard``):
+this module is copied into generated packages.
 
 >>> changes = Changes()
 >>> changes.changed("/imrosc/params", "{}"), changes.changed("/imrosc/params", "{}")
@@ -23,21 +23,14 @@ is copied into generated packages.
 
 from __future__ import annotations
 
-import json
-import os
-import re
 from typing import Any, Dict, Iterable, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
 from ..monitor_ros2 import logic as graph
+from ..onboard import files, records
 
-VERSION = 1
-ARCH_TOPIC = "/imrosc/arch"
-PARAMS_TOPIC = "/imrosc/params"
-SRVS_TOPIC = "/imrosc/srvs"
-RECORD_TOPICS = (ARCH_TOPIC, PARAMS_TOPIC, SRVS_TOPIC)
-RECORD_PREFIX = "/imrosc/"
 SPEC_FILE = "recorder.json"
 SPEC_FORMAT = "imrosc-recorder"
+SPEC_VERSION = 1
 EVENT_SUFFIX = "/_service_event"
 ROSBAG_NODES = frozenset({"/rosbag2_recorder", "/rosbag2_player"})
 """rosbag2's nodes: the recording machinery, not part of the robot."""
@@ -52,28 +45,6 @@ _REQUESTS = (REQUEST_SENT, REQUEST_RECEIVED)
 _RESPONSES = (RESPONSE_SENT, RESPONSE_RECEIVED)
 DONE = 1000
 """Calls given out that :class:`Pairing` remembers, for the late events of their other side."""
-_GLOBAL_NAME = re.compile(r"^(/[A-Za-z0-9_]+)+$")
-
-
-# -- the record format (docs/record-format.md), as imrosc.records.encode writes it ----------
-
-
-def dumps(document: Any) -> str:
-    """Canonical JSON: keys sorted, no spaces, ASCII only (NaN and infinities as Python has them).
-
-    >>> dumps({"b": 1, "a": [float("nan")]})
-    '{"a":[NaN],"b":1}'
-    """
-    return json.dumps(document, sort_keys=True, separators=(",", ":"))
-
-
-def is_global_name(name: Any) -> bool:
-    """Whether ``name`` is a valid global ROS name (what the record readers accept).
-
-    >>> [is_global_name(n) for n in ("/a/b_1", "/", "/a//b", "a", "/a-b")]
-    [True, False, False, False, False]
-    """
-    return isinstance(name, str) and _GLOBAL_NAME.match(name) is not None
 
 
 def is_hidden(name: str) -> bool:
@@ -83,66 +54,6 @@ def is_hidden(name: str) -> bool:
     (True, True, False)
     """
     return any(token.startswith("_") for token in name.split("/"))
-
-
-def arch_text(
-    topics: Mapping[str, Tuple[Iterable[str], Iterable[str]]],
-    services: Mapping[str, Iterable[str]],
-) -> str:
-    """An architecture snapshot: topic -> (publishers, subscribers), service -> servers.
-
-    >>> arch_text({"/t": ({"/b", "/a"}, [])}, {"/s": ["/c"]})
-    '{"services":{"/s":["/c"]},"topics":{"/t":{"pubs":["/a","/b"],"subs":[]}},"version":1}'
-    """
-    return dumps(
-        {
-            "version": VERSION,
-            "topics": {
-                name: {"pubs": sorted(set(pubs)), "subs": sorted(set(subs))}
-                for name, (pubs, subs) in topics.items()
-            },
-            "services": {name: sorted(set(servers)) for name, servers in services.items()},
-        }
-    )
-
-
-def params_text(params: Mapping[str, Any]) -> str:
-    """A parameter snapshot: global name -> JSON value.
-
-    >>> params_text({"/b": "x", "/a": 1.5})
-    '{"params":{"/a":1.5,"/b":"x"},"version":1}'
-    """
-    return dumps({"version": VERSION, "params": dict(params)})
-
-
-def call_text(
-    service: str,
-    client: str,
-    server: str,
-    request: Mapping[str, Any],
-    response: Optional[Mapping[str, Any]],
-    stamp: float,
-    delay: float,
-) -> str:
-    """A service-call record; ``response`` None means the call failed (no answer).
-
-    >>> call_text("/s", "/c", "/n", {"a": 1}, None, 2.5, 0.25)
-    '{"client":"/c","delay":0.25,"ok":false,"request":{"a":1},"response":null,\
-"server":"/n","service":"/s","stamp":2.5,"version":1}'
-    """
-    return dumps(
-        {
-            "version": VERSION,
-            "service": service,
-            "client": client,
-            "server": server,
-            "request": dict(request),
-            "response": None if response is None else dict(response),
-            "ok": response is not None,
-            "stamp": float(stamp),
-            "delay": max(0.0, float(delay)),
-        }
-    )
 
 
 def json_data(value: Any) -> Any:
@@ -185,19 +96,23 @@ def arch_of(
 
     def kept(nodes: Iterable[str]) -> List[str]:
         return sorted(
-            {n for n in nodes if n not in mine and is_global_name(n) and not is_hidden(n)}
+            {n for n in nodes if n not in mine and records.is_global_name(n) and not is_hidden(n)}
         )
 
     topics: Dict[str, Tuple[List[str], List[str]]] = {}
     for name, (pubs, subs) in sorted(view.topics.items()):
-        if name.startswith(RECORD_PREFIX) or is_hidden(name) or not is_global_name(name):
+        if (
+            name.startswith(records.RECORD_PREFIX)
+            or is_hidden(name)
+            or not records.is_global_name(name)
+        ):
             continue
         ends = (kept(pubs), kept(subs))
         if ends[0] or ends[1]:
             topics[name] = ends
     services: Dict[str, List[str]] = {}
     for name, servers in sorted(view.services.items()):
-        if is_hidden(name) or not is_global_name(name):
+        if is_hidden(name) or not records.is_global_name(name):
             continue
         nodes = kept(servers)
         if nodes:
@@ -236,10 +151,7 @@ class Changes:
 def load_spec(directory: Optional[str] = None) -> Dict[str, Any]:
     """The package's recorder spec (``recorder.json`` of the package's Python package):
     ``services`` and ``params`` of the scope, the default ``period``."""
-    folder = directory or os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
-    with open(os.path.join(folder, SPEC_FILE), encoding="utf-8") as stream:
-        spec = json.load(stream)
-    return check_spec(spec)
+    return check_spec(files.load_spec(directory, SPEC_FILE))
 
 
 def check_spec(spec: Any) -> Dict[str, Any]:
@@ -251,11 +163,11 @@ def check_spec(spec: Any) -> Dict[str, Any]:
     """
     if not isinstance(spec, dict) or spec.get("format") != SPEC_FORMAT:
         raise ValueError("not an imrosc recorder spec")
-    if spec.get("version") != VERSION:
+    if spec.get("version") != SPEC_VERSION:
         raise ValueError(f"recorder spec version {spec.get('version')!r}; this node reads 1")
     for key in ("services", "params"):
         names = spec.get(key)
-        if not isinstance(names, list) or not all(is_global_name(n) for n in names):
+        if not isinstance(names, list) or not all(records.is_global_name(n) for n in names):
             raise ValueError(f"recorder spec: {key!r} must be a list of global names")
     period = spec.get("period")
     if isinstance(period, bool) or not isinstance(period, (int, float)) or period <= 0:
@@ -563,10 +475,10 @@ def client_node(
     ('/ctl', '/unknown')
     """
     for writer, node in writers:
-        if gid and writer[: len(gid)] == gid and is_global_name(node):
+        if gid and writer[: len(gid)] == gid and records.is_global_name(node):
             return node
     others = sorted(set(event_publishers) - set(servers))
-    if len(others) == 1 and is_global_name(others[0]):
+    if len(others) == 1 and records.is_global_name(others[0]):
         return others[0]
     return UNKNOWN_NODE
 
@@ -578,12 +490,12 @@ def server_node(servers: Iterable[str]) -> str:
     >>> server_node(["/b", "/a"]), server_node([])
     ('/a', '/unknown')
     """
-    named = sorted(n for n in servers if is_global_name(n))
+    named = sorted(n for n in servers if records.is_global_name(n))
     return named[0] if named else UNKNOWN_NODE
 
 
 def call_record(call: Call, client: str, server: str) -> str:
     """The ``/imrosc/srvs`` text of a paired call."""
-    return call_text(
+    return records.call_text(
         call.service, client, server, call.request, call.response, call.stamp, call.delay
     )

@@ -31,6 +31,7 @@ from typing import Any, Dict, List, Optional, Set, Tuple
 
 from ..monitor_ros2 import logic as graph
 from ..monitor_ros2 import plumbing
+from ..onboard import records
 from . import logic
 
 try:  # only a ROS 2 system has these
@@ -42,13 +43,6 @@ try:  # only a ROS 2 system has these
     from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
         MultiThreadedExecutor,
     )
-
-    try:  # Humble and later: spin() ends with it when the context is shut down
-        from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-            ExternalShutdownException,
-        )
-    except ImportError:  # Foxy, Galactic
-        ExternalShutdownException = KeyboardInterrupt
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
@@ -122,11 +116,11 @@ class Recorder:
         )
         calls = plumbing.profile(graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL), CALL_DEPTH)
         self.publishers = {
-            logic.ARCH_TOPIC: node.create_publisher(String, logic.ARCH_TOPIC, snapshot),
-            logic.PARAMS_TOPIC: node.create_publisher(String, logic.PARAMS_TOPIC, snapshot),
-            logic.SRVS_TOPIC: node.create_publisher(String, logic.SRVS_TOPIC, calls),
+            records.ARCH_TOPIC: node.create_publisher(String, records.ARCH_TOPIC, snapshot),
+            records.PARAMS_TOPIC: node.create_publisher(String, records.PARAMS_TOPIC, snapshot),
+            records.SRVS_TOPIC: node.create_publisher(String, records.SRVS_TOPIC, calls),
         }
-        self.published = dict.fromkeys(logic.RECORD_TOPICS, 0)
+        self.published = dict.fromkeys(records.RECORD_TOPICS, 0)
         self.counts: Dict[str, int] = {}
         """Calls published, by service."""
         self.await_subscribers(float(spec.get("wait", 0.0)))
@@ -161,16 +155,16 @@ class Recorder:
             view = None
         if view is not None and view.complete:  # else a node is half discovered: wait
             topics, services = logic.arch_of(view, [self.name])
-            text = logic.arch_text(topics, services)
-            if self.changes.changed(logic.ARCH_TOPIC, text):
-                self.publish(logic.ARCH_TOPIC, text)
+            text = records.arch_text(topics, services)
+            if self.changes.changed(records.ARCH_TOPIC, text):
+                self.publish(records.ARCH_TOPIC, text)
         with self.lock:
             known = self.answered_once or self.parameters.answered
             params = logic.params_of(self.parameters.answers, self.params) if known else None
         if params is not None:
-            text = logic.params_text(params)
-            if self.changes.changed(logic.PARAMS_TOPIC, text):
-                self.publish(logic.PARAMS_TOPIC, text)
+            text = records.params_text(params)
+            if self.changes.changed(records.PARAMS_TOPIC, text):
+                self.publish(records.PARAMS_TOPIC, text)
         if view is not None:
             self.ask_params(view)
             self.connect(view)
@@ -312,7 +306,7 @@ class Recorder:
         for call in calls:
             client = self.client_of(call)
             server = self.server_of(call)
-            self.publish(logic.SRVS_TOPIC, logic.call_record(call, client, server))
+            self.publish(records.SRVS_TOPIC, logic.call_record(call, client, server))
             self.counts[call.service] = self.counts.get(call.service, 0) + 1
 
     def close(self) -> None:
@@ -349,7 +343,7 @@ def spin(executor: Any, step: float = 0.1) -> None:
     try:
         while not stop.is_set() and rclpy.ok():
             executor.spin_once(timeout_sec=step)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except plumbing.SPIN_ENDED:
         pass
     finally:
         for number, handler in previous.items():

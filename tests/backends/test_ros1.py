@@ -4,7 +4,6 @@ and the guarantee that nothing from a configuration or an invariants file become
 from __future__ import annotations
 
 import io
-import itertools
 import json
 import math
 import os
@@ -27,13 +26,16 @@ from rosbags.interfaces import Nodetype
 
 from imrosc.backends.registry import GENERATED_MARK, Executable
 from imrosc.cli import main
-from imrosc.monitor_ros1 import logic
+from imrosc.onboard import monitor
 from imrosc.replay import Replayer
-from imrosc.runtime import Engine, Violation
-from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import Scenario, write_runs
-from tests.backends.support import assert_every_file_names_its_source
+from tests.backends.support import (
+    HOSTILE,
+    assert_carried_unchanged,
+    assert_every_file_names_its_source,
+    vendored_sources,
+)
 from tests.backends.test_monitor_spec import (
     ROOT,
     STORE,
@@ -45,11 +47,12 @@ from tests.backends.test_monitor_spec import (
     write_case,
     write_package,
 )
-from tests.runtime.test_alarms import document as alarm_case
 
 PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
 ADAPTER = ROOT / "imrosc" / "monitor_ros1"
+CARRIED = ("runtime", "onboard", "monitor_ros1")
+"""The imrosc packages a ROS 1 monitor package carries (under ``scripts/imrosc_monitor/imrosc``)."""
 ROS_PYTHON = Path("/usr/bin/python3")
 
 
@@ -76,8 +79,6 @@ def python_files(files: Mapping[str, bytes]) -> dict[str, bytes]:
 
 
 def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
-    runtime = {f"scripts/imrosc_runtime/{p.name}" for p in RUNTIME.glob("*.py")}
-    adapter = {f"scripts/imrosc_monitor/{p.name}" for p in ADAPTER.glob("*.py")}
     expected = {
         "package.xml",
         "CMakeLists.txt",
@@ -85,10 +86,10 @@ def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
         f"launch/{PACKAGE}.launch",
         f"scripts/{PACKAGE}",
         f"scripts/{PACKAGE}_watchdog",
+        "scripts/imrosc_monitor/__init__.py",
         "scripts/imrosc_monitor/flatteners.py",
         "scripts/imrosc_monitor/spec.json",
-        *runtime,
-        *adapter,
+        *vendored_sources("scripts/imrosc_monitor", CARRIED),
     }
     assert set(landing_package) == {f"{PACKAGE}/{name}" for name in expected}
     for name in (f"scripts/{PACKAGE}", f"scripts/{PACKAGE}_watchdog"):
@@ -97,18 +98,11 @@ def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
         assert script.startswith(b"#!/usr/bin/env python3\n")
 
 
-def test_the_runtime_and_the_adapter_are_carried_unchanged(
+def test_the_runtime_the_onboard_logic_and_the_adapter_are_carried_unchanged(
     landing_package: dict[str, bytes],
 ) -> None:
-    for folder, source in (("imrosc_runtime", RUNTIME), ("imrosc_monitor", ADAPTER)):
-        for path in source.glob("*.py"):
-            copy = landing_package[f"{PACKAGE}/scripts/{folder}/{path.name}"].decode()
-            assert copy.startswith("# " + GENERATED_MARK)
-            lines = copy.splitlines(keepends=True)
-            banner = 1 + sum(
-                1 for _ in itertools.takewhile(lambda x: x.startswith("#   "), lines[1:])
-            )
-            assert "".join(lines[banner:]) == path.read_text(encoding="utf-8")
+    sources = vendored_sources(f"{PACKAGE}/scripts/imrosc_monitor", CARRIED)
+    assert_carried_unchanged(landing_package, sources)
 
 
 def test_every_file_names_generator_version_and_its_source(
@@ -145,7 +139,7 @@ def test_the_monitor_launch_file_starts_the_node_with_its_parameters(
     args = {a.get("name"): a.get("default") for a in root.iter("arg")}
     assert args["invariants"] == f"$(find {PACKAGE})/config/invariants.json"
     assert args["period"] == "0.5" and args["fail_open"] == "false"
-    assert params["warm"] == "$(arg warm)" and args["warm"] == repr(logic.WARM)
+    assert params["warm"] == "$(arg warm)" and args["warm"] == repr(monitor.WARM)
     assert watchdog.get("if") == "$(arg fail_open)"
 
 
@@ -447,7 +441,7 @@ import json, math, random, sys
 sys.path.insert(0, sys.argv[1])
 import roslib.message
 from imrosc_monitor import flatteners
-from imrosc_runtime.flatten import make_flattener
+from imrosc_monitor.imrosc.runtime.flatten import make_flattener
 
 random.seed(5)
 
@@ -515,7 +509,8 @@ _WIRE_CHECK = (
 import io, json, math, random, struct, sys
 sys.path.insert(0, sys.argv[1])
 import roslib.message
-from imrosc_monitor import flatteners, wire
+from imrosc_monitor import flatteners
+from imrosc_monitor.imrosc.monitor_ros1 import wire
 """
     + _FILL
     + r"""
@@ -600,7 +595,6 @@ def test_blocked_topics_read_from_the_bytes_give_the_flatteners_values(
 # -- nothing from the inputs becomes code ---------------------------------------------------
 
 MARKERS = ("zqsrc", "zqproj", "zqtopic", "zqvalue", "zqtext", "zqvar", "zqpoint", "zqframe")
-HOSTILE = "'); import os; os.system('zqvalue') #\"\"\" \\\n--> ]]> {{ }}"
 
 
 def _offsets(text: str) -> list[int]:
@@ -727,308 +721,7 @@ def test_topic_names_in_the_invariants_file_that_try_to_inject_are_refused(
     assert [d.code for d in result.diagnostics] == ["bad-name"]
 
 
-# -- the adapter's decisions, without ROS ---------------------------------------------------
-
-
-def violation(point: str = "a", **fields: Any) -> Violation:
-    values: dict[str, Any] = {
-        "time": 12.5,
-        "point": point,
-        "invariant": "i1",
-        "family": "bounds",
-        "kind": "range",
-        "text": "0 <= x <= 1",
-        "observed": 3.0,
-        "expected": "[0, 1]",
-    }
-    values.update(fields)
-    return Violation(**values)
-
-
-def test_actions_are_selected_by_scope_id_once_each() -> None:
-    found = [violation("a?cmd.data==3"), violation("v?1"), violation("a"), violation("q")]
-    assert logic.select_actions(found, {"a": ["f"], "v": ["g", "f"]}) == ["f", "g"]
-    assert logic.select_actions([violation("q")], {"a": ["f"]}) == []
-
-
-def test_the_warning_is_json_with_the_invariant_point_family_and_values() -> None:
-    broken = violation(observed=frozenset({"/b", "/a"}), family="architecture")
-    document = json.loads(logic.violation_json(broken, ["f"]))
-    assert document == {
-        "invariant": "i1",
-        "point": "a",
-        "family": "architecture",
-        "kind": "range",
-        "text": "0 <= x <= 1",
-        "observed": ["/a", "/b"],
-        "expected": "[0, 1]",
-        "time": 12.5,
-        "actions": ["f"],
-        "alarm": True,
-        "rule": None,
-    }
-    odd = json.loads(logic.violation_json(violation(observed=(math.nan, np.float32(2.5)))))
-    assert odd["observed"] == ["nan", 2.5]
-    alone = json.loads(logic.violation_json(broken, (), alarm=False))
-    assert (alone["alarm"], alone["rule"], alone["actions"]) == (False, None, [])
-
-
-def test_the_overrides_replace_fields_of_the_files_alarm_rule() -> None:
-    calibrated = {"persist": 4, "seconds": 0.5, "distinct": 3, "window": 2.0}
-    document = {**alarm_case(calibrated)}
-    assert logic.alarm_document(document, {}) is document
-    assert logic.alarm_document(document, None) is document
-    for overrides in ({"persist": 2}, {"distinct": 0, "window": 0.25}, {"seconds": 1.5}):
-        engine = Engine(logic.alarm_document(document, overrides))
-        assert engine.alarm_rule == AlarmRule.from_json(calibrated).overridden(**overrides)
-    assert document["alarms"] == calibrated  # the file's document is left as it was
-    bare = Engine(logic.alarm_document(alarm_case(None), {"persist": 3}))
-    assert bare.alarm_rule == EVERY_VIOLATION.overridden(persist=3)
-
-
-def test_reports_flag_alarms_and_act_on_newly_raised_ones_only() -> None:
-    """Under persist 3: two violations alone (relayed, no action), the third raises the
-    alarm (withheld, the point's actions once), the fourth is in the alarmed episode
-    (withheld, no action); a clean message ends it."""
-    engine = Engine(logic.alarm_document(alarm_case(None), {"persist": 3}))
-    seen: list[Any] = []
-    for k, value in enumerate([2.0, 2.0, 2.0, 2.0, 0.0, 2.0]):
-        caused = engine.message("/a/x", 0.1 * k, [value, 0.0])
-        raised, alarmed = logic.take_alarms(engine, caused)
-        reports = logic.reports(caused, raised, alarmed, {"x": ["f"]})
-        actions = logic.select_actions(raised, {"x": ["f"]})
-        withheld = logic.withheld(caused, alarmed)
-        seen.append([(r[1:], actions, withheld) for r in reports] or None)
-    alone: Any = [((False, None, []), [], False)]
-    assert seen == [
-        alone,
-        alone,
-        [((True, "persist", ["f"]), ["f"], True)],
-        [((True, None, []), [], True)],
-        None,
-        alone,
-    ]
-
-
-def test_an_event_raises_an_alarm_at_once_and_agreement_names_its_rule() -> None:
-    found = [violation("a", invariant="i1"), violation("a", invariant="i2")]
-    alarms = [SimpleNamespace(point="a", rule="agree", violation=found[1])]
-    reports = logic.reports(found, alarms, found, {"a": ["f", "g"]})
-    assert [(r.alarm, r.rule, r.actions) for r in reports] == [
-        (True, None, []),
-        (True, "agree", ["f", "g"]),
-    ]
-    assert logic.select_actions(alarms, {"a": ["f", "g"]}) == ["f", "g"]
-    assert logic.withheld_for(found, found[1:]) == "i2"
-    assert logic.withheld([], found) is False
-    event = [violation("d", family="architecture")]
-    raised = AlarmTracker().event(event)
-    assert [r.rule for r in logic.reports(event, raised, event, {})] == ["event"]
-
-
-def test_the_log_says_alarm_or_violation() -> None:
-    broken = violation()
-    alarm = logic.log_line(logic.Report(broken, True, "persist", ["f"]))
-    assert alarm == "imrosc: alarm (persist): i1 broken at a: 0 <= x <= 1"
-    assert logic.log_line(logic.Report(broken, True, None, [])).startswith("imrosc: alarm: ")
-    assert logic.log_line(logic.Report(broken, False, None, [])) == (
-        "imrosc: violation of i1 at a: 0 <= x <= 1"
-    )
-
-
-STATE = [
-    [["/t", ["/a", "/mon", "/rogue"]], ["/m/t", ["/mon", "/sneaky"]], ["/rosout", ["/a", "/mon"]]],
-    [["/t", ["/mon"]], ["/m/t", ["/b"]], ["/m/broken_inv", ["/logger"]]],
-    [["/s", ["/server"]], ["/m/s", ["/mon"]]],
-]
-
-
-def test_the_logical_graph_folds_relays_back_and_leaves_the_monitor_out() -> None:
-    graph = logic.logical_graph(STATE, {"/mon", "/mon_watchdog"}, {"/t": "/m/t"}, {"/s": "/m/s"})
-    assert graph["pub"] == {
-        "/t": frozenset({"/a", "/rogue", "/sneaky"}),
-        "/rosout": frozenset({"/a"}),
-    }
-    assert graph["sub"] == {"/t": frozenset({"/b"}), "/m/broken_inv": frozenset({"/logger"})}
-    assert graph["srv"] == {"/s": frozenset({"/server"})}
-
-
-def test_unknown_publishers_are_unregistered_where_they_are_registered() -> None:
-    invariants = {
-        "i1": {"kind": "max_pubs", "params": {"resource": "/t", "nodes": ["/a"]}},
-        "i2": {"kind": "min_pubs", "params": {"resource": "/t", "nodes": ["/a"]}},
-    }
-    found = [
-        violation(
-            invariant="i1", family="architecture", kind="max_pubs", observed=["/rogue", "/sneaky"]
-        ),
-        violation(invariant="i2", family="architecture", kind="min_pubs", observed=["/a"]),
-        violation(invariant="i9", family="architecture", kind="max_pubs", observed=["/x"]),
-        violation(invariant="i1", family="architecture", kind="max_pubs", observed=["/mon"]),
-    ]
-    pairs = logic.to_unregister(found, invariants, STATE, {"/mon"}, {"/t": "/m/t"})
-    assert pairs == [("/rogue", "/t"), ("/sneaky", "/m/t")]
-
-
-class FakeMessage:
-    """A stand-in for a genpy message: ``__slots__`` and ``_slot_types``."""
-
-    __slots__: tuple[str, ...] = ()
-    _slot_types: tuple[str, ...] = ()
-
-    def __init__(self) -> None:
-        for name, kind in zip(self.__slots__, self._slot_types, strict=True):
-            default: Any = 0 if "int" in kind else 0.0 if "float" in kind else ""
-            default = [] if "[" in kind else False if kind == "bool" else default
-            setattr(self, name, CLASSES[kind]() if kind in CLASSES else default)
-
-
-class Vector3(FakeMessage):
-    __slots__ = ("x", "y", "z")
-    _slot_types = ("float64", "float64", "float64")
-
-
-class Twist(FakeMessage):
-    __slots__ = ("linear", "angular")  # noqa: RUF023 - genpy order
-    _slot_types = ("geometry_msgs/Vector3", "geometry_msgs/Vector3")
-
-
-class Everything(FakeMessage):
-    __slots__ = ("level", "flag", "name", "points", "raw", "gains", "twist")  # noqa: RUF023
-    _slot_types = (
-        "uint8",
-        "bool",
-        "string",
-        "geometry_msgs/Vector3[]",
-        "uint8[]",
-        "float32[3]",
-        "geometry_msgs/Twist",
-    )
-
-
-CLASSES: dict[str, type[FakeMessage]] = {
-    "geometry_msgs/Vector3": Vector3,
-    "geometry_msgs/Twist": Twist,
-}
-
-
-def test_fill_sets_fields_from_an_action_value() -> None:
-    value = {
-        "level": 3,
-        "flag": True,
-        "name": HOSTILE,
-        "points": [{"x": 1.5}, {"y": 2}],
-        "raw": [1, 2, 255],
-        "gains": [0.5, 1, 2.0],
-        "twist": {"linear": {"x": 0.5}, "angular": {"z": -0.2}},
-    }
-    message = logic.fill(Everything(), value, CLASSES.__getitem__)
-    assert (message.level, message.flag, message.name) == (3, True, HOSTILE)
-    assert [(p.x, p.y) for p in message.points] == [(1.5, 0.0), (0.0, 2.0)]
-    assert message.raw == b"\x01\x02\xff"
-    assert message.gains == [0.5, 1.0, 2.0]
-    assert (message.twist.linear.x, message.twist.angular.z) == (0.5, -0.2)
-
-
-@pytest.mark.parametrize(
-    ("value", "problem"),
-    [
-        ({"levle": 3}, "no such field"),
-        ({"level": 256}, "out of range"),
-        ({"level": -1}, "out of range"),
-        ({"level": 2.5}, "not an integer"),
-        ({"level": "3"}, "not an integer"),
-        ({"flag": "yes"}, "not a bool"),
-        ({"twist": {"linear": 3}}, "not a mapping"),
-        ({"twist": {"linear": {"w": 1}}}, "no such field"),
-        ({"points": {"x": 1}}, "not a list"),
-        ({"name": {"a": 1}}, "mapping"),
-    ],
-)
-def test_fill_refuses_values_that_do_not_fit(value: dict[str, Any], problem: str) -> None:
-    with pytest.raises(logic.FillError, match=problem):
-        logic.fill(Everything(), value, CLASSES.__getitem__)
-
-
-def test_a_service_call_becomes_request_response_and_delay_values() -> None:
-    class Stamp:
-        __slots__ = ("nsecs", "secs")
-
-        def __init__(self) -> None:
-            self.secs, self.nsecs = 3, 500_000_000
-
-    class Request(FakeMessage):
-        __slots__ = ("task_id", "names")  # noqa: RUF023 - pairs with _slot_types
-        _slot_types = ("int32", "string[]")
-        task_id: int
-        names: list[str]
-
-    class Response(FakeMessage):
-        __slots__ = ("status", "stamp")  # noqa: RUF023 - pairs with _slot_types
-        _slot_types = ("string", "time")
-        status: str
-        stamp: Any
-
-    request, response = Request(), Response()
-    request.task_id, request.names = 4, ["a", "b"]
-    response.status = "ok"
-    response.stamp = Stamp()
-    assert logic.message_values(request, response, 0.25) == {
-        "request.task_id": 4,
-        "len(request.names)": 2,
-        "response.status": "ok",
-        "response.stamp": 3.5,
-        "delay": 0.25,
-    }
-    assert logic.request_values(request) == {"request.task_id": 4, "len(request.names)": 2}
-
-
-def test_the_request_check_keeps_request_only_value_invariants_of_blocked_services() -> None:
-    variables = [
-        {"name": "srv.request.a", "path": "request.a"},
-        {"name": "srv.response.b", "path": "response.b"},
-        {"name": "srv.delay", "path": "delay"},
-    ]
-    document = {
-        "points": {
-            "c": {"kind": "call", "trigger": "/srv", "variables": variables},
-            "d": {"kind": "call", "trigger": "/other", "variables": variables},
-        },
-        "invariants": [
-            {"id": "i1", "point": "c", "family": "bounds", "variables": ["srv.request.a"]},
-            {"id": "i2", "point": "c", "family": "bounds", "variables": ["srv.response.b"]},
-            {
-                "id": "i3",
-                "point": "c",
-                "family": "order",
-                "variables": ["srv.request.a", "srv.delay"],
-            },
-            {"id": "i4", "point": "c", "family": "frequency", "variables": ["srv.request.a"]},
-            {"id": "i5", "point": "d", "family": "bounds", "variables": ["srv.request.a"]},
-        ],
-    }
-    reduced = logic.request_document(document, ["/srv"])
-    assert [i["id"] for i in reduced["invariants"]] == ["i1"]
-    assert reduced["points"] is document["points"]
-
-
-def test_parameters_are_polled_flattened_and_missing_ones_left_out() -> None:
-    server = {"/a/gain": 2.5, "/a/pid": {"p": 1, "i": [1, 2]}, "/a/mode": "fast"}
-
-    def read(name: str) -> Any:
-        return server[name]
-
-    assert logic.param_values(read, ["/a/gain", "/a/pid", "/a/missing", "/a/mode"]) == {
-        "/a/gain": 2.5,
-        "/a/pid.p": 1,
-        "len(/a/pid.i)": 2,
-        "/a/mode": "fast",
-    }
-
-
-def test_the_watchdog_relays_only_while_the_heartbeat_is_silent() -> None:
-    assert not logic.should_relay(10.0, 12.9, 3.0)
-    assert logic.should_relay(10.0, 13.1, 3.0)
+# -- the adapter -------------------------------------------------------------------------
 
 
 def test_the_adapter_keeps_python_3_8_syntax() -> None:
@@ -1049,20 +742,3 @@ def test_the_adapter_keeps_python_3_8_syntax() -> None:
         timeout=120,
     )
     assert done.returncode == 0, done.stdout + done.stderr
-
-
-def test_the_guard_stops_checking_at_the_first_exception_and_reports_it() -> None:
-    from imrosc.monitor_ros1 import logic
-
-    stopped: list[tuple[str, str]] = []
-    guard = logic.Guard(lambda where, error: stopped.append((where, repr(error))))
-    assert guard.run("message on /a", lambda x: x + 1, 1) == 2
-    node: dict[str, str] = {}
-    assert guard.run("message on /a", lambda: node["op"]) is None
-    assert guard.run("the timer", lambda: 1) is None  # stopped: nothing runs any more
-    assert stopped == [("message on /a", "KeyError('op')")]
-    assert guard.failure == "message on /a: KeyError: 'op'"
-    report = json.loads(logic.failure_json("message on /a", KeyError("op"), 12.5))
-    assert report["kind"] == "failure" and report["alarm"] and report["rule"] == "failure"
-    assert report["error"] == {"where": "message on /a", "type": "KeyError", "message": "'op'"}
-    assert "stops checking" in logic.failure_text("tick", ValueError("x"))

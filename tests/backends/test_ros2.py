@@ -40,15 +40,22 @@ from imrosc.build import BuildResult, build
 from imrosc.cli import main
 from imrosc.detect import run_detect
 from imrosc.invariants import dumps
-from imrosc.monitor_ros1 import logic as ros1_logic
+from imrosc.monitor_ros1 import messages as ros1_messages
 from imrosc.monitor_ros2 import logic
 from imrosc.msgtypes import flatten
+from imrosc.onboard import monitor as common
+from imrosc.onboard.fill import FillError
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
 from imrosc.sim.recording import START_NS
 from imrosc.translate.layout import short_names, topic_layout
-from tests.backends.support import assert_every_file_names_its_source
+from tests.backends.support import (
+    HOSTILE,
+    assert_carried_unchanged,
+    assert_every_file_names_its_source,
+    vendored_sources,
+)
 from tests.backends.test_monitor_spec import (
     EXAMPLES,
     ROOT,
@@ -59,7 +66,6 @@ from tests.backends.test_monitor_spec import (
     write_package,
 )
 from tests.backends.test_ros1 import (
-    HOSTILE,
     _xml,
     assert_markers_only_quoted,
     assert_same_values,
@@ -70,8 +76,9 @@ from tests.backends.test_ros1 import (
 PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
 ADAPTER = ROOT / "imrosc" / "monitor_ros2"
-ROS1_ADAPTER = ROOT / "imrosc" / "monitor_ros1"
-SHARED = ("flat.py", "logic.py")
+CARRIED = ("runtime", "onboard", "monitor_ros2", "record_ros2")
+"""The imrosc packages a ROS 2 monitor package with its recorder carries (under
+``<package>/imrosc``)."""
 VENDOR = f"{PACKAGE}/imrosc"
 STORE2 = get_typestore(Stores.ROS2_HUMBLE)
 OWN = frozenset({f"/{PACKAGE}", f"/{PACKAGE}_watchdog"})
@@ -136,12 +143,6 @@ def import_package(package: Path) -> ModuleType:
 
 
 def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
-    runtime = {f"{VENDOR}/runtime/{p.name}" for p in RUNTIME.glob("*.py")}
-    adapter = {f"{VENDOR}/monitor_ros2/{p.name}" for p in ADAPTER.glob("*.py")}
-    shared = {f"{VENDOR}/monitor_ros1/{name}" for name in (*SHARED, "__init__.py")}
-    recorder = {
-        f"{VENDOR}/record_ros2/{p.name}" for p in (ROOT / "imrosc" / "record_ros2").glob("*.py")
-    }
     expected = {
         "package.xml",
         "setup.py",
@@ -153,37 +154,21 @@ def test_the_package_has_every_file(landing_package: dict[str, bytes]) -> None:
         f"{PACKAGE}/main.py",
         f"{PACKAGE}/flatteners.py",
         f"{PACKAGE}/spec.json",
-        f"{VENDOR}/__init__.py",
-        *runtime,
-        *adapter,
-        *shared,
+        *vendored_sources(PACKAGE, CARRIED),
         # the recorder node (tests/backends/test_ros2_recorder.py)
         f"{PACKAGE}/recorder.py",
         f"{PACKAGE}/recorder.json",
         f"launch/{PACKAGE}_recorder.launch.xml",
-        *recorder,
     }
     assert set(landing_package) == {f"{PACKAGE}/{name}" for name in expected}
 
 
-def _without_banner(text: str) -> str:
-    lines = text.splitlines(keepends=True)
-    banner = 1 + sum(1 for _ in itertools.takewhile(lambda x: x.startswith("#   "), lines[1:]))
-    return "".join(lines[banner:])
-
-
-def test_the_runtime_and_the_adapters_are_carried_unchanged(
+def test_the_runtime_the_onboard_logic_and_the_adapters_are_carried_unchanged(
     landing_package: dict[str, bytes],
 ) -> None:
-    sources = [(f"{VENDOR}/runtime", p) for p in RUNTIME.glob("*.py")]
-    sources += [(f"{VENDOR}/monitor_ros2", p) for p in ADAPTER.glob("*.py")]
-    sources += [(f"{VENDOR}/monitor_ros1", ROS1_ADAPTER / name) for name in SHARED]
-    for folder, path in sources:
-        copy = landing_package[f"{PACKAGE}/{folder}/{path.name}"].decode()
-        assert copy.startswith("# " + GENERATED_MARK)
-        assert _without_banner(copy) == path.read_text(encoding="utf-8"), path
-    # the rospy modules of the ROS 1 adapter stay behind
-    assert f"{PACKAGE}/{VENDOR}/monitor_ros1/node.py" not in landing_package
+    assert_carried_unchanged(landing_package, vendored_sources(f"{PACKAGE}/{PACKAGE}", CARRIED))
+    # the ROS 1 adapter stays behind
+    assert not [name for name in landing_package if "/monitor_ros1/" in name]
 
 
 def test_every_file_names_generator_version_and_its_source(
@@ -365,7 +350,7 @@ def test_python_compiles_and_passes_ruff_for_python_38(
     done = subprocess.run(
         [
             *(sys.executable, "-m", "ruff", "check", "--no-cache"),
-            *("--config", str(ADAPTER / "ruff.toml")),  # the project's rules, Python 3.8
+            *("--config", str(RUNTIME / "ruff.toml")),  # the project's rules, Python 3.8
             *scripts,
         ],
         capture_output=True,
@@ -668,14 +653,14 @@ def ros1_flavour(
             [[t, sorted(ends.subs)] for t, ends in sorted(arch.topics.items())],
             [[s, sorted(nodes)] for s, nodes in sorted(arch.services.items())],
         ]  # the master's getSystemState
-        return ros1_logic.logical_graph(state, OWN, relays, services)
+        return common.logical_graph(state, OWN, relays, services)
 
     def params(server: Mapping[str, Any]) -> dict[str, Any]:
-        return ros1_logic.param_values(server.__getitem__, spec["params"])  # rospy.get_param
+        return common.param_values(server.__getitem__, spec["params"])  # rospy.get_param
 
     def call(record: records.ServiceCall) -> dict[str, Any]:
         request, response = ros1_message(record.request), ros1_message(record.response)
-        return ros1_logic.message_values(request, response, record.delay)
+        return common.call_values(ros1_messages.message_data, request, response, record.delay)
 
     return Flavour(flatteners, graph, params, call)
 
@@ -720,7 +705,7 @@ def ros2_flavour(
 
     def call(record: records.ServiceCall) -> dict[str, Any]:
         request, response = ros2_message(record.request), ros2_message(record.response)
-        return logic.message_values(request, response, record.delay)
+        return common.call_values(logic.message_data, request, response, record.delay)
 
     return Flavour(flatteners, graph, params, call)
 
@@ -1161,7 +1146,7 @@ def test_fill_sets_fields_of_a_ros2_message_from_an_action_value() -> None:
     ],
 )
 def test_fill_refuses_values_that_do_not_fit(value: dict[str, Any], problem: str) -> None:
-    with pytest.raises(logic.FillError, match=problem):
+    with pytest.raises(FillError, match=problem):
         logic.fill(Everything(), value, CLASSES.__getitem__)
 
 
@@ -1181,7 +1166,7 @@ def test_a_ros2_service_call_becomes_request_response_and_delay_values() -> None
     request.task_id, request.names, request.gains = 4, ["a", "b"], np.array([0.5, 1.5])
     response.status = "ok"
     response.stamp.sec, response.stamp.nanosec = 3, 500_000_000
-    assert logic.message_values(request, response, 0.25) == {
+    assert common.call_values(logic.message_data, request, response, 0.25) == {
         "request.task_id": 4,
         "len(request.names)": 2,
         "len(request.gains)": 2,
@@ -1189,7 +1174,7 @@ def test_a_ros2_service_call_becomes_request_response_and_delay_values() -> None
         "response.stamp": 3.5,
         "delay": 0.25,
     }
-    assert logic.request_values(request) == {
+    assert common.request_values(logic.message_data, request) == {
         "request.task_id": 4,
         "len(request.names)": 2,
         "len(request.gains)": 2,
@@ -1208,24 +1193,12 @@ def test_only_an_unknown_publisher_gets_a_note() -> None:
     arch = Violation(1.0, "d", "i1", "architecture", "max_pubs", "t", ["/x"], "only {/a}")
     bounds = Violation(1.0, "a", "i2", "bounds", "range", "t", 3.0, "[0, 1]")
     assert json.loads(logic.warning(arch))["note"] == logic.NO_MASTER
-    assert logic.warning(bounds, ["f"]) == ros1_logic.violation_json(bounds, ["f"])
-    alone = ros1_logic.Report(arch, False, None, [])
+    assert logic.warning(bounds, ["f"]) == common.violation_json(bounds, ["f"])
+    alone = common.Report(arch, False, None, [])
     warning = json.loads(logic.report_warning(alone))
     assert (warning["alarm"], warning["rule"], warning["note"]) == (False, None, logic.NO_MASTER)
-    raised = ros1_logic.Report(bounds, True, "persist", ["f"])
-    assert logic.report_warning(raised) == ros1_logic.report_json(raised)
-
-
-def test_the_spec_and_invariants_load_or_say_why(tmp_path: Path) -> None:
-    (tmp_path / "spec.json").write_text('{"package": "p"}')
-    assert logic.load_spec(str(tmp_path)) == {"package": "p"}
-    bad = tmp_path / "bad.inv"
-    bad.write_text('{"format": "other"}')
-    with pytest.raises(ValueError, match="not an imrosc invariants file"):
-        logic.load_invariants(str(bad))
-    bad.write_text('{"format": "imrosc-invariants", "topics": {}}')
-    with pytest.raises(ValueError, match="missing 'points'"):
-        logic.load_invariants(str(bad))
+    raised = common.Report(bounds, True, "persist", ["f"])
+    assert logic.report_warning(raised) == common.report_json(raised)
 
 
 def test_the_adapter_keeps_python_3_8_syntax() -> None:

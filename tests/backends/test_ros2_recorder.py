@@ -28,14 +28,15 @@ import imrosc.backends.ros2 as ros2_backend
 from imrosc import records
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.monitor_ros2 import logic as graph
+from imrosc.onboard import records as record_format
 from imrosc.record_ros2 import logic
 from tests.backends.ros2_support import require_ros2, ros2_environment
+from tests.backends.support import assert_carried_unchanged, vendored_sources
 from tests.backends.test_monitor_spec import ROOT, write_package
 from tests.backends.test_ros1 import python38
 from tests.backends.test_ros2 import (
     PACKAGE,
     VENDOR,
-    _without_banner,
     build_ros2,
     landing_ros2,
     python_files,
@@ -97,10 +98,9 @@ def test_the_recorder_adds_its_files_and_leaves_the_monitor_alone(
     }
     changed = {n for n in plain_files if plain_files[n] != recorder_package[n]}
     assert changed == {f"{PACKAGE}/setup.py"}
-    for path in RECORDER.glob("*.py"):
-        copy = recorder_package[f"{PACKAGE}/{VENDOR}/record_ros2/{path.name}"].decode()
-        assert copy.startswith("# " + GENERATED_MARK)
-        assert _without_banner(copy) == path.read_text(encoding="utf-8"), path
+    assert_carried_unchanged(
+        recorder_package, vendored_sources(f"{PACKAGE}/{PACKAGE}", ("record_ros2",))
+    )
 
 
 def test_the_recorder_spec_is_the_scope(recorder_package: dict[str, bytes]) -> None:
@@ -153,7 +153,7 @@ def test_the_recorder_compiles_and_passes_ruff_for_python_38(
     done = subprocess.run(
         [
             *(sys.executable, "-m", "ruff", "check", "--no-cache"),
-            *("--config", str(RECORDER / "ruff.toml")),
+            *("--config", str(ROOT / "imrosc" / "runtime" / "ruff.toml")),  # the rules, Python 3.8
             *scripts,
         ],
         capture_output=True,
@@ -218,7 +218,7 @@ def test_architecture_records_decode_and_leave_the_machinery_out() -> None:
         nodes=["/a/car", "/a/ctrl", "/rec", "/_ros2cli_daemon_0"],
     )
     topics, services = logic.arch_of(view, ["/rec"])
-    text = logic.arch_text(topics, services)
+    text = record_format.arch_text(topics, services)
     decoded = records.decode_arch(text)
     assert records.encode(decoded) == text
     assert decoded.topics["/a/pose"] == records.TopicEnds(
@@ -231,31 +231,31 @@ def test_architecture_records_decode_and_leave_the_machinery_out() -> None:
 def test_parameter_records_decode_identically() -> None:
     answers = {"/a/car_ctrl/gain": 2.5, "/a/car_ctrl/mode": "x", "/a/raw": [b"\x01", b"\x02"]}
     answers["/a/nan"] = math.nan
-    text = logic.params_text(logic.params_of(answers, [*answers, "/a/unset"]))
+    text = record_format.params_text(logic.params_of(answers, [*answers, "/a/unset"]))
     decoded = records.decode_params(text)
     assert records.encode(decoded) == text
     assert decoded.params["/a/raw"] == [1, 2] and "/a/unset" not in decoded.params
-    assert logic.params_text({}) == records.encode(records.ParamSnapshot({}))
+    assert record_format.params_text({}) == records.encode(records.ParamSnapshot({}))
 
 
 def test_change_detection_publishes_only_on_change() -> None:
     changes = logic.Changes()
-    first = logic.arch_text({"/t": (["/a"], [])}, {})
-    same = logic.arch_text({"/t": ({"/a"}, ())}, {})
-    other = logic.arch_text({"/t": (["/a", "/b"], [])}, {})
+    first = record_format.arch_text({"/t": (["/a"], [])}, {})
+    same = record_format.arch_text({"/t": ({"/a"}, ())}, {})
+    other = record_format.arch_text({"/t": (["/a", "/b"], [])}, {})
     published = [
         text
         for topic, text in [
-            (logic.ARCH_TOPIC, first),
-            (logic.ARCH_TOPIC, same),
-            (logic.PARAMS_TOPIC, logic.params_text({})),
-            (logic.ARCH_TOPIC, other),
-            (logic.PARAMS_TOPIC, logic.params_text({})),
-            (logic.ARCH_TOPIC, first),
+            (record_format.ARCH_TOPIC, first),
+            (record_format.ARCH_TOPIC, same),
+            (record_format.PARAMS_TOPIC, record_format.params_text({})),
+            (record_format.ARCH_TOPIC, other),
+            (record_format.PARAMS_TOPIC, record_format.params_text({})),
+            (record_format.ARCH_TOPIC, first),
         ]
         if changes.changed(topic, text)
     ]
-    assert published == [first, logic.params_text({}), other, first]
+    assert published == [first, record_format.params_text({}), other, first]
 
 
 # -- service calls from introspection events ------------------------------------------------
@@ -429,12 +429,9 @@ def test_the_client_is_named_by_its_gid_or_the_event_publishers() -> None:
     assert logic.client_node(OTHER, writers) == "/b/ctrl"
     assert logic.client_node(b"\x09" * 16, writers, ["/a/car", "/c"], ["/a/car"]) == "/c"
     assert logic.client_node(b"\x09" * 16, writers) == logic.UNKNOWN_NODE
-    assert (
-        records.decode_call(
-            logic.call_text("/s", logic.UNKNOWN_NODE, logic.UNKNOWN_NODE, {}, None, 1.0, 0.0)
-        ).client
-        == logic.UNKNOWN_NODE
-    )
+    unknown = logic.UNKNOWN_NODE
+    text = record_format.call_text("/s", unknown, unknown, {}, None, 1.0, 0.0)
+    assert records.decode_call(text).client == unknown
 
 
 # -- live: the rendered recorder on a ROS 2 graph -------------------------------------------

@@ -125,7 +125,7 @@ def test_a_check_that_raises_stops_the_monitor_and_the_watchdog_fails_open(
 ) -> None:
     """A check that raises is reported on /m/broken_inv, the monitor leaves the graph, and
     the watchdog relays the blocked topic: nothing runs unchecked behind a live heartbeat."""
-    runtime = built.package / "scripts" / "imrosc_runtime" / "conditions.py"
+    runtime = built.package / "scripts" / "imrosc_monitor" / "imrosc" / "runtime" / "conditions.py"
     source = runtime.read_text(encoding="utf-8")
     # the check raises once the trigger file exists: after the listener is connected, so
     # that the report cannot be published before anyone hears it

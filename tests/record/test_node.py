@@ -1,9 +1,9 @@
 """The recording node writes exactly the records ``imrosc.records`` reads.
 
-The node runs under the robot's Python without imrosc, so it carries its own encoder; these
-tests load the script where imrosc is (it imports rospy only when it runs) and hold its
-output to ``imrosc.records``: every text decodes, and is the very text ``records.encode``
-writes for the decoded record.
+The node runs under the robot's Python without imrosc installed, so it loads the one record
+encoder (``imrosc/onboard/records.py``, tested in ``tests/onboard/test_records.py``) from
+its file; these tests load the script where imrosc is (it imports rospy only when it runs)
+and hold what it makes of messages, the graph and the parameters to ``imrosc.records``.
 """
 
 from __future__ import annotations
@@ -16,10 +16,8 @@ import subprocess
 import sys
 import xmlrpc.client
 from pathlib import Path
-from typing import Any
 
 import pytest
-from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from imrosc import records
@@ -44,76 +42,8 @@ JSON = st.recursive(
 )
 
 
-def test_the_node_uses_the_record_topics_and_version() -> None:
-    assert node.RECORD_TOPICS == records.RECORD_TOPICS
-    assert (node.ARCH_TOPIC, node.PARAMS_TOPIC, node.SRVS_TOPIC) == (
-        records.ARCH_TOPIC,
-        records.PARAMS_TOPIC,
-        records.SRVS_TOPIC,
-    )
-    assert node.VERSION == records.VERSION
-    assert node.RECORD_PREFIX == records.RECORD_PREFIX
-
-
-@settings(max_examples=100, deadline=None)
-@given(st.dictionaries(NAME, st.tuples(NODES, NODES)), st.dictionaries(NAME, NODES))
-def test_architecture_text_is_canonical_and_decodes(
-    topics: dict[str, tuple[set[str], set[str]]], services: dict[str, set[str]]
-) -> None:
-    text = node.arch_text(topics, services)
-    decoded = records.decode_arch(text)
-    expected = records.ArchSnapshot(
-        {t: records.TopicEnds(frozenset(p), frozenset(s)) for t, (p, s) in topics.items()},
-        {name: frozenset(servers) for name, servers in services.items()},
-    )
-    assert decoded == expected
-    assert text == records.encode(expected)
-
-
-@settings(max_examples=100, deadline=None)
-@given(st.dictionaries(NAME, JSON, max_size=5))
-def test_parameter_text_is_canonical_and_decodes(params: dict[str, Any]) -> None:
-    text = node.params_text(params)
-    decoded = records.decode_params(text)
-    assert set(decoded.params) == set(params)
-    assert text == records.encode(decoded)
-    assert text == records.encode(records.ParamSnapshot(params))
-
-
-@settings(max_examples=100, deadline=None)
-@given(
-    NAME,
-    NAME,
-    NAME,
-    st.dictionaries(TOKEN, JSON, max_size=4),
-    st.none() | st.dictionaries(TOKEN, JSON, max_size=4),
-    st.floats(0, 2e9),
-    st.floats(-1.0, 10.0),
-)
-def test_call_text_is_canonical_and_decodes(
-    service: str,
-    client: str,
-    server: str,
-    request: dict[str, Any],
-    response: dict[str, Any] | None,
-    stamp: float,
-    delay: float,
-) -> None:
-    text = node.call_text(service, client, server, request, response, stamp, delay)
-    call = records.decode_call(text)
-    assert (call.service, call.client, call.server) == (service, client, server)
-    assert call.ok is (response is not None)
-    assert call.stamp == stamp
-    assert call.delay == max(0.0, delay)
-    assert text == records.encode(call)
-
-
-def test_a_failed_call_has_no_response() -> None:
-    text = node.call_text("/s", "/c", "/n", {"k": 0}, None, 10.0, 0.002)
-    call = records.decode_call(text)
-    assert not call.ok
-    assert call.response is None
-    assert call.request == {"k": 0}
+def test_the_node_writes_with_the_one_record_encoder() -> None:
+    assert Path(node.records.__file__).resolve() == ROOT / "imrosc" / "onboard" / "records.py"
 
 
 class Time:
@@ -155,7 +85,7 @@ def test_messages_become_json_objects_of_their_fields() -> None:
     assert request["stamp"] == 12.5
     assert request["wait"] == -0.25
     assert request["points"][0] == {"x": 1.0, "y": 2.0}
-    text = node.call_text("/s", "/c", "/n", request, {"ok": True}, 1.0, 0.1)
+    text = node.records.call_text("/s", "/c", "/n", request, {"ok": True}, 1.0, 0.1)
     call = records.decode_call(text)
     assert call.request["points"][1]["y"] == -math.inf  # type: ignore[index]
     assert math.isnan(call.request["points"][1]["x"])  # type: ignore[index]
@@ -189,7 +119,7 @@ def test_snapshots_leave_out_the_recording_and_show_relayed_services_as_the_robo
 ):
     hidden = {"/imrosc_recorder_1", "/imrosc_rosbag_1", "/a/dead"}
     topics, services = node.snapshot(STATE, hidden, {"/rec/a/task": "/a/task"})
-    text = node.arch_text(topics, services)
+    text = node.records.arch_text(topics, services)
     snapshot = records.decode_arch(text)
     assert set(snapshot.topics) == {"/a/pose", "/rosout"}
     assert snapshot.topics["/a/pose"] == records.TopicEnds(
@@ -234,7 +164,7 @@ def test_parameters_are_those_of_the_scope_as_set() -> None:
         "/when",
     }
     for params in (found, every):
-        text = node.params_text(params)
+        text = node.records.params_text(params)
         assert records.decode_params(text).params == json.loads(text)["params"]
         assert text == records.encode(records.ParamSnapshot(params))
 

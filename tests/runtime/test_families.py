@@ -11,7 +11,6 @@ from typing import Any
 import pytest
 
 from imrosc.infer.registry import FAMILY_GROUPS
-from imrosc.monitor_ros1 import logic
 from imrosc.runtime import checks as checks_module
 from imrosc.runtime import families
 from imrosc.runtime.checks import Checks
@@ -38,12 +37,6 @@ def family_enum(schema: Any) -> list[str] | None:
 
 def test_the_job_schema_lists_the_catalog() -> None:
     assert family_enum(json.loads(SCHEMA.read_text())) == list(families.NAMES)
-
-
-def test_the_monitor_logic_sets_are_the_catalogs() -> None:
-    # logic.py is copied alone into packages (standard library only): its sets are copies
-    assert logic.WINDOW_FAMILIES == families.WINDOW
-    assert logic.SEQUENCE_FAMILIES == families.EVENT
 
 
 def test_every_family_has_a_group_and_a_point_kind() -> None:

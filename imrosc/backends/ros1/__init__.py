@@ -6,10 +6,12 @@ The package ``<project>_monitor`` (under ``-o DIR``) holds
 * ``scripts/<project>_monitor``, the node, and ``scripts/<project>_monitor_watchdog``, the
   fail-open watchdog: executable, ``#!/usr/bin/env python3``, runnable with ``rosrun`` and
   ``roslaunch`` straight from the source package;
-* ``scripts/imrosc_monitor/``: the rospy adapter (``imrosc/monitor_ros1``, copied), the
-  generated ``flatteners.py`` and ``spec.json`` (what the node watches and does, as data);
-* ``scripts/imrosc_runtime/``: a copy of the runtime engine (``imrosc/runtime``), so the
-  robot needs no pip install;
+* ``scripts/imrosc_monitor/``: the Python package of the scripts: the generated
+  ``flatteners.py`` and ``spec.json`` (what the node watches and does, as data), and under
+  ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout, each copied unchanged
+  below a banner (:func:`imrosc.backends.vendor.vendored`): the runtime engine
+  (``imrosc/runtime``), the onboard logic (``imrosc/onboard``) and the rospy adapter
+  (``imrosc/monitor_ros1``), so the robot needs no pip install;
 * ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
 * ``launch/<project>_monitor.launch`` and, with ``<monitor launch="...">``,
   ``launch/system_monitored.launch``: the system's launch file rewritten
@@ -28,28 +30,36 @@ package and the node.
 from __future__ import annotations
 
 import re
+import textwrap
 from typing import Any
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import Environment
 
 from imrosc import __version__
+from imrosc.backends import quoting
 from imrosc.backends.monitor import (
-    HELPERS,
     MonitorSpec,
     dumps,
+    flattener_helpers,
     invariants_copy,
     monitor_spec,
     system_launch,
 )
 from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, Executable, register
-from imrosc.backends.vendor import copied_modules
-from imrosc.monitor_ros1.logic import WARM
+from imrosc.backends.vendor import vendored
+from imrosc.onboard.monitor import WARM
 
 BACKEND = "ros1"
 SYSTEM_LAUNCH = "launch/system_monitored.launch"
-ADAPTER_DIR = "scripts/imrosc_monitor"
-RUNTIME_DIR = "scripts/imrosc_runtime"
+PACKAGE_DIR = "scripts/imrosc_monitor"
+"""The Python package of the node scripts (the folder ``scripts/`` is on their path)."""
+ADAPTERS = ("monitor_ros1",)
+"""The middleware adapters the package carries besides :data:`~imrosc.backends.vendor.ONBOARD`."""
+PACKAGE_DOCSTRING = (
+    "The Python package of the imrosc monitor package {package}'s scripts: ``flatteners`` and "
+    "``spec.json`` say what it watches, ``imrosc/`` holds the parts of imrosc it runs."
+)
 EXEC_DEPENDS = (
     "python3-numba",
     "python3-numpy",
@@ -77,27 +87,9 @@ def cmake_name(text: Any) -> str:
 
 def environment() -> Environment:
     """The template environment: strict, XML autoescaped, with the quoting filters."""
-    env = Environment(
-        loader=PackageLoader("imrosc.backends.ros1", "templates"),
-        autoescape=select_autoescape(enabled_extensions=("xml.j2", "launch.j2"), default=False),
-        undefined=StrictUndefined,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-    )
-    env.filters["py"] = py_literal
-    env.filters["hash_comment"] = hash_comment
-    env.filters["xml_comment"] = xml_comment_filter
+    env = quoting.environment("imrosc.backends.ros1", ("xml.j2", "launch.j2"))
     env.filters["cmake_name"] = cmake_name
     return env
-
-
-def _helpers(spec: MonitorSpec) -> list[str]:
-    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
-    for topic in spec.topics:
-        for value in topic.values:
-            used |= {name for name in HELPERS if f"{name}(" in value.expression}
-    return sorted(used)
 
 
 def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
@@ -105,6 +97,7 @@ def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
     env = environment()
     version = __version__ if _VERSION.fullmatch(__version__) else "0.0.0"
     flattened = [t for t in spec.topics if t.flattener is not None]
+    docstring = textwrap.fill(PACKAGE_DOCSTRING.format(package=spec.package), 92)
 
     def render(template: str, **extra: Any) -> bytes:
         context = {"spec": spec, "banner": banner, **extra}
@@ -117,15 +110,15 @@ def render_package(spec: MonitorSpec, banner: str) -> dict[str, bytes]:
         "CMakeLists.txt": render("CMakeLists.txt.j2"),
         f"scripts/{spec.node}": Executable(render("node.py.j2")),
         f"scripts/{spec.watchdog}": Executable(render("watchdog.py.j2")),
-        f"{ADAPTER_DIR}/flatteners.py": render(
-            "flatteners.py.j2", topics=flattened, helpers=_helpers(spec)
+        f"{PACKAGE_DIR}/__init__.py": render("init.py.j2", docstring=docstring),
+        f"{PACKAGE_DIR}/flatteners.py": render(
+            "flatteners.py.j2", topics=flattened, helpers=flattener_helpers(spec)
         ),
-        f"{ADAPTER_DIR}/spec.json": dumps(spec.runtime_document(banner)),
+        f"{PACKAGE_DIR}/spec.json": dumps(spec.runtime_document(banner)),
         spec.invariants_path: invariants_copy(spec, banner),
         f"launch/{spec.package}.launch": render("monitor.launch.j2", warm=WARM),
     }
-    files.update(copied_modules("imrosc.monitor_ros1", ADAPTER_DIR, BACKEND))
-    files.update(copied_modules("imrosc.runtime", RUNTIME_DIR, BACKEND))
+    files.update(vendored(PACKAGE_DIR, BACKEND, ADAPTERS))
     return dict(sorted(files.items()))
 
 

@@ -10,10 +10,10 @@ The package ``<project>_monitor`` (under ``-o DIR``) holds
   is ignored: the index reads only its name);
 * ``<package>/``: the Python package: ``main.py`` (the entry points), the generated
   ``flatteners.py`` and ``spec.json`` (what the node watches and does, as data), and under
-  ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout: the runtime engine
-  (``imrosc/runtime``), the rclpy adapter (``imrosc/monitor_ros2``) and the
-  middleware-neutral half of the ROS 1 adapter it builds on (``logic.py`` and ``flat.py`` of
-  ``imrosc/monitor_ros1``), each copied unchanged below a banner;
+  ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout, each copied unchanged
+  below a banner (:func:`imrosc.backends.vendor.vendored`, as the ``ros1`` backend does):
+  the runtime engine (``imrosc/runtime``), the onboard logic (``imrosc/onboard``) and the
+  rclpy adapter (``imrosc/monitor_ros2``);
 * ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
 * ``launch/<package>.launch.xml`` and, with ``<monitor launch="....launch.xml">`` (or
   ``launch_ros2="....launch.xml"`` beside a roslaunch ``launch``),
@@ -30,7 +30,8 @@ With a :class:`RecorderScope` (:data:`RENDER_RECORDER`), the package also holds 
 recorder (``docs/record.md``, "ROS 2"): ``<package>/recorder.py`` (entry point
 ``<package>_recorder``), ``<package>/recorder.json`` (the scope's services and parameters),
 the rclpy adapter ``imrosc/record_ros2`` (copied unchanged, like ``monitor_ros2``, which
-it imports) and ``launch/<package>_recorder.launch.xml``.
+it imports; it writes records with ``imrosc/onboard/records.py``) and
+``launch/<package>_recorder.launch.xml``.
 """
 
 from __future__ import annotations
@@ -40,32 +41,32 @@ import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import Environment
 
 from imrosc import __version__
+from imrosc.backends import quoting
 from imrosc.backends.monitor import (
-    HELPERS,
     MonitorSpec,
     dumps,
+    flattener_helpers,
     invariants_copy,
     monitor_spec,
     system_launch,
 )
-from imrosc.backends.quoting import hash_comment, py_literal, xml_comment_filter
 from imrosc.backends.registry import BuildInputs, register
-from imrosc.backends.vendor import copied_modules
+from imrosc.backends.vendor import ONBOARD, VENDOR, vendored
 from imrosc.diagnostics import make
-from imrosc.monitor_ros1.logic import WARM
+from imrosc.onboard.monitor import WARM
 
 if TYPE_CHECKING:
     from imrosc import ir
 
 BACKEND = "ros2"
 SYSTEM_LAUNCH = "launch/system_monitored.launch.xml"
-VENDOR = "imrosc"
-"""The subpackage of the package's Python package that holds the copied parts of imrosc."""
-SHARED_ADAPTER = ("flat.py", "logic.py")
-"""The middleware-neutral modules of ``imrosc/monitor_ros1`` the ROS 2 adapter imports."""
+ADAPTERS = ("monitor_ros2",)
+"""The middleware adapters the package carries besides :data:`~imrosc.backends.vendor.ONBOARD`
+(and ``record_ros2`` with the recorder)."""
+RECORDER_ADAPTERS = ("record_ros2",)
 EXEC_DEPENDS = (
     "ament_index_python",
     "builtin_interfaces",
@@ -87,21 +88,11 @@ LAUNCH_SUFFIXES = (".launch.xml", ".xml")
 """Launch files the ``ros2`` backend rewrites (ROS 2 launch XML); Python and YAML launch
 files are code or a format it does not read."""
 
-_DOCSTRINGS = {
-    "": (
-        "The imrosc monitor package {package}: ``main`` holds its entry points, "
-        "``flatteners`` and ``spec.json`` what it watches, ``imrosc/`` the parts of imrosc "
-        "it runs."
-    ),
-    VENDOR: (
-        "The parts of imrosc this package carries, in imrosc's own layout: the runtime "
-        "engine, the ROS 2 adapter and the middleware-neutral modules of the ROS 1 adapter."
-    ),
-    f"{VENDOR}/monitor_ros1": (
-        "The middleware-neutral modules of imrosc's ROS 1 adapter (``logic``, ``flat``), "
-        "which the ROS 2 adapter shares; the rospy modules are not carried."
-    ),
-}
+PACKAGE_DOCSTRING = (
+    "The imrosc monitor package {package}: ``main`` holds its entry points, "
+    "``flatteners`` and ``spec.json`` what it watches, ``imrosc/`` the parts of imrosc "
+    "it runs."
+)
 
 
 @dataclass(frozen=True)
@@ -134,26 +125,8 @@ def recorder_scope(project: ir.Project) -> RecorderScope:
 
 def environment() -> Environment:
     """The template environment: strict, XML autoescaped, with ``ros1``'s quoting filters."""
-    env = Environment(
-        loader=PackageLoader("imrosc.backends.ros2", "templates"),
-        autoescape=select_autoescape(enabled_extensions=("xml.j2",), default=False),
-        undefined=StrictUndefined,
-        keep_trailing_newline=True,
-        trim_blocks=True,
-        lstrip_blocks=True,
-    )
-    env.filters["py"] = py_literal
-    env.filters["hash_comment"] = hash_comment
-    env.filters["xml_comment"] = xml_comment_filter
+    env = quoting.environment("imrosc.backends.ros2", ("xml.j2",))
     return env
-
-
-def _helpers(spec: MonitorSpec) -> list[str]:
-    used = {"careful"} if any(t.flattener for t in spec.topics) else set()
-    for topic in spec.topics:
-        for value in topic.values:
-            used |= {name for name in HELPERS if f"{name}(" in value.expression}
-    return sorted(used)
 
 
 def chunks(text: str, width: int = 72) -> list[str]:
@@ -176,10 +149,8 @@ def python_packages(spec: MonitorSpec, recorder: bool = False) -> list[str]:
     """The Python packages ``setup.py`` installs (dotted names)."""
     root = spec.package
     vendor = f"{root}.{VENDOR}"
-    packages = [root, vendor, f"{vendor}.monitor_ros1", f"{vendor}.monitor_ros2"]
-    if recorder:
-        packages.append(f"{vendor}.record_ros2")
-    return [*packages, f"{vendor}.runtime"]
+    adapters = ADAPTERS + (RECORDER_ADAPTERS if recorder else ())
+    return [root, vendor, *sorted(f"{vendor}.{name}" for name in (*ONBOARD, *adapters))]
 
 
 def recorder_script(spec: MonitorSpec) -> str:
@@ -234,10 +205,6 @@ def render_package(
         context = {"spec": spec, "banner": banner, **extra}
         return env.get_template(template).render(**context).encode("utf-8")
 
-    def init(folder: str) -> bytes:
-        docstring = textwrap.fill(_DOCSTRINGS[folder].format(package=spec.package), 92)
-        return render("init.py.j2", docstring=docstring)
-
     files: dict[str, bytes] = {
         "package.xml": render(
             "package.xml.j2", version=version, depends=sorted({*EXEC_DEPENDS, *spec.depends})
@@ -253,30 +220,23 @@ def render_package(
         ),
         "setup.cfg": render("setup.cfg.j2"),
         f"resource/{root}": f"{banner}\n".encode(),
-        f"{root}/__init__.py": init(""),
+        f"{root}/__init__.py": render(
+            "init.py.j2", docstring=textwrap.fill(PACKAGE_DOCSTRING.format(package=root), 92)
+        ),
         f"{root}/main.py": render("main.py.j2"),
         f"{root}/flatteners.py": render(
-            "flatteners.py.j2", topics=flattened, helpers=_helpers(spec)
+            "flatteners.py.j2", topics=flattened, helpers=flattener_helpers(spec)
         ),
         f"{root}/spec.json": dumps(spec.runtime_document(banner)),
-        f"{root}/{VENDOR}/__init__.py": init(VENDOR),
-        f"{root}/{VENDOR}/monitor_ros1/__init__.py": init(f"{VENDOR}/monitor_ros1"),
         spec.invariants_path: invariants_copy(spec, banner),
         monitor_launch: render("monitor.launch.xml.j2", warm=WARM),
     }
-    vendor = f"{root}/{VENDOR}"
-    files.update(copied_modules("imrosc.runtime", f"{vendor}/runtime", BACKEND))
-    files.update(copied_modules("imrosc.monitor_ros2", f"{vendor}/monitor_ros2", BACKEND))
-    files.update(
-        copied_modules(
-            "imrosc.monitor_ros1", f"{vendor}/monitor_ros1", BACKEND, only=SHARED_ADAPTER
-        )
-    )
+    adapters = ADAPTERS if recorder is None else ADAPTERS + RECORDER_ADAPTERS
+    files.update(vendored(root, BACKEND, adapters))
     if recorder is not None:
         files[f"{root}/recorder.py"] = render("recorder.py.j2")
         files[f"{root}/{RECORDER_SPEC}"] = dumps(recorder.document(spec, banner))
         files[recorder_launch(spec)] = render("recorder.launch.xml.j2")
-        files.update(copied_modules("imrosc.record_ros2", f"{vendor}/record_ros2", BACKEND))
     return dict(sorted(files.items()))
 
 

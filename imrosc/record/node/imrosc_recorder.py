@@ -13,11 +13,11 @@ does not) next to ``rosbag record``, with one argument: a JSON object saying wha
   it changed.
 
 Records are ``std_msgs/String`` messages holding the canonical JSON of
-``docs/record-format.md`` (the same text ``imrosc.records.encode`` writes; this file carries
-its own small encoder since imrosc is not installed where it runs). Nothing is published
-before ``rosbag record`` is connected to all three record topics, so no record is lost at
-start; on SIGINT or SIGTERM the relays are withdrawn, calls in flight are answered and
-recorded, every queued record is published, and the node exits.
+``docs/record-format.md``, written by the one record encoder (``imrosc/onboard/records.py``,
+loaded from imrosc's tree by its path, since imrosc is not installed where this runs).
+Nothing is published before ``rosbag record`` is connected to all three record topics, so
+no record is lost at start; on SIGINT or SIGTERM the relays are withdrawn, calls in flight
+are answered and recorded, every queued record is published, and the node exits.
 
 What the node tells ``imrosc record`` goes to its standard output, one JSON object a line:
 ``{"event": "ready"}``, ``{"event": "relay", ...}``, ``{"event": "warning", "message": ...}``,
@@ -29,16 +29,17 @@ do not answer any more (a node killed with SIGKILL cannot unregister), and the `
 names: the relayed service is recorded as served by the node that serves ``/rec/<srv>``.
 
 It runs on ROS Noetic's Python 3.8 and Debian's ROS 1 (Python 3.11): standard library and
-rospy only. Importing it needs no rospy (its encoder is tested where imrosc runs).
+rospy only. Importing it needs no rospy (what it decides is tested where imrosc runs).
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import json
 import math
+import os
 import queue
-import re
 import signal
 import sys
 import threading
@@ -47,99 +48,33 @@ import warnings
 import xmlrpc.client
 from typing import Any, Callable, Dict, List, Optional, Set, Tuple
 
-VERSION = 1
-ARCH_TOPIC = "/imrosc/arch"
-PARAMS_TOPIC = "/imrosc/params"
-SRVS_TOPIC = "/imrosc/srvs"
-RECORD_TOPICS = (ARCH_TOPIC, PARAMS_TOPIC, SRVS_TOPIC)
-RECORD_PREFIX = "/imrosc/"
 DEFAULT_PREFIX = "/rec"
-_GLOBAL_NAME = re.compile(r"^(/[A-Za-z0-9_]+)+$")
 _SERVER_ERROR = "service cannot process request: "
 _RESPONDED = "responded with an error: "
 _TRANSPORT_ERROR = "transport error"
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+ONBOARD = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "onboard")
+"""``imrosc/onboard``, beside this script's package in imrosc's tree."""
 SWITCH_INTERVAL = 0.0005
 """Seconds a thread may hold the GIL while another waits (Python's default is 5 ms): a relay
 thread woken by the server's answer must not wait behind the thread publishing records."""
 
 
-# -- the record format (docs/record-format.md), as imrosc.records.encode writes it ----------
+def onboard_module(name: str) -> Any:
+    """A module of ``imrosc/onboard`` (standard library only), loaded from its file: the
+    robot's Python has no imrosc installed, and the folder imrosc is installed in (a
+    virtualenv's ``site-packages``) must not come first on that Python's module path."""
+    path = os.path.join(ONBOARD, name + ".py")
+    spec = importlib.util.spec_from_file_location("imrosc_onboard_" + name, path)
+    if spec is None or spec.loader is None:  # pragma: no cover - a broken installation
+        raise ImportError(f"cannot load {path}")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def dumps(document: Any) -> str:
-    """Canonical JSON: keys sorted, no spaces, ASCII only (NaN and infinities as Python has them).
-
-    >>> dumps({"b": 1, "a": [float("nan")]})
-    '{"a":[NaN],"b":1}'
-    """
-    return json.dumps(document, sort_keys=True, separators=(",", ":"))
-
-
-def is_global_name(name: Any) -> bool:
-    """Whether ``name`` is a valid global ROS name (what the record readers accept).
-
-    >>> [is_global_name(n) for n in ("/a/b_1", "/1a", "/", "/a//b", "/a/", "a", "/a-b")]
-    [True, True, False, False, False, False, False]
-    """
-    return isinstance(name, str) and _GLOBAL_NAME.match(name) is not None
-
-
-def arch_text(topics: Dict[str, Tuple[Any, Any]], services: Dict[str, Any]) -> str:
-    """An architecture snapshot: topic -> (publishers, subscribers), service -> servers.
-
-    >>> arch_text({"/t": ({"/b", "/a"}, [])}, {"/s": ["/c"]})
-    '{"services":{"/s":["/c"]},"topics":{"/t":{"pubs":["/a","/b"],"subs":[]}},"version":1}'
-    """
-    return dumps(
-        {
-            "version": VERSION,
-            "topics": {
-                name: {"pubs": sorted(pubs), "subs": sorted(subs)}
-                for name, (pubs, subs) in topics.items()
-            },
-            "services": {name: sorted(servers) for name, servers in services.items()},
-        }
-    )
-
-
-def params_text(params: Dict[str, Any]) -> str:
-    """A parameter snapshot: global name -> JSON value.
-
-    >>> params_text({"/b": "x", "/a": 1.5})
-    '{"params":{"/a":1.5,"/b":"x"},"version":1}'
-    """
-    return dumps({"version": VERSION, "params": params})
-
-
-def call_text(
-    service: str,
-    client: str,
-    server: str,
-    request: Dict[str, Any],
-    response: Optional[Dict[str, Any]],
-    stamp: float,
-    delay: float,
-) -> str:
-    """A service-call record; ``response`` None means the call failed.
-
-    >>> call_text("/s", "/c", "/n", {"a": 1}, None, 2.5, 0.25)
-    '{"client":"/c","delay":0.25,"ok":false,"request":{"a":1},"response":null,\
-"server":"/n","service":"/s","stamp":2.5,"version":1}'
-    """
-    return dumps(
-        {
-            "version": VERSION,
-            "service": service,
-            "client": client,
-            "server": server,
-            "request": request,
-            "response": response,
-            "ok": response is not None,
-            "stamp": float(stamp),
-            "delay": max(0.0, float(delay)),
-        }
-    )
+records = onboard_module("records")
+"""The record format's encoder (``imrosc/onboard/records.py``), the one every recorder uses."""
 
 
 def plain(value: Any) -> Any:
@@ -205,17 +140,17 @@ def snapshot(
     topics: Dict[str, Tuple[Set[str], Set[str]]] = {}
     for index, entries in enumerate((pubs, subs)):
         for topic, nodes in entries:
-            if topic.startswith(RECORD_PREFIX) or not is_global_name(topic):
+            if topic.startswith(records.RECORD_PREFIX) or not records.is_global_name(topic):
                 continue
             ends = topics.setdefault(topic, (set(), set()))
-            ends[index].update(n for n in nodes if n not in hidden and is_global_name(n))
+            ends[index].update(n for n in nodes if n not in hidden and records.is_global_name(n))
     services: Dict[str, Set[str]] = {}
     for service, nodes in srvs:
         name = relayed.get(service, service)
-        if not is_global_name(name):
+        if not records.is_global_name(name):
             continue
         services.setdefault(name, set()).update(
-            n for n in nodes if n not in hidden and is_global_name(n)
+            n for n in nodes if n not in hidden and records.is_global_name(n)
         )
     return (
         {t: (sorted(p), sorted(s)) for t, (p, s) in sorted(topics.items()) if p or s},
@@ -249,7 +184,7 @@ def leaves(tree: Any, prefix: str = "") -> Dict[str, Any]:
     found: Dict[str, Any] = {}
     for key, value in tree.items():
         name = f"{prefix}/{key}"
-        if not is_global_name(name):
+        if not records.is_global_name(name):
             continue
         if isinstance(value, dict):
             found.update(leaves(value, name))
@@ -270,7 +205,7 @@ def param_values(tree: Any, names: Optional[List[str]]) -> Dict[str, Any]:
     found = {}
     for name in names:
         value = lookup(tree, name)
-        if value is not _MISSING and is_global_name(name):
+        if value is not _MISSING and records.is_global_name(name):
             found[name] = value
     return found
 
@@ -296,7 +231,7 @@ def load_spec(text: str) -> Dict[str, Any]:
     }
     spec.update(json.loads(text))
     for key in ("node", "rosbag"):
-        if not is_global_name(spec.get(key)):
+        if not records.is_global_name(spec.get(key)):
             raise ValueError(f"{key!r} must be a global node name")
     return spec
 
@@ -408,15 +343,15 @@ class Recorder:
         self.servers: Dict[str, str] = {}
         self.warned: Set[str] = set()
         self.outbox = queue.Queue()  # type: queue.Queue[Optional[Tuple[str, Callable[[], Optional[str]], str]]]
-        self.published = dict.fromkeys(RECORD_TOPICS, 0)
+        self.published = dict.fromkeys(records.RECORD_TOPICS, 0)
         self.calls: Dict[str, int] = {}
         self.counts_lock = threading.Lock()
-        self.last = {ARCH_TOPIC: "", PARAMS_TOPIC: ""}
+        self.last = {records.ARCH_TOPIC: "", records.PARAMS_TOPIC: ""}
         with warnings.catch_warnings():  # queue_size=None: publishing is synchronous on purpose
             warnings.simplefilter("ignore")
             self.publishers = {
-                topic: rospy.Publisher(topic, string_type, latch=topic != SRVS_TOPIC)
-                for topic in RECORD_TOPICS
+                topic: rospy.Publisher(topic, string_type, latch=topic != records.SRVS_TOPIC)
+                for topic in records.RECORD_TOPICS
             }
         self.writer = threading.Thread(target=self._write, name="imrosc-records", daemon=True)
         self.writer.start()
@@ -478,11 +413,11 @@ class Recorder:
             ]
         self._update_relays(state[2])
         topics, services = snapshot(state, self.hidden | dead, dict(self.targets))
-        self._changed(ARCH_TOPIC, arch_text(topics, services))
+        self._changed(records.ARCH_TOPIC, records.arch_text(topics, services))
         names = self.spec["params"]
         if names is None or names:
             tree = self.master.call("getParam", "/")
-            self._changed(PARAMS_TOPIC, params_text(param_values(tree, names)))
+            self._changed(records.PARAMS_TOPIC, records.params_text(param_values(tree, names)))
 
     def _changed(self, topic: str, text: str) -> None:
         if text != self.last[topic]:
@@ -549,7 +484,7 @@ class Recorder:
         return _raw_service(header), True
 
     def record_call(self, service: str, text: Callable[[], Optional[str]]) -> None:
-        self.outbox.put((SRVS_TOPIC, text, service))
+        self.outbox.put((records.SRVS_TOPIC, text, service))
 
     def close(self) -> None:
         """Withdraw the relays (answering calls in flight), then publish what is queued."""
@@ -682,7 +617,7 @@ class Relay:
             if response is not None:
                 header = getattr(response, "_connection_header", None) or {}
                 server = header.get("callerid") or fallback
-            if not (is_global_name(client) and is_global_name(server)):
+            if not (records.is_global_name(client) and records.is_global_name(server)):
                 self.recorder.warn(
                     f"names:{self.service}",
                     f"a call of {self.service} from {client!r} to {server!r} is not recorded: "
@@ -691,7 +626,10 @@ class Relay:
                 return None
             fields = {} if self.raw else plain(request)
             answer = None if response is None else {} if self.raw else plain(response)
-            return call_text(self.service, client, server, fields, answer, stamp, delay)
+            record: str = records.call_text(
+                self.service, client, server, fields, answer, stamp, delay
+            )
+            return record
 
         self.recorder.record_call(self.service, text)
 

@@ -38,7 +38,8 @@ from typing import IO, Any, Dict, List, Optional, Set
 
 from ...monitor_ros2 import logic as graph
 from ...monitor_ros2 import plumbing
-from ...record_ros2 import logic as records
+from ...onboard import records
+from ...record_ros2 import logic as recorder_logic
 from ...record_ros2 import node as recorder
 from . import wire
 
@@ -51,14 +52,7 @@ try:  # only a ROS 2 system has these
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
     rclpy = None
-try:  # Humble and later: spin() ends with it when the context is shut down
-    from rclpy.executors import (  # type: ignore[import-not-found, unused-ignore]
-        ExternalShutdownException,
-    )
-except ImportError:  # Foxy, Galactic, or no ROS 2
-    ExternalShutdownException = KeyboardInterrupt
 
-RECORD_TYPE = "std_msgs/msg/String"
 LEAST, STEADY = 1.5, 1.0
 """Discovery: seconds before the graph is described at the soonest, and without change."""
 DRAIN = 0.3
@@ -119,7 +113,7 @@ class Tap:
         """The last graph sent."""
         for topic in records.RECORD_TOPICS:
             qos = graph.Qos(graph.RELIABLE, graph.TRANSIENT_LOCAL)
-            self.subscribe(topic, RECORD_TYPE, String, qos, [qos])
+            self.subscribe(topic, records.RECORD_TYPE, String, qos, [qos])
 
     # -- the pipe ------------------------------------------------------------------------------
 
@@ -197,7 +191,7 @@ class Tap:
         if topic in records.RECORD_TOPICS:
             return False
         if self.everything:
-            return not records.is_hidden(topic) and records.is_global_name(topic)
+            return not recorder_logic.is_hidden(topic) and records.is_global_name(topic)
         return self.wanted is not None and topic in self.wanted
 
     def poll(self) -> None:
@@ -233,7 +227,7 @@ class Tap:
 
     def describe(self, view: graph.GraphView) -> None:
         """Send the graph (an architecture record, the tap left out) if it changed."""
-        topics, services = records.arch_of(view)
+        topics, services = recorder_logic.arch_of(view)
         text = records.arch_text(topics, services)
         if text != self.described:
             self.described = text
@@ -312,7 +306,7 @@ def main(argv: Optional[List[str]] = None) -> None:
         end = time.monotonic() + DRAIN
         while time.monotonic() < end and rclpy.ok():
             executor.spin_once(timeout_sec=0.05)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except plumbing.SPIN_ENDED:
         pass
     finally:
         tap.close()

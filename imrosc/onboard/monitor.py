@@ -1,19 +1,23 @@
-"""What the monitor node decides, without ROS: plain functions the node calls.
+"""What a monitor node decides, without ROS: plain functions both nodes call.
 
-The node (``node.py``) is ROS plumbing around the runtime engine; everything it decides is
-here, so it is tested without rospy: the alarm rule the engine runs under
-(:func:`alarm_document`), what the node does about each violation once the engine told which
-raised or belong to an alarm (:func:`reports`: warn, and act only on a newly raised alarm),
-whether a blocked message or call is withheld (:func:`withheld`), which actions a batch of
-alarms takes (:func:`select_actions`), the JSON warning published on ``/m/broken_inv``
-(:func:`violation_json`), the graph as the invariants know it once the monitor's own relays
-are folded back (:func:`logical_graph`), the unknown publishers to unregister
-(:func:`to_unregister`), how an action's YAML value fills a message (:func:`fill`), how a
-service call becomes the values the engine reads (:func:`message_values`,
-:func:`flatten_json`), the invariants checked before a blocked service call is forwarded
-(:func:`request_document`) and the fail-open watchdog's decision (:func:`should_relay`).
+The ROS 1 node (``monitor_ros1/node.py``) and the ROS 2 node (``monitor_ros2/node.py``) are
+middleware plumbing around the runtime engine; everything they decide alike is here, so it
+is tested without rospy or rclpy: the relay names (:func:`relay_name`), the alarm rule the
+engine runs under (:func:`alarm_document`), what the node does about each violation once the
+engine told which raised or belong to an alarm (:func:`reports`: warn, and act only on a
+newly raised alarm), whether a blocked message or call is withheld (:func:`withheld`), which
+actions a batch of alarms takes (:func:`select_actions`), the JSON warning published on
+``/m/broken_inv`` (:func:`violation_json`), the graph as the invariants know it once the
+monitor's own relays are folded back (:func:`logical_graph`), the unknown publishers to
+unregister (:func:`to_unregister`), how a service call becomes the values the engine reads
+(:func:`call_values`, :func:`flatten_json`), the invariants checked before a blocked service
+call is forwarded (:func:`request_document`) and the fail-open watchdog's decision
+(:func:`should_relay`). Filling an action's message is each middleware's (:mod:`.fill`
+checks its values).
 
-Python 3.8 syntax, standard library only: this module is copied into generated packages.
+Python 3.8 syntax, the standard library and the runtime engine (imported as ``..runtime``,
+which both backends copy beside this package): this module is copied into generated
+packages.
 
 >>> select_actions([_V("a?1"), _V("v"), _V("z")], {"a": ["f"], "v": ["f", "g"]})
 ['f', 'g']
@@ -25,8 +29,8 @@ from __future__ import annotations
 
 import gc
 import json
-import math
 import re
+import threading
 import time
 from typing import (
     Any,
@@ -43,31 +47,19 @@ from typing import (
     Tuple,
 )
 
+from ..runtime import families
+from ..runtime.violation import json_safe
+
 WARM = 0.002
 """Default ``~warm`` (the launch file's ``warm``): seconds between rehearsals of the latest
 blocked messages while the relay is idle (0: never)."""
+IDLE = 1.0
+"""Seconds without a blocked message after which a node stops rehearsing."""
 
 Snapshot = Dict[str, Dict[str, FrozenSet[str]]]
 SystemState = Sequence[Sequence[Sequence[Any]]]
 """The master's ``getSystemState``: ``[publishers, subscribers, services]``, each a list of
 ``[name, [node, ...]]``."""
-
-WINDOW_FAMILIES = frozenset({"frequency", "variance", "rate"})
-SEQUENCE_FAMILIES = frozenset({"architecture", "interval", "pattern"})
-_INTEGER_RANGES = {
-    "int8": (-(2**7), 2**7 - 1),
-    "int16": (-(2**15), 2**15 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint8": (0, 2**8 - 1),
-    "uint16": (0, 2**16 - 1),
-    "uint32": (0, 2**32 - 1),
-    "uint64": (0, 2**64 - 1),
-    "byte": (-(2**7), 2**8 - 1),
-    "char": (0, 2**8 - 1),
-}
-_FLOATS = frozenset({"float32", "float64"})
-_STRINGS = frozenset({"string"})
 
 
 class _V(NamedTuple):
@@ -82,6 +74,15 @@ class _A(NamedTuple):
     point: str
     rule: str
     violation: Any
+
+
+def relay_name(namespace: str, name: str) -> str:
+    """Where the monitor relays ``name``: ``/m`` + ``/a/t`` = ``/m/a/t``.
+
+    >>> relay_name("/m/", "/a/t")
+    '/m/a/t'
+    """
+    return namespace.rstrip("/") + name
 
 
 def scope_id(point: str) -> str:
@@ -207,21 +208,6 @@ def log_line(report: Report) -> str:
     return f"imrosc: alarm{why}: {v.invariant} broken at {v.point}: {v.text}"
 
 
-def json_safe(value: Any) -> Any:
-    """``value`` as JSON data: non-finite numbers as text, sets sorted, numpy scalars plain."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else repr(value)
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    if isinstance(value, (set, frozenset)):
-        return sorted(json_safe(v) for v in value)
-    if isinstance(value, dict):
-        return {str(k): json_safe(v) for k, v in value.items()}
-    if hasattr(value, "item"):
-        return json_safe(value.item())
-    return value
-
-
 def violation_json(
     violation: Any, actions: Sequence[str] = (), alarm: bool = True, rule: Optional[str] = None
 ) -> str:
@@ -333,6 +319,109 @@ def compile_engines(engines: Sequence[Any], compiler: Optional[str]) -> str:
         f"imrosc: compiled checks in use (numba {compiler}) on {compiled} of {total} "
         f"points{others}, compiled in {seconds:.1f} s"
     )
+
+
+class Checking:
+    """What both monitor nodes hold alike, without ROS (each node's ``Monitor`` builds on
+    it): the relays and actions of the spec, the engine under the spec's alarm rule, the
+    request check of the blocked services (``precheck``), the lock every call of the
+    engines takes, the :class:`Guard` and the graph and parameters fed last.
+
+    >>> class Engine:
+    ...     def __init__(self, document, compile): self.cleared = []
+    ...     def clear(self, ident): self.cleared.append(ident); return ident == "i1"
+    >>> spec = {"topics": [{"name": "/t", "relay": True}], "services": [{"name": "/s"}],
+    ...         "violations": {}, "actions": {}}
+    >>> checking = Checking(spec, {}, Engine, "/m", print)
+    >>> checking.topic_relays, checking.service_relays, checking.precheck
+    ({'/t': '/m/t'}, {'/s': '/m/s'}, None)
+    >>> checking.clear_invariant("i1"), checking.clear_invariant("i9")
+    (True, False)
+    """
+
+    def __init__(
+        self,
+        spec: Mapping[str, Any],
+        document: Mapping[str, Any],
+        engine_class: Callable[..., Any],
+        namespace: str,
+        stop: Callable[[str, BaseException], None],
+    ) -> None:
+        self.spec = spec
+        self.namespace = namespace
+        self.topic_relays = {
+            t["name"]: relay_name(namespace, t["name"]) for t in spec["topics"] if t.get("relay")
+        }
+        self.service_relays = {
+            s["name"]: relay_name(namespace, s["name"]) for s in spec["services"]
+        }
+        self.blocked_services = {s["name"] for s in spec["services"] if s.get("block")}
+        self.violation_map: Mapping[str, Sequence[str]] = spec["violations"]
+        self.actions: Mapping[str, Mapping[str, Any]] = spec["actions"]
+        self.lock = threading.Lock()
+        self.guard = Guard(stop)
+        """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
+        document = alarm_document(document, spec.get("alarms"))
+        # numba compiles the checks later, in a thread of its own (:meth:`compile_checks`)
+        self.engine = engine_class(document, compile=False)
+        self.precheck = (
+            engine_class(request_document(document, self.blocked_services), compile=False)
+            if self.blocked_services
+            else None
+        )
+        self.graph: Optional[Snapshot] = None
+        self.params: Optional[Dict[str, Any]] = None
+        self.last_relayed = 0.0
+        """Wall time of the last message on a blocked topic (:meth:`keep_warm`)."""
+
+    def clear_invariant(self, ident: str) -> bool:
+        """Stop checking invariant ``ident`` (``/m/clear_inv``); whether the engine knew it."""
+        with self.lock:
+            known = bool(self.engine.clear(ident))
+            if self.precheck is not None:
+                self.precheck.clear(ident)
+        return known
+
+    def poll_engine(
+        self, now: float, graph: Optional[Snapshot], params: Optional[Dict[str, Any]]
+    ) -> Tuple[List[Any], List[Any], List[Any]]:
+        """The timer's checks, with :attr:`lock` held: the clock moved to ``now``, and the
+        graph and the parameters (``None``: not read this time) where they changed; the
+        violations found, the alarms raised and the violations that belong to an alarm."""
+        found: List[Any] = self.engine.advance(now)
+        if graph is not None and graph != self.graph:
+            self.graph = graph
+            found += self.engine.graph(now, graph)
+        if params is not None and params != self.params:
+            self.params = params
+            found += self.engine.params(now, params)
+            if self.precheck is not None:
+                self.precheck.params(now, params)
+        raised, alarmed = take_alarms(self.engine, found)
+        return found, raised, alarmed
+
+    def keep_warm(self, warm: float, running: Callable[[], bool]) -> None:
+        """Between sparse messages on the blocked topics, check the latest ones again every
+        ``warm`` seconds, keeping nothing (:meth:`rehearse`), while ``running()`` and the
+        checks run: other processes evict the checks' code and tables from the caches, and
+        a message that meets them cold waits for the relay several times longer. Nothing
+        is done while messages come faster than that, nor after :data:`IDLE` seconds
+        without one (docs/monitor.md)."""
+        relayed = sorted(self.topic_relays)
+        while running() and self.guard.failure is None:
+            time.sleep(warm)
+            idle = time.time() - self.last_relayed
+            if warm <= idle <= IDLE:
+                self.guard.run("rehearsal", self.rehearse, relayed)
+
+    def rehearse(self, relayed: Sequence[str]) -> None:
+        """One rehearsal of the latest blocked messages (``Engine.rehearse``)."""
+        with self.lock:
+            self.engine.rehearse(relayed)
+
+    def compile_checks(self, compiler: str) -> str:
+        """Compile the engines' checks (:func:`compile_engines`); the line to log."""
+        return compile_engines([e for e in (self.engine, self.precheck) if e is not None], compiler)
 
 
 def failure_json(where: str, error: BaseException, time: float) -> str:
@@ -492,30 +581,24 @@ def flatten_json(value: Any, prefix: str = "") -> Dict[str, Any]:
     return {prefix: value}
 
 
-def message_data(message: Any) -> Any:
-    """A ROS message (anything with ``__slots__``) as JSON-like data; times in seconds."""
-    slots = getattr(message, "__slots__", None)
-    if slots is None:
-        if isinstance(message, (list, tuple)):
-            return [message_data(item) for item in message]
-        return message
-    for seconds, nanos in (("secs", "nsecs"), ("sec", "nanosec")):
-        if set(slots) == {seconds, nanos}:  # genpy.Time, builtin_interfaces/Time
-            return float(getattr(message, seconds)) + float(getattr(message, nanos)) / 1e9
-    return {name: message_data(getattr(message, name)) for name in slots}
+def call_values(
+    data_of: Callable[[Any], Any], request: Any, response: Any, delay: float
+) -> Dict[str, Any]:
+    """The values of a service call as the engine reads them: ``request.*``,
+    ``response.*`` and ``delay``; ``data_of`` gives a message as JSON-like data (each
+    middleware's ``message_data``).
 
-
-def message_values(request: Any, response: Any, delay: float) -> Dict[str, Any]:
-    """The values of a service call as the engine reads them: ``request.*``, ``response.*``
-    and ``delay``."""
-    values = flatten_json({"request": message_data(request), "response": message_data(response)})
+    >>> call_values(dict, {"task_id": 3}, {"ok": True}, 0.25)
+    {'request.task_id': 3, 'response.ok': True, 'delay': 0.25}
+    """
+    values = flatten_json({"request": data_of(request), "response": data_of(response)})
     values["delay"] = delay
     return values
 
 
-def request_values(request: Any) -> Dict[str, Any]:
+def request_values(data_of: Callable[[Any], Any], request: Any) -> Dict[str, Any]:
     """The values of a request alone (checked before a blocked call is forwarded)."""
-    return flatten_json({"request": message_data(request)})
+    return flatten_json({"request": data_of(request)})
 
 
 def request_document(document: Mapping[str, Any], services: Iterable[str]) -> Dict[str, Any]:
@@ -529,7 +612,7 @@ def request_document(document: Mapping[str, Any], services: Iterable[str]) -> Di
         info = points.get(invariant.get("point"), {})
         if info.get("kind") != "call" or info.get("trigger") not in wanted:
             continue
-        if invariant.get("family") in WINDOW_FAMILIES | SEQUENCE_FAMILIES:
+        if invariant.get("family") in families.WINDOW | families.EVENT:
             continue
         paths = {v.get("name"): v.get("path", "") for v in info.get("variables", ())}
         names = invariant.get("variables") or ()
@@ -551,115 +634,6 @@ def param_values(read: Callable[[str], Any], names: Iterable[str]) -> Dict[str, 
             continue
         values.update(flatten_json(value, name))
     return values
-
-
-class FillError(ValueError):
-    """An action value that does not fit its message."""
-
-
-def _scalar(kind: str, value: Any, where: str) -> Any:
-    if kind == "bool":
-        if isinstance(value, bool) or value in (0, 1):
-            return bool(value)
-        raise FillError(f"{where}: {value!r} is not a bool")
-    if kind in _INTEGER_RANGES:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FillError(f"{where}: {value!r} is not an integer")
-        if isinstance(value, float) and not value.is_integer():
-            raise FillError(f"{where}: {value!r} is not an integer")
-        low, high = _INTEGER_RANGES[kind]
-        if not low <= int(value) <= high:
-            raise FillError(f"{where}: {value!r} is out of range for {kind}")
-        return int(value)
-    if kind in _FLOATS:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FillError(f"{where}: {value!r} is not a number")
-        return float(value)
-    if kind in _STRINGS:
-        if isinstance(value, (dict, list)):
-            raise FillError(f"{where}: {value!r} is not a string")
-        return value if isinstance(value, str) else json.dumps(value)
-    raise FillError(f"{where}: cannot fill a field of type {kind}")
-
-
-def _element_kind(kind: str) -> Optional[str]:
-    at = kind.find("[")
-    return kind[:at] if at >= 0 else None
-
-
-def _convert(
-    current: Any,
-    kind: str,
-    value: Any,
-    where: str,
-    message_class: Callable[[str], Any],
-) -> Any:
-    element = _element_kind(kind)
-    if element is not None:
-        if not isinstance(value, list):
-            raise FillError(f"{where}: {value!r} is not a list")
-        items = [
-            _convert(None, element, item, f"{where}[{k}]", message_class)
-            for k, item in enumerate(value)
-        ]
-        if element in ("uint8", "char"):
-            return bytes(items)
-        return items
-    if isinstance(value, dict):
-        if hasattr(current, "__slots__"):
-            return fill(current, value, message_class, where + ".")
-        if "/" in kind or kind == "Header":
-            return fill(message_class(kind)(), value, message_class, where + ".")
-        raise FillError(f"{where}: a mapping cannot fill a field of type {kind}")
-    if kind in ("time", "duration"):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise FillError(f"{where}: {value!r} is not a number of seconds")
-        if current is not None and hasattr(type(current), "from_sec"):
-            return type(current).from_sec(float(value))
-        raise FillError(f"{where}: cannot build a {kind} here")
-    if "/" in kind or kind in ("Header",):
-        raise FillError(f"{where}: {value!r} is not a mapping of {kind}")
-    return _scalar(kind, value, where)
-
-
-def fill(
-    message: Any,
-    values: Mapping[str, Any],
-    message_class: Callable[[str], Any],
-    where: str = "",
-) -> Any:
-    """Set the fields of ``message`` (a rospy message: ``__slots__`` and ``_slot_types``)
-    from an action value (``{data: 3}``, ``{linear: {x: 0.5}}``); return the message.
-
-    ``message_class(type_name)`` gives the class of a nested message in a list. A field the
-    message lacks, a value of the wrong kind or out of range raises :class:`FillError`; a
-    ``null`` value leaves the field at its default.
-    """
-    slots = list(getattr(message, "__slots__", ()))
-    kinds = list(getattr(message, "_slot_types", ()))
-    for key, value in values.items():
-        path = where + str(key)
-        if key not in slots:
-            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(slots)))
-        if value is None:
-            continue
-        current = getattr(message, key)
-        kind = kinds[slots.index(key)] if len(kinds) == len(slots) else _kind_of(current)
-        setattr(message, key, _convert(current, kind, value, path, message_class))
-    return message
-
-
-def _kind_of(current: Any) -> str:
-    """The field type of a value whose message does not list its types (``genpy.Time``)."""
-    if isinstance(current, bool):
-        return "bool"
-    if isinstance(current, int):
-        return "int64"
-    if isinstance(current, float):
-        return "float64"
-    if isinstance(current, str):
-        return "string"
-    return ""
 
 
 def should_relay(last_beat: float, now: float, timeout: float) -> bool:
