@@ -269,6 +269,8 @@ class RunOutcome:
     """What the replay warned of (topics missing, or of another type than learnt)."""
     unchecked: list[str] = field(default_factory=list)
     """The unconditional publish points that checked no sample in this run."""
+    checked: dict[str, int] = field(default_factory=dict)
+    """Per value point, the samples it checked in this run."""
     messages: int = 0
     samples: dict[str, Sampled] = field(default_factory=dict, repr=False)
     """Per point a detector may weigh (``<check detector>``), its checked samples: their
@@ -370,6 +372,7 @@ def observe(replayer: Replayer, task: RunTask, sampler: Sampler | None = None) -
         result.end,
         warnings=result.warnings,
         unchecked=result.unchecked,
+        checked=dict(result.checked),
         messages=result.messages,
         samples=samples,
     )
@@ -763,6 +766,8 @@ def run_entry(outcome: RunOutcome, kind: str) -> dict[str, Any]:
         entry["warnings"] = list(outcome.warnings)
     if outcome.unchecked:
         entry["unchecked"] = list(outcome.unchecked)
+    if outcome.checked:
+        entry["checked"] = dict(sorted(outcome.checked.items()))
     if kind == "success":
         entry["false_alarm"] = bool(times)
         return entry

@@ -145,11 +145,13 @@ def _runs(view: Classify) -> list[str]:
             r.delay,
             str(r.before_onset),
             r.verdict,
+            r.checked,
         ]
         for r in view.runs
     ]
     headers = ["kind", "bag", "onset", "first alarm", "detection", "delay", "early", "verdict"]
-    lines += ["  " + line for line in table(headers, rows, "llrrrrrl")]
+    headers.append("samples checked")
+    lines += ["  " + line for line in table(headers, rows, "llrrrrrll")]
     if view.detection is not None:
         lines.append(view.detection.summary)
     return lines

@@ -309,6 +309,8 @@ class ClassifiedRun:
     before_onset: int
     false_alarm: bool
     detected: bool
+    checked: str = ""
+    """Per point, the samples it checked: ``a 1,204, b 37``."""
 
     @property
     def verdict(self) -> str:
@@ -510,6 +512,9 @@ def classified_run(data: Mapping[str, Any]) -> ClassifiedRun:
         before_onset=int(data.get("alarms_before_onset") or 0),
         false_alarm=bool(data.get("false_alarm")),
         detected=bool(data.get("detected")),
+        checked=", ".join(
+            f"{point} {int(count):,}" for point, count in (data.get("checked") or {}).items()
+        ),
     )
 
 

@@ -16,6 +16,7 @@ from imrosc.demo import example_configs
 from imrosc.invariants import load
 from imrosc.ir import Project, from_json, to_json
 from imrosc.replay import Replayer
+from imrosc.report import render
 from imrosc.sim import Scenario, ScenarioKind, write_run, write_runs
 from tests.checking import onsets
 from tests.translate import msg, write_bag
@@ -484,3 +485,13 @@ def test_detector_none_learns_no_detector(prepared: Path, tmp_path: Path) -> Non
     assert "detectors" not in result.report
     assert result.refined is not None
     assert all(inv["family"] != "detector" for inv in result.refined["invariants"])
+
+
+def test_each_run_says_how_many_samples_each_point_checked(prepared: Path, tmp_path: Path) -> None:
+    folder = onsets.copy(prepared, tmp_path / "p")
+    config = onsets.project(folder, '<fail onset="12">bags/bad</fail>')
+    config.write_text(config.read_text().replace("<check ", '<check detector="none" '))
+    report = run_check(config, workers=1).report
+    assert report["runs"] and all(run["checked"]["a"] > 0 for run in report["runs"])
+    text = render(report, "text")
+    assert "samples checked" in text and f"a {report['runs'][0]['checked']['a']:,}" in text
