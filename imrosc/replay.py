@@ -21,6 +21,7 @@ import numpy as np
 
 from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
+from imrosc.checking.run import ChunkedChecker
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
 from imrosc.progress import Progress, bag_done
@@ -150,17 +151,37 @@ def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str,
 
 
 class Replayer:
-    """Feeds bags to one engine built from an invariants document."""
+    """Feeds bags to one engine built from an invariants document.
 
-    def __init__(self, document: Mapping[str, Any], engine: Engine | None = None) -> None:
+    A bag is checked over column chunks (:mod:`imrosc.checking`: the same violations and
+    alarms, in the same order, at decode speed) unless ``chunked`` is false or the engine's
+    alarm tracker records every violating sample for calibration (``alarms.record``): then
+    each message goes to the engine in turn (:meth:`run_messages`).
+    """
+
+    def __init__(
+        self, document: Mapping[str, Any], engine: Engine | None = None, chunked: bool = True
+    ) -> None:
         self.document = document
         self.engine = engine if engine is not None else Engine(document)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
+        self.chunked = chunked
+        self._checker: ChunkedChecker | None = None
 
     def run(self, bag: Path) -> RunResult:
         """Replay one bag as one run; a broken bag gives its error instead of raising."""
+        if self._checker is None and (not self.chunked or self.engine.alarms.record):
+            return self.run_messages(bag)
+        if self._checker is None:
+            self._checker = ChunkedChecker(self.document, self.engine)
+        result = RunResult(bag)
+        self._checker.run(bag, result)
+        return result
+
+    def run_messages(self, bag: Path) -> RunResult:
+        """Replay one bag as one run, message by message (the monitor's way)."""
         result = RunResult(bag)
         engine = self.engine
         engine.reset()

@@ -456,6 +456,23 @@ class Engine:
             point.arch.items = [item for item in point.arch.items if item[4]["id"] != invariant]
         return True
 
+    def hand_over(self, keys: Sequence[str]) -> None:
+        """Stop checking the publish points ``keys`` here: another checker takes their
+        samples (``imrosc.checking`` checks a bag's points over column chunks); their
+        messages still update the latest values and feed the events."""
+        gone = set(keys)
+        for topic, points in self._publish.items():
+            self._publish[topic] = [p for p in points if p.key not in gone]
+        self._timed = [p for p in self._timed if p.key not in gone]
+
+    def published(self, topic: str, time: float) -> Found:
+        """A message on ``topic`` as an event only (the temporal points that hear of it),
+        for a topic whose values no point here reads."""
+        found: Found = []
+        for point in self._publish_events.get(topic, ()):
+            found += self._event(point, time, point.events[("publish", topic)])
+        return found
+
     def message(self, topic: str, time: float, values: Union[Sequence[Any], np.ndarray]) -> Found:
         """A message on ``topic`` flattened in the order of its layout (the file's
         ``topics[topic].variables``): a sequence of values, or a float64 array of them (kept
