@@ -12,6 +12,7 @@ holding none of them is not read at all.
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +33,8 @@ from imrosc.runtime.violation import json_safe
 from imrosc.translate.catalog import flatten_json
 
 RECORDS = (records.PARAMS_TOPIC, records.SRVS_TOPIC, records.ARCH_TOPIC)
+CHUNKED = "IMROSC_CHUNKED"
+"""Environment: ``0`` replays message by message (the per-message engine) by default."""
 
 
 @dataclass
@@ -160,14 +163,17 @@ class Replayer:
     """
 
     def __init__(
-        self, document: Mapping[str, Any], engine: Engine | None = None, chunked: bool = True
+        self,
+        document: Mapping[str, Any],
+        engine: Engine | None = None,
+        chunked: bool | None = None,
     ) -> None:
         self.document = document
         self.engine = engine if engine is not None else Engine(document)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
-        self.chunked = chunked
+        self.chunked = chunked if chunked is not None else os.environ.get(CHUNKED, "1") != "0"
         self._checker: ChunkedChecker | None = None
 
     def run(self, bag: Path) -> RunResult:

@@ -210,6 +210,8 @@ class ChunkedChecker:
                     values_of[position] = (topic, row)
             carried = self.carry.get(topic)
             rows[topic] = _joined(carried, fresh) if carried is not None else fresh
+        for topic, carried in self.carry.items():
+            rows.setdefault(topic, carried)
         clock = self._engine_pass(buffer, rows, skipped, values_of)
         found = Found()
         for point in self.points:
