@@ -33,14 +33,16 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from imrosc.records import ARCH_TOPIC, PARAMS_TOPIC, SRVS_TOPIC  # noqa: E402
-from imrosc.replay import Replayer, RunReplayer  # noqa: E402
+from imrosc.replay import RunReplayer  # noqa: E402
 
 RECORDS = {PARAMS_TOPIC, SRVS_TOPIC, ARCH_TOPIC}
 CRAZYFLIE = ROOT.parent / "shared" / "data" / "real" / "crazyflie"
 
 
 def _generator() -> Any:
-    spec = importlib.util.spec_from_file_location("bench_translate", ROOT / "bench" / "translate.py")
+    spec = importlib.util.spec_from_file_location(
+        "bench_translate", ROOT / "bench" / "translate.py"
+    )
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -98,7 +100,9 @@ def measure(
     if engine:
         _, seconds = replayed(bags, document, chunked=False)
         best_e = seconds
-        line += f"  per-message engine {messages / best_e:,.0f} msg/s ({best_e / best_r:.1f}x slower)"
+        line += (
+            f"  per-message engine {messages / best_e:,.0f} msg/s ({best_e / best_r:.1f}x slower)"
+        )
     print(line, flush=True)
 
 
@@ -138,8 +142,11 @@ def main() -> None:
         train = generator.generate(folder / "train.bag", 20_000)
         generated = folder / "generated.xml"
         text = generator.GENERATED_CONFIG.decode()
-        generated.write_text(text.replace("</scope>", "</scope>\n  <detect inv='generated.inv'>"
-                                          f"<bag>{train}</bag></detect>"))
+        generated.write_text(
+            text.replace(
+                "</scope>", f"</scope>\n  <detect inv='generated.inv'><bag>{train}</bag></detect>"
+            )
+        )
         document = infer(generated)
         started = time.perf_counter()
         bag = generator.generate(folder / "generated.bag", args.messages)

@@ -315,6 +315,14 @@ class Sampler:
         if places is not None:
             self.samples.setdefault(point, []).append((time, row.take(places)))
 
+    def trace_rows(
+        self, point: str, times: Sequence[float], rows: Any, frequencies: Sequence[float | None]
+    ) -> None:
+        """A chunk of samples at once (``rows``: a matrix, ``imrosc.checking``)."""
+        places = self.places.get(point)
+        if places is not None:
+            self.samples.setdefault(point, []).extend(zip(times, rows[:, places], strict=True))
+
     def take(self) -> dict[str, list[tuple[float, Any]]]:
         taken, self.samples = self.samples, {}
         return taken

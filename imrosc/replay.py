@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -156,10 +156,10 @@ def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str,
 class Replayer:
     """Feeds bags to one engine built from an invariants document.
 
-    A bag is checked over column chunks (:mod:`imrosc.checking`: the same violations and
-    alarms, in the same order, at decode speed) unless ``chunked`` is false or the engine's
-    alarm tracker records every violating sample for calibration (``alarms.record``): then
-    each message goes to the engine in turn (:meth:`run_messages`).
+    A bag is checked over column chunks (:mod:`imrosc.checking`: the same violations,
+    alarms and samples kept by a recording alarm tracker, in the same order, at decode
+    speed) unless ``chunked`` is false (by default when ``IMROSC_CHUNKED=0``): then each
+    message goes to the engine in turn (:meth:`run_messages`).
     """
 
     def __init__(
@@ -178,7 +178,7 @@ class Replayer:
 
     def run(self, bag: Path) -> RunResult:
         """Replay one bag as one run; a broken bag gives its error instead of raising."""
-        if self._checker is None and (not self.chunked or self.engine.alarms.record):
+        if self._checker is None and not self.chunked:
             return self.run_messages(bag)
         if self._checker is None:
             self._checker = ChunkedChecker(self.document, self.engine)
@@ -328,6 +328,26 @@ class PlotTrace:
         if len(kept) >= PLOT_POINTS:
             self.samples[point] = kept[::2]
             self.stride[point] = stride * 2
+
+    def trace_rows(
+        self, point: str, times: Sequence[float], rows: Any, frequencies: Sequence[float | None]
+    ) -> None:
+        """A chunk of samples of ``point`` at once (``rows``: a matrix), kept as calling
+        the trace with each in turn keeps them."""
+        if point not in self.wanted:
+            return
+        count = len(times)
+        seen = self.seen.get(point, 0)
+        self.seen[point] = seen + count
+        kept = self.samples.setdefault(point, [])
+        stride = self.stride.get(point, 1)
+        at = -seen % stride  # the first sample of the chunk whose number the stride divides
+        while at < count:
+            kept.append((times[at], rows[at].copy(), frequencies[at]))
+            if len(kept) >= PLOT_POINTS:
+                kept = self.samples[point] = kept[::2]
+                stride = self.stride[point] = stride * 2
+            at += stride - (seen + at) % stride
 
     def plots(self, document: Mapping[str, Any], found: list[Violation]) -> dict[str, Any]:
         """Plots of the violated polygons and frequencies of one run."""

@@ -28,7 +28,7 @@ it belongs to, whether it is a timer's or a sample's, and the point's rank.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,12 +36,11 @@ import numpy as np
 import numpy.typing as npt
 
 from imrosc.infer.timed.windows import windowed_variances
-from imrosc.runtime.alarms import Alarm
+from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
 from imrosc.runtime.engine import PARAMS, Engine, _Point
 from imrosc.runtime.families import RATE, VARIANCE
 from imrosc.runtime.violation import Violation
-from imrosc.runtime.windows import effective_width
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -130,6 +129,8 @@ class Found:
 
     violations: list[tuple[Key, Violation]] = field(default_factory=list)
     alarms: list[tuple[Key, Alarm]] = field(default_factory=list)
+    fed: list[tuple[Key, Fed]] = field(default_factory=list)
+    """The violating samples a recording tracker kept (``AlarmTracker.record``)."""
 
 
 class ChunkPoint:
@@ -278,7 +279,7 @@ class ChunkPoint:
                 flagged |= total > limit
         for xi, yi, a, b, c in self.polygons:
             flagged |= (a * values[:, xi] + b * values[:, yi] > c).any(axis=0)
-        for at, held, _ in [(a, v, None) for a, v in zip(checks.one_of_at, checks.one_of_values)]:
+        for at, held in zip(checks.one_of_at.tolist(), checks.one_of_values, strict=True):
             x = values[:, at]
             known = held[~np.isnan(held)]
             flagged |= ~np.isin(x, known) & ~np.isnan(x)
@@ -360,9 +361,10 @@ class ChunkPoint:
         gone = np.minimum(np.searchsorted(all_time, now - windows.width, side="right"), seen)
         size = seen - gone
         first = state.first_time
-        defined = (seen > 0) & (first is not None) & (
-            (first if first is not None else math.inf) <= now - windows.width
-        )
+        if first is None:
+            defined = np.zeros(len(events), dtype=bool)
+        else:
+            defined = (seen > 0) & (first <= now - windows.width)
         candidate = defined & ((size + 1) / windows.window < point.min_frequency)
         ticks = 2 * events[candidate]
         tick_rows = np.flatnonzero(candidate)
@@ -424,7 +426,6 @@ class ChunkPoint:
         key = (event, TIMER, self.rank)
         found.violations += [(key, v) for v in broken]
         found.alarms += [(key, a) for a in self.engine.alarms.event(broken)]
-        self.engine.alarms.take() if False else None
 
     def check(
         self, topics: Mapping[str, TopicRows], clock: tuple[IntArray, FloatArray], found: Found
@@ -457,9 +458,14 @@ class ChunkPoint:
             frequencies: list[float | None] = [None] * count
             if window is not None:
                 shown = window["frequency"].tolist()
-                frequencies = [f if d else None for f, d in zip(shown, window["defined"].tolist())]
-            for k in range(count):
-                trace(point.key, float(time[k]), values[k], frequencies[k])
+                defined = window["defined"].tolist()
+                frequencies = [f if d else None for f, d in zip(shown, defined, strict=True)]
+            batch = getattr(getattr(trace, "__self__", trace), "trace_rows", None)
+            if batch is not None:  # the trace takes a chunk at once
+                batch(point.key, time.tolist(), values, frequencies)
+            else:
+                for k in range(count):  # a row of its own, as the engine's are
+                    trace(point.key, float(time[k]), values[k].copy(), frequencies[k])
         if not count:
             return
         self._violations(pos, time, values, texts, flagged, window_flags, window, quiet, found)
@@ -470,16 +476,16 @@ class ChunkPoint:
         frequency = window["frequency"]
         flags = np.zeros(len(defined), dtype=bool)
         for inv in checks.frequency:
-            lo = float(inv["params"]["min"]) if not isinstance(inv["params"]["min"], str) else 0
-            lo = _float(inv["params"]["min"])
-            hi = _float(inv["params"]["max"])
+            lo = float(inv["params"]["min"])
+            hi = float(inv["params"]["max"])
             flags |= ((frequency < lo) & ~quiet) | (frequency > hi)
         for family, (at, lo_, hi_, _) in checks.arrays.items():
             derived = window[family][:, at]
             with np.errstate(invalid="ignore"):
                 bad = ((derived < lo_) | (derived > hi_)) & np.isfinite(derived)
             flags |= bad.any(axis=1)
-        return flags & defined
+        found: BoolArray = flags & defined
+        return found
 
     def _violations(
         self,
@@ -523,11 +529,8 @@ class ChunkPoint:
             if broken or alarms.busy(key_of):
                 key = (int(pos[k]), SAMPLE, self.rank)
                 found.violations += [(key, v) for v in broken]
+                before = len(alarms.fed)
                 found.alarms += [(key, a) for a in alarms.sample(key_of, t, broken)]
-
-
-def _float(value: Any) -> float:
-    return float(value)
-
-
-Trace = Callable[[str, float, Any, "float | None"], None]
+                if len(alarms.fed) > before:  # kept in the engine's order at the run's end
+                    found.fed += [(key, fed) for fed in alarms.fed[before:]]
+                    del alarms.fed[before:]

@@ -29,7 +29,7 @@ from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.runtime import Engine, Violation
-from imrosc.runtime.alarms import Alarm
+from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.translate.catalog import flatten_json
 
 from .decode import TopicDecoder
@@ -90,6 +90,10 @@ class ChunkedChecker:
         if alarms:
             keys = self._place(position, [a.violation for a in alarms], advanced)
             self.alarms += zip(keys, alarms, strict=True)
+        fed = self.engine.alarms.fed
+        if fed:  # a recording tracker: its samples in the engine's order at the end
+            self.fed += [((position, SAMPLE, self.rank.get(f[1], -1)), f) for f in fed]
+            fed.clear()
 
     # -- a run ----------------------------------------------------------------------------
 
@@ -103,6 +107,7 @@ class ChunkedChecker:
             point.reset()
         self.violations: list[tuple[Key, Violation]] = []
         self.alarms: list[tuple[Key, Alarm]] = []
+        self.fed: list[tuple[Key, Fed]] = []
         self.carry: dict[str, TopicRows] = {}
         self.position = 0
         topics = self.document["topics"]
@@ -157,6 +162,7 @@ class ChunkedChecker:
         if withdraw:
             withdrawn = {id(v) for v in self.engine.end_run()}
         self.engine.take_alarms()
+        self.engine.alarms.fed[:] = [f for _, f in sorted(self.fed, key=lambda kf: kf[0])]
         ordered = sorted(self.violations, key=lambda kv: kv[0])
         result.violations[:] = [v for _, v in ordered if id(v) not in withdrawn]
         if withdraw:
@@ -219,6 +225,7 @@ class ChunkedChecker:
         self.engine.take_alarms()  # placed already (found.alarms)
         self.violations += found.violations
         self.alarms += found.alarms
+        self.fed += found.fed
         for topic, topic_rows in rows.items():
             if len(topic_rows.pos):
                 self.carry[topic] = topic_rows.tail()
