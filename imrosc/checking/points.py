@@ -49,7 +49,7 @@ Key = tuple[int, int, int]
 """A violation's or alarm's place: clock event, stage (0 timers, 2 samples), point rank."""
 TIMER, SAMPLE = 0, 2
 _RELATION_SLACK = 1e-12
-"""Relative margin on relations of three or more terms (any order of summation)."""
+"""Relative margin on relations (a constant or three terms: any order of summation)."""
 
 
 @dataclass
@@ -147,7 +147,7 @@ class ChunkPoint:
         self.used = self._used_columns()
         checks = point.checks
         self.forms = [
-            (terms, limit, len([t for t in terms if t[0] < checks.forms.zero]) > 2)
+            (terms, limit, len(terms) > 2 or any(i == checks.forms.one for i, _ in terms))
             for terms, limit in checks.forms.rows
         ]
         self.polygons = []

@@ -136,11 +136,17 @@ class ChunkedChecker:
                 self.decoders = {t: TopicDecoder(t, topics[t]["variables"], reader) for t in topics}
                 buffer: list[Item | tuple[int, None, int, bytes]] = []
                 try:
+                    starts = self.starts
+                    first_start = starts[0].time if starts else None
+                    size = CHUNK_MESSAGES
                     for connection, stamp, raw in reader.messages(wanted) if wanted else ():
-                        while self.starts and self.starts[0].time <= stamp:
-                            buffer.append(self._start_group())
-                        buffer.append((self._next(), connection, stamp, raw))
-                        if len(buffer) >= CHUNK_MESSAGES:
+                        if first_start is not None and first_start <= stamp:
+                            while starts and starts[0].time <= stamp:
+                                buffer.append(self._start_group())
+                            first_start = starts[0].time if starts else None
+                        self.position += 1
+                        buffer.append((self.position, connection, stamp, raw))
+                        if len(buffer) >= size:
                             self._chunk(buffer)
                             buffer = []
                 except BagError:
