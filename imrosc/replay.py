@@ -342,12 +342,21 @@ class PlotTrace:
         kept = self.samples.setdefault(point, [])
         stride = self.stride.get(point, 1)
         at = -seen % stride  # the first sample of the chunk whose number the stride divides
+        chosen: list[int] = []
         while at < count:
-            kept.append((times[at], rows[at].copy(), frequencies[at]))
+            chosen.append(at)
+            kept.append((times[at], at, frequencies[at]))
             if len(kept) >= PLOT_POINTS:
                 kept = self.samples[point] = kept[::2]
                 stride = self.stride[point] = stride * 2
             at += stride - (seen + at) % stride
+        # the rows of this chunk still kept, copied at once (not views of the chunk)
+        fresh = {at: k for k, at in enumerate(chosen)}
+        copied = rows[chosen] if chosen else rows[:0]
+        first = len(kept) - sum(1 for entry in kept if isinstance(entry[1], int))
+        for k in range(first, len(kept)):
+            time, at, frequency = kept[k]
+            kept[k] = (time, copied[fresh[at]], frequency)
 
     def plots(self, document: Mapping[str, Any], found: list[Violation]) -> dict[str, Any]:
         """Plots of the violated polygons and frequencies of one run."""

@@ -110,6 +110,7 @@ class ChunkedChecker:
         self.fed: list[tuple[Key, Fed]] = []
         self.carry: dict[str, TopicRows] = {}
         self.position = 0
+        self.due = engine.next_due()
         topics = self.document["topics"]
         try:
             with open_bag(bag) as reader, np.errstate(all="ignore"):
@@ -259,6 +260,7 @@ class ChunkedChecker:
                 times.append(now)
                 self._engine_call(position, engine.advance(now), True)
                 self._engine_call(position, engine.graph(now, snapshot, ("pub",)), False)
+                self.due = engine.next_due()
                 continue
             result.messages += 1
             topic = connection.topic
@@ -271,6 +273,7 @@ class ChunkedChecker:
                 times.append(now)
                 self._engine_call(position, engine.advance(now), True)
                 self._engine_call(position, call(now), False)
+                self.due = engine.next_due()
                 continue
             if position in skipped:
                 result.skipped += 1
@@ -290,8 +293,11 @@ class ChunkedChecker:
             elif topic in self.event_topics:
                 self._engine_call(position, engine.advance(now), True)
                 self._engine_call(position, engine.published(topic, now), False)
-            elif self.clocked:
+            elif self.clocked and now >= self.due:
                 self._engine_call(position, engine.advance(now), True)
+            else:
+                continue
+            self.due = engine.next_due()
         return np.asarray(events, dtype=np.int64), np.asarray(times, dtype=np.float64)
 
     @staticmethod
