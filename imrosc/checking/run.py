@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,6 +35,9 @@ from imrosc.translate.catalog import flatten_json
 
 from .decode import TopicDecoder
 from .points import SAMPLE, TIMER, ChunkPoint, Found, Key, TopicRows, vectorisable
+
+if TYPE_CHECKING:
+    from imrosc.replay import RunResult
 
 CHUNK_MESSAGES = 8192
 RECORDS = (records.PARAMS_TOPIC, records.SRVS_TOPIC, records.ARCH_TOPIC)
@@ -97,8 +101,8 @@ class ChunkedChecker:
 
     # -- a run ----------------------------------------------------------------------------
 
-    def run(self, bag: Any, result: Any, drifted: Any = None) -> None:
-        """Replay ``bag`` into ``result`` (a :class:`~imrosc.replay.RunResult`)."""
+    def run(self, bag: Path, result: RunResult) -> None:
+        """Replay ``bag`` into ``result``; a broken bag gives its error (``result.error``)."""
         from imrosc.replay import _drifted, _topic_warnings, _unchecked, no_samples
 
         engine = self.engine
@@ -164,7 +168,7 @@ class ChunkedChecker:
         except BagError as error:
             result.error = str(error)
 
-    def _finish(self, result: Any, *, withdraw: bool) -> None:
+    def _finish(self, result: RunResult, *, withdraw: bool) -> None:
         withdrawn: set[int] = set()
         if withdraw:
             withdrawn = {id(v) for v in self.engine.end_run()}
