@@ -321,6 +321,17 @@ class Sampler:
             self.times[point].append(time)
             self.rows[point].append(row.take(places))
 
+    def trace_rows(
+        self, point: str, times: Sequence[float], rows: Any, frequencies: Sequence[float | None]
+    ) -> None:
+        """A chunk of samples at once (``rows``: a matrix, ``imrosc.checking``)."""
+        places = self.places.get(point)
+        if places is not None:
+            if point not in self.times:
+                self.times[point], self.rows[point] = [], []
+            self.times[point].extend(times)
+            self.rows[point].extend(rows[:, places])
+
     def take(self) -> dict[str, Sampled]:
         """The samples of the run traced since the last call, as arrays."""
         taken = {

@@ -12,7 +12,8 @@ holding none of them is not read at all.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterable, Mapping
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ import numpy as np
 
 from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
+from imrosc.checking.run import ChunkedChecker
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
 from imrosc.progress import Progress, bag_done
@@ -31,6 +33,8 @@ from imrosc.runtime.violation import json_safe
 from imrosc.translate.catalog import flatten_json
 
 RECORDS = (records.PARAMS_TOPIC, records.SRVS_TOPIC, records.ARCH_TOPIC)
+CHUNKED = "IMROSC_CHUNKED"
+"""Environment: ``0`` replays message by message (the per-message engine) by default."""
 
 
 @dataclass
@@ -150,17 +154,40 @@ def _drifted(topics: Mapping[str, Any], connections: Iterable[Any]) -> dict[str,
 
 
 class Replayer:
-    """Feeds bags to one engine built from an invariants document."""
+    """Feeds bags to one engine built from an invariants document.
 
-    def __init__(self, document: Mapping[str, Any], engine: Engine | None = None) -> None:
+    A bag is checked over column chunks (:mod:`imrosc.checking`: the same violations,
+    alarms and samples kept by a recording alarm tracker, in the same order, at decode
+    speed) unless ``chunked`` is false (by default when ``IMROSC_CHUNKED=0``): then each
+    message goes to the engine in turn (:meth:`run_messages`).
+    """
+
+    def __init__(
+        self,
+        document: Mapping[str, Any],
+        engine: Engine | None = None,
+        chunked: bool | None = None,
+    ) -> None:
         self.document = document
         self.engine = engine if engine is not None else Engine(document)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
+        self.chunked = chunked if chunked is not None else os.environ.get(CHUNKED, "1") != "0"
+        self._checker: ChunkedChecker | None = None
 
     def run(self, bag: Path) -> RunResult:
         """Replay one bag as one run; a broken bag gives its error instead of raising."""
+        if self._checker is None and not self.chunked:
+            return self.run_messages(bag)
+        if self._checker is None:
+            self._checker = ChunkedChecker(self.document, self.engine)
+        result = RunResult(bag)
+        self._checker.run(bag, result)
+        return result
+
+    def run_messages(self, bag: Path) -> RunResult:
+        """Replay one bag as one run, message by message (the monitor's way)."""
         result = RunResult(bag)
         engine = self.engine
         engine.reset()
@@ -301,6 +328,35 @@ class PlotTrace:
         if len(kept) >= PLOT_POINTS:
             self.samples[point] = kept[::2]
             self.stride[point] = stride * 2
+
+    def trace_rows(
+        self, point: str, times: Sequence[float], rows: Any, frequencies: Sequence[float | None]
+    ) -> None:
+        """A chunk of samples of ``point`` at once (``rows``: a matrix), kept as calling
+        the trace with each in turn keeps them."""
+        if point not in self.wanted:
+            return
+        count = len(times)
+        seen = self.seen.get(point, 0)
+        self.seen[point] = seen + count
+        kept = self.samples.setdefault(point, [])
+        stride = self.stride.get(point, 1)
+        at = -seen % stride  # the first sample of the chunk whose number the stride divides
+        chosen: list[int] = []
+        while at < count:
+            chosen.append(at)
+            kept.append((times[at], at, frequencies[at]))
+            if len(kept) >= PLOT_POINTS:
+                kept = self.samples[point] = kept[::2]
+                stride = self.stride[point] = stride * 2
+            at += stride - (seen + at) % stride
+        # the rows of this chunk still kept, copied at once (not views of the chunk)
+        fresh = {at: k for k, at in enumerate(chosen)}
+        copied = rows[chosen] if chosen else rows[:0]
+        first = len(kept) - sum(1 for entry in kept if isinstance(entry[1], int))
+        for k in range(first, len(kept)):
+            time, at, frequency = kept[k]
+            kept[k] = (time, copied[fresh[at]], frequency)
 
     def plots(self, document: Mapping[str, Any], found: list[Violation]) -> dict[str, Any]:
         """Plots of the violated polygons and frequencies of one run."""

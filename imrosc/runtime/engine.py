@@ -456,6 +456,39 @@ class Engine:
             point.arch.items = [item for item in point.arch.items if item[4]["id"] != invariant]
         return True
 
+    def hand_over(self, keys: Sequence[str]) -> None:
+        """Stop checking the publish points ``keys`` here: another checker takes their
+        samples (``imrosc.checking`` checks a bag's points over column chunks); their
+        messages still update the latest values and feed the events."""
+        gone = set(keys)
+        for topic, points in self._publish.items():
+            self._publish[topic] = [p for p in points if p.key not in gone]
+        self._timed = [p for p in self._timed if p.key not in gone]
+
+    def next_due(self) -> float:
+        """A time before which :meth:`advance` reports nothing (a little early: the timers
+        decide exactly); ``-inf`` when a window's silence timer may report at any time.
+        It changes with every call that feeds the engine."""
+        due = math.inf
+        for point in self._timed:
+            if point.windows is not None and point.min_frequency > 0:
+                return -math.inf
+            for machine in point.intervals:
+                if machine.opened is not None and not machine.timed_out:
+                    late = machine.opened + machine.max_time
+                    due = min(due, late - 1e-6 * max(1.0, abs(late)))
+        if self.next_arch is not None:
+            due = min(due, self.next_arch)
+        return due
+
+    def published(self, topic: str, time: float) -> Found:
+        """A message on ``topic`` as an event only (the temporal points that hear of it),
+        for a topic whose values no point here reads."""
+        found: Found = []
+        for point in self._publish_events.get(topic, ()):
+            found += self._event(point, time, point.events[("publish", topic)])
+        return found
+
     def message(self, topic: str, time: float, values: Union[Sequence[Any], np.ndarray]) -> Found:
         """A message on ``topic`` flattened in the order of its layout (the file's
         ``topics[topic].variables``): a sequence of values, or a float64 array of them (kept
