@@ -1,10 +1,11 @@
-"""Bags by URL and globs (imrosc.remote): bags served over HTTP on loopback read by ``infer``
-and ``replay`` as the same bags on disk are, globs of URLs and of paths, and the local copies
-a reading process makes deleted after."""
+"""Bags by URL and globs (imrosc.remote): bags served over HTTP and by an S3 server on
+loopback read by ``infer`` and ``replay`` as the same bags on disk are, globs of URLs and of
+paths, and the local copies a reading process makes deleted after."""
 
 from __future__ import annotations
 
 import pickle
+import socket
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -208,3 +209,73 @@ def test_an_object_stores_folders_and_globs_name_its_bags(folder: Path, tmp_path
     assert stored.exit_code == 0, stored.output
     got = (tmp_path / "stored.inv").read_text().replace(f"{root}/uav/", f"{folder}/bags/")
     assert got == (tmp_path / "local.inv").read_text()
+
+
+# --- s3:// -------------------------------------------------------------------------------
+
+BUCKET = "fleet"
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def endpoint(folder: Path) -> Iterator[str]:
+    """An S3 server on 127.0.0.1 (moto's: the S3 API as AWS serves it) whose bucket holds
+    the folder's bags under ``runs/``; s3fs reaches it through botocore's endpoint."""
+    boto3 = pytest.importorskip("boto3")
+    pytest.importorskip("s3fs")
+    server = pytest.importorskip("moto.server")
+    port = _free_port()
+    served = server.ThreadedMotoServer(ip_address="127.0.0.1", port=port, verbose=False)
+    served.start()
+    url = f"http://127.0.0.1:{port}"
+    patch = pytest.MonkeyPatch()
+    for name, value in {
+        "AWS_ACCESS_KEY_ID": "imrosc",
+        "AWS_SECRET_ACCESS_KEY": "imrosc",
+        "AWS_DEFAULT_REGION": "us-east-1",
+        "AWS_ENDPOINT_URL_S3": url,  # botocore's S3 endpoint (so s3fs's): the server above
+    }.items():
+        patch.setenv(name, value)
+    try:
+        client = boto3.client("s3", endpoint_url=url)
+        client.create_bucket(Bucket=BUCKET)
+        for bag in sorted((folder / "bags").glob("r*.bag")):
+            client.upload_file(str(bag), BUCKET, f"runs/{bag.name}")
+        yield url
+    finally:
+        patch.undo()
+        served.stop()
+
+
+def test_infer_and_replay_of_s3_bags_give_what_the_bags_on_disk_give(
+    folder: Path, endpoint: str, tmp_path: Path
+) -> None:
+    local = configured(folder, "s3_local.xml", "bags/r0.bag", "bags/r1.bag")
+    remote = configured(folder, "s3_remote.xml", f"s3://{BUCKET}/runs/r[01].bag")
+    done = invoke("infer", str(local), "-j", "1", "-o", str(tmp_path / "local.inv"))
+    assert done.exit_code == 0, done.output
+    done = invoke("infer", str(remote), "-j", "1", "-o", str(tmp_path / "remote.inv"))
+    assert done.exit_code == 0, done.output
+    assert "from 2 bags" in done.output
+    expected = (tmp_path / "local.inv").read_text().replace("s3_local.xml", "s3_remote.xml")
+    got = (tmp_path / "remote.inv").read_text().replace(f"s3://{BUCKET}/runs/", f"{folder}/bags/")
+    assert got == expected
+    inv = str(tmp_path / "local.inv")
+    on_disk = invoke("replay", inv, str(folder / "bags" / "r2.bag"), "--json")
+    stored = invoke("replay", inv, f"s3://{BUCKET}/runs/r2.bag", "--json")
+    assert stored.exit_code == on_disk.exit_code
+    assert '"error": null' in stored.stdout
+    assert stored.stdout.replace(f"s3://{BUCKET}/runs/", f"{folder}/bags/") == on_disk.stdout
+
+
+def test_a_missing_object_is_one_line_naming_it(folder: Path, endpoint: str) -> None:
+    missing = f"s3://{BUCKET}/runs/absent.bag"
+    done = invoke("info", missing)
+    assert done.exit_code == 2 and "Traceback" not in done.output
+    lines = [line for line in done.output.splitlines() if "absent.bag" in line]
+    assert len(lines) == 1, done.output

@@ -11,14 +11,12 @@ from __future__ import annotations
 import fnmatch
 import json
 import math
-import string
 import subprocess
 import sys
 import xmlrpc.client
 from pathlib import Path
 
 import pytest
-from hypothesis import strategies as st
 
 from imrosc import records
 from imrosc.record.session import RECORDER_SCRIPT
@@ -26,20 +24,6 @@ from tests.record import recorder_node
 
 node = recorder_node()
 ROOT = Path(__file__).resolve().parent.parent.parent
-
-TOKEN = st.builds(
-    str.__add__,
-    st.sampled_from(string.ascii_letters),
-    st.text(string.ascii_letters + string.digits + "_", max_size=5),
-)
-NAME = st.lists(TOKEN, min_size=1, max_size=3).map(lambda parts: "/" + "/".join(parts))
-NODES = st.sets(NAME, max_size=4)
-SCALAR = st.none() | st.booleans() | st.integers(-(2**40), 2**40) | st.floats() | st.text()
-JSON = st.recursive(
-    SCALAR,
-    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(TOKEN, inner, max_size=3),
-    max_leaves=8,
-)
 
 
 def test_the_node_writes_with_the_one_record_encoder() -> None:
