@@ -76,8 +76,10 @@ def _one_line(error: BaseException) -> str:
     """A one-line description of an exception raised by rosbags or the OS."""
     if isinstance(error, OSError) and error.strerror:
         text = error.strerror
-    else:
-        text = " ".join(str(part) for part in error.args) if error.args else ""
+    elif isinstance(error, UnicodeError):  # its args hold the raw bytes: quote none
+        text = f"text that is not UTF-8 ({getattr(error, 'reason', error)})"
+    else:  # bytes among the arguments are the damaged data itself: quote none
+        text = " ".join(str(part) for part in error.args if not isinstance(part, bytes | bytearray))
     text = " ".join(text.split()).rstrip(".")
     if not text:
         return type(error).__name__

@@ -3,7 +3,6 @@ messages read are exactly the first ones written, as many as the warning says.""
 
 from __future__ import annotations
 
-import contextlib
 import random
 import struct
 import tempfile
@@ -14,7 +13,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rosbags.rosbag1 import Reader, Writer
 
-from imrosc.bags import BagError, MessageError, open_bag, recovered
+from imrosc.bags import BagError, open_bag, recovered
+from tests.damage_support import reads_or_refuses_in_one_line
 from tests.translate import build, store
 
 TYPE = "std_msgs/msg/Float64"
@@ -192,14 +192,7 @@ def test_a_damaged_bag_is_read_or_refused_never_crashes(
     with tempfile.TemporaryDirectory() as folder:
         bag = Path(folder) / "x.bag"
         bag.write_bytes(bytes(data))
-        try:
-            with open_bag(bag) as reader:
-                assert reader.message_count >= 0 and "\n" not in (recovered(reader) or "")
-                for connection, _, raw in reader.messages():
-                    with contextlib.suppress(MessageError):
-                        reader.deserialize(raw, connection.msgtype)
-        except BagError as error:
-            assert "\n" not in error.message and "\\x" not in error.message
+        reads_or_refuses_in_one_line(bag)
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,6 @@ the cut, the messages read are exactly the first ones written, as many as the wa
 
 from __future__ import annotations
 
-import contextlib
 import random
 import shutil
 import tempfile
@@ -18,7 +17,8 @@ from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
 
 from imrosc.bagrecover_ros2 import RecoveringSqlite3Reader
 from imrosc.bagrecover_sqlite import last_rowid, read_data, scan_messages
-from imrosc.bags import BagError, MessageError, discover_bags, open_bag, recovered
+from imrosc.bags import BagError, discover_bags, open_bag, recovered
+from tests.damage_support import reads_or_refuses_in_one_line
 from tests.graph import ros2_typestore
 
 TYPE = "std_msgs/msg/String"
@@ -232,14 +232,7 @@ def test_a_damaged_bag_is_read_or_refused_never_crashes(
             elif data:
                 data[where] ^= payload[0] | 1
         stored.write_bytes(bytes(data))
-        try:
-            with open_bag(bag) as reader:
-                assert reader.message_count >= 0 and "\n" not in (recovered(reader) or "")
-                for connection, _, raw in reader.messages():
-                    with contextlib.suppress(MessageError):
-                        reader.deserialize(raw, connection.msgtype)
-        except BagError as error:
-            assert "\n" not in error.message and "\\x" not in error.message
+        reads_or_refuses_in_one_line(bag)
 
 
 @pytest.fixture(scope="module")

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag1 import Writer as Ros1Writer
 
+from imrosc import bags
 from imrosc.bags import (
     BagError,
     MessageError,
@@ -245,3 +246,9 @@ def test_bag_recovered_fixture_points_where_it_says() -> None:
     assert got == expected
     assert diagnostic.message.startswith("truncated at byte ")
     assert "recovered 20 messages of the first 1.900 s" in diagnostic.message
+
+
+def test_an_error_carrying_the_damaged_bytes_is_told_without_them() -> None:
+    undecodable = UnicodeDecodeError("utf-8", b"\x80\xfftopic", 0, 1, "invalid start byte")
+    assert bags._one_line(undecodable) == "text that is not UTF-8 (invalid start byte)"
+    assert "\\x" not in bags._one_line(ValueError("bad header", b"\x00\x80op=\x03"))

@@ -400,29 +400,8 @@ class ChunkPoint:
     def _silence(
         self, event: int, now: float, size: int, all_time: FloatArray, seen: int, found: Found
     ) -> None:
-        """The violations of a silence reported at ``now`` (as the engine's timer words them)."""
-        point = self.point
-        windows = point.windows
-        assert windows is not None
-        expected_at_most = (size + 1) / windows.window
-        last = float(all_time[seen - 1])
-        broken = []
-        for inv in point.window_checks.frequency:
-            lo = float(inv["params"]["min"])
-            if inv["id"] in point.checks.cleared or expected_at_most >= lo:
-                continue
-            broken.append(
-                Violation(
-                    now,
-                    point.key,
-                    inv["id"],
-                    inv["family"],
-                    inv["kind"],
-                    inv["text"],
-                    size / windows.window,
-                    f"at least {lo} Hz (no message for {now - last:.3g} s)",
-                )
-            )
+        """The violations of a silence reported at ``now`` (the engine's timer's words)."""
+        broken = self.point.silence(now, size, float(all_time[seen - 1]))
         key = (event, TIMER, self.rank)
         found.violations += [(key, v) for v in broken]
         found.alarms += [(key, a) for a in self.engine.alarms.event(broken)]

@@ -209,6 +209,31 @@ class _Point:
             trace(self.key, time, row, frequency)
         return found
 
+    def silence(self, now: float, size: int, last: float) -> Found:
+        """The violations of a silence found at ``now``: ``size`` messages in the window,
+        the last at ``last`` (the frequency lower bounds even one more message misses)."""
+        windows = self.windows
+        assert windows is not None
+        expected_at_most = (size + 1) / windows.window
+        found: Found = []
+        for inv in self.window_checks.frequency:
+            lo = float(inv["params"]["min"])
+            if inv["id"] in self.checks.cleared or expected_at_most >= lo:
+                continue
+            found.append(
+                Violation(
+                    now,
+                    self.key,
+                    inv["id"],
+                    inv["family"],
+                    inv["kind"],
+                    inv["text"],
+                    size / windows.window,
+                    f"at least {lo} Hz (no message for {now - last:.3g} s)",
+                )
+            )
+        return found
+
     def tick(self, now: float) -> Found:
         """Timers: a silent topic (frequency lower bound), intervals past their maximum."""
         found: Found = []
@@ -221,23 +246,7 @@ class _Point:
             and (windows.size_at(now) + 1) / windows.window < self.min_frequency
         ):
             self.silent = True
-            expected_at_most = (windows.size_at(now) + 1) / windows.window
-            for inv in self.window_checks.frequency:
-                lo = float(inv["params"]["min"])
-                if inv["id"] in self.checks.cleared or expected_at_most >= lo:
-                    continue
-                found.append(
-                    Violation(
-                        now,
-                        self.key,
-                        inv["id"],
-                        inv["family"],
-                        inv["kind"],
-                        inv["text"],
-                        windows.size_at(now) / windows.window,
-                        f"at least {lo} Hz (no message for {now - windows.last_time():.3g} s)",
-                    )
-                )
+            found += self.silence(now, windows.size_at(now), windows.last_time())
         for machine in self.intervals:
             found += machine.tick(now)
         return found
