@@ -11,7 +11,6 @@ holding none of them is not read at all.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -22,6 +21,7 @@ import numpy as np
 
 from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
+from imrosc.checking.recorded import RECORDS, record_call
 from imrosc.checking.run import ChunkedChecker
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
@@ -30,9 +30,7 @@ from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, alarms_json
 from imrosc.runtime.flatten import make_flattener
 from imrosc.runtime.violation import json_safe
-from imrosc.translate.catalog import flatten_json
 
-RECORDS = (records.PARAMS_TOPIC, records.SRVS_TOPIC, records.ARCH_TOPIC)
 CHUNKED = "IMROSC_CHUNKED"
 """Environment: ``0`` replays message by message (the per-message engine) by default."""
 
@@ -63,14 +61,6 @@ class RunResult:
     def violated(self) -> set[str]:
         """Ids of the invariants this run broke."""
         return {v.invariant for v in self.violations}
-
-
-def _snapshot(record: records.ArchSnapshot) -> dict[str, dict[str, frozenset[str]]]:
-    return {
-        "pub": {topic: ends.pubs for topic, ends in record.topics.items()},
-        "sub": {topic: ends.subs for topic, ends in record.topics.items()},
-        "srv": dict(record.services),
-    }
 
 
 class _Publishers:
@@ -242,22 +232,8 @@ class Replayer:
         return result
 
     def _record(self, topic: str, time: float, message: Any) -> list[Violation]:
-        text = getattr(message, "data", "")
-        engine = self.engine
-        try:
-            if topic == records.PARAMS_TOPIC:
-                params: dict[str, Any] = {}
-                for name, value in records.decode_params(text).params.items():
-                    params.update(flatten_json(value, name))
-                return engine.params(time, params)
-            if topic == records.SRVS_TOPIC:
-                call = records.decode_call(text)
-                values = flatten_json({"request": call.request, "response": call.response})
-                values["delay"] = call.delay
-                return engine.call(call.service, time, values)
-            return engine.graph(time, _snapshot(records.decode_arch(text)))
-        except (records.RecordError, json.JSONDecodeError):
-            return []
+        call = record_call(self.engine, topic, message)
+        return [] if call is None else call(time)
 
 
 def replay(document: Mapping[str, Any], bags: Iterable[Path]) -> list[RunResult]:

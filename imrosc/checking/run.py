@@ -31,16 +31,15 @@ from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, Fed
-from imrosc.translate.catalog import flatten_json
 
 from .decode import TopicDecoder
 from .points import SAMPLE, TIMER, ChunkPoint, Found, Key, TopicRows, vectorisable
+from .recorded import RECORDS, record_call
 
 if TYPE_CHECKING:
     from imrosc.replay import RunResult
 
 CHUNK_MESSAGES = 8192
-RECORDS = (records.PARAMS_TOPIC, records.SRVS_TOPIC, records.ARCH_TOPIC)
 _ARCH_STAGE, _EVENT_STAGE = 1, 3
 
 Item = tuple[int, Any, int, bytes]
@@ -320,26 +319,7 @@ class ChunkedChecker:
         except MessageError:
             self.result.skipped += 1
             return None
-        text = getattr(message, "data", "")
-        engine = self.engine
-        topic = connection.topic
-        try:
-            if topic == records.PARAMS_TOPIC:
-                params: dict[str, Any] = {}
-                for name, value in records.decode_params(text).params.items():
-                    params.update(flatten_json(value, name))
-                return lambda now: engine.params(now, params)
-            if topic == records.SRVS_TOPIC:
-                call = records.decode_call(text)
-                values = flatten_json({"request": call.request, "response": call.response})
-                values["delay"] = call.delay
-                return lambda now: engine.call(call.service, now, values)
-            from imrosc.replay import _snapshot
-
-            snapshot = _snapshot(records.decode_arch(text))
-            return lambda now: engine.graph(now, snapshot)
-        except (records.RecordError, json.JSONDecodeError):
-            return None
+        return record_call(self.engine, connection.topic, message)
 
 
 def _joined(first: TopicRows, second: TopicRows) -> TopicRows:
