@@ -135,12 +135,13 @@ def _compare(op: str, left: Any, right: Any) -> Any:
 
 
 def _numbers(value: Any) -> Any:
-    """Booleans as the integers 0 and 1, as Python's arithmetic takes them; strings take no
-    arithmetic."""
+    """Numbers as the runtime evaluator has them, float64 (booleans 0 and 1, as Python's
+    arithmetic takes them): an integer modulo or division by zero is then NaN there too, not
+    numpy's integer 0; strings take no arithmetic."""
     array = np.asarray(value)
     if array.dtype.kind in "OUS":
         raise TypeError("no arithmetic on strings")
-    return array.astype(np.int64) if array.dtype == np.bool_ else value
+    return array.astype(np.float64) if array.dtype.kind in "biu" else value
 
 
 def _truth(value: Any) -> Any:

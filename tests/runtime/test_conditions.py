@@ -222,3 +222,18 @@ def test_a_topic_operand_resolves_to_the_conditions_own_topic_only() -> None:
     assert names == {("/a/subject_ctrl_state",): "subject_ctrl_state.data"}
     with pytest.raises(ConditionError, match="not the condition's topic"):
         resolve_fields(expression, "/a/other", "other", ["other.data"])
+
+
+def test_a_modulo_of_booleans_by_zero_is_nan_in_both_evaluators() -> None:
+    """``state != false % false``: NaN (numpy's float modulo by zero), so the field differs,
+    in the runtime evaluator and in the translator's masks alike (numpy's integer modulo gave
+    0 there)."""
+    expression = {
+        "op": "!=",
+        "args": [{"field": ["state"]}, {"op": "%", "args": [{"value": False}, {"value": False}]}],
+    }
+    columns = {"s.state": np.array([0.0, 1.0])}
+    with np.errstate(all="ignore"):
+        mask = evaluate_mask(expression, _NAMES, columns, 2)
+    assert mask.tolist() == [True, True]
+    assert holds(expression, {("state",): 0.0}) is True
