@@ -272,11 +272,10 @@ def test_the_leaves_of_a_database_are_read_when_its_tree_leads_to_none(tmp_path:
     assert note is not None and f"recovered {len(found):,} messages" in note
 
 
+@pytest.mark.parametrize("whole", [k for k in KINDS if k.startswith("sqlite3")], indirect=True)
 def test_the_page_scan_reads_every_message_of_a_whole_database(whole: Path) -> None:
     """Overflow pages included (2 KiB messages do not fit a leaf's cell)."""
     stored = storage(whole)
-    if stored.suffix != ".db3":
-        pytest.skip("sqlite3 only")
     with stored.open("rb") as stream:
         size = stored.stat().st_size
         messages = scan_messages(stream, size)

@@ -18,23 +18,12 @@ import numpy as np
 import pytest
 
 from bench.infer import planted
-from imrosc.infer.core import FinalizeContext, FloatArray, Samples, Variable
+from imrosc.infer.core import FinalizeContext, FloatArray, Variable
 from imrosc.infer.polygon import PolygonState, orientation
 from imrosc.infer.polygon.predicates import exact_sum_signs
 from imrosc.ir import Tunables
 from tests.infer.polygon.reference import hull_with_first
-
-
-def _state(columns: dict[str, FloatArray], chunk: int, kinds: dict[str, str]) -> PolygonState:
-    names = list(columns)
-    variables = tuple(Variable(n, kinds.get(n, "float")) for n in names)  # type: ignore[arg-type]
-    state = PolygonState(variables)
-    rows = len(columns[names[0]])
-    for first in range(0, rows, chunk):
-        stop = min(first + chunk, rows)
-        part = {n: columns[n][first:stop] for n in names}
-        state.update(Samples("p", 0, np.arange(first, stop, dtype=float), part, variables))
-    return state
+from tests.infer.polygon.support import state_of
 
 
 def _vertices(state: PolygonState) -> dict[tuple[str, str], list[tuple[float, float, int]]]:
@@ -77,7 +66,7 @@ def test_exact_relations_give_the_reference_hulls(chunk: int) -> None:
     (``b = 2*a + 3``, ``s = ab + 5``), edges full of samples (``ab = |n1|``, ``mx``, ``t``),
     an integer-valued and a 3-valued float column, a constant."""
     columns = _planted_columns(900, _NAMES)
-    got = _vertices(_state(columns, chunk, {}))
+    got = _vertices(state_of(columns, {}, chunk))
     assert got == _reference()
 
 
@@ -86,8 +75,8 @@ def test_a_float_column_with_few_values_folds_like_a_discrete_one() -> None:
     values as by an int one: same vertices, same first occurrences."""
     names = ("a0", "m0", "t0", "n10", "i0")
     columns = _planted_columns(3000, names)
-    as_float = _vertices(_state(columns, 512, {}))
-    as_int = _vertices(_state(columns, 512, {"m0": "int"}))
+    as_float = _vertices(state_of(columns, {}, 512))
+    as_int = _vertices(state_of(columns, {"m0": "int"}, 512))
     assert as_float == as_int
 
 
@@ -97,7 +86,7 @@ def test_lines_explained_by_the_linear_family_give_no_polygon() -> None:
     polygons."""
     names = ("a0", "b0", "p0", "q0", "n10", "ab0", "m0", "t0")
     columns = _planted_columns(2000, names)
-    state = _state(columns, 700, {})
+    state = state_of(columns, {}, 700)
     variables = tuple(Variable(n, "float") for n in names)
     found = state.finalize(FinalizeContext(Tunables(), variables, "p"))
     pairs = {inv.variables for inv in found}

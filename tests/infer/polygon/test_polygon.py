@@ -27,6 +27,7 @@ from imrosc.infer.polygon import (
 from imrosc.infer.polygon.locate import Locator
 from imrosc.ir import Tunables
 from tests.infer.polygon.reference import algorithm_6, contains, hull_with_first
+from tests.infer.polygon.support import state_of
 
 U = Variable("UAV.y", "float", topic="/uav", path="pose.y")
 R = Variable("iRobot.y", "float", topic="/irobot", path="pose.y", trigger=False)
@@ -507,25 +508,6 @@ def test_location_discards_exactly_the_non_vertex_points_of_the_closed_hull(
             assert bool(got[k]) == expected, (p, vertices)
 
 
-def _state_of(columns: dict[str, FloatArray], kinds: dict[str, str], chunk: int) -> PolygonState:
-    names = list(columns)
-    variables = tuple(Variable(n, kinds.get(n, "float")) for n in names)  # type: ignore[arg-type]
-    state = PolygonState(variables)
-    rows = len(columns[names[0]])
-    for first in range(0, rows, chunk):
-        stop = min(first + chunk, rows)
-        state.update(
-            Samples(
-                "p",
-                0,
-                np.arange(first, stop, dtype=float),
-                {n: columns[n][first:stop] for n in names},
-                variables,
-            )
-        )
-    return state
-
-
 def _assert_reference(state: PolygonState, columns: dict[str, FloatArray]) -> None:
     names = list(columns)
     for pair, (i, j) in enumerate(zip(state.pi.tolist(), state.pj.tolist(), strict=True)):
@@ -552,7 +534,7 @@ def test_walks_lines_and_noise_over_many_chunks_match_the_reference() -> None:
     }
     columns["w1"][rng.random(n) < 0.01] = np.nan
     columns["noise"][:700] = np.nan
-    state = _state_of(columns, {}, chunk=1111)
+    state = state_of(columns, {}, chunk=1111)
     _assert_reference(state, columns)
     # the sliver pairs have no table: they are located exactly
     assert state.guide.locator.slot.max() >= 0
@@ -576,7 +558,7 @@ def test_few_valued_columns_with_gaps_and_ties_match_the_reference() -> None:
     columns["mode"][rng.random(n) < 0.02] = np.nan
     columns["const"][:50] = np.nan
     kinds = {"mode": "int", "flag": "bool", "rare": "int", "steps": "int"}
-    state = _state_of(columns, kinds, chunk=1700)
+    state = state_of(columns, kinds, chunk=1700)
     _assert_reference(state, columns)
 
 
@@ -595,7 +577,7 @@ def test_smooth_and_discrete_columns_fold_exactly(seed: int, chunk: int, gaps: f
     }
     for name in ("b", "mode"):
         columns[name][rng.random(n) < gaps] = np.nan
-    state = _state_of(columns, {"mode": "int"}, chunk=chunk)
+    state = state_of(columns, {"mode": "int"}, chunk=chunk)
     _assert_reference(state, columns)
 
 
@@ -627,5 +609,5 @@ def test_hulls_of_values_whose_products_overflow_match_the_reference() -> None:
         "small": rng.normal(size=n),
         "tiny": rng.normal(size=n) * 1e-310,
     }
-    state = _state_of(columns, {}, chunk=600)
+    state = state_of(columns, {}, chunk=600)
     _assert_reference(state, columns)
