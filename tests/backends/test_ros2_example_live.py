@@ -66,8 +66,9 @@ STANDIN = r'''
 """A stand-in for a node of the landing system (ROS 2): it publishes the node's topics of
 uav_landing.graph.yaml at a few hertz of wall time and says what it hears on stderr (which
 ros2 launch shows)."""
-import sys, threading, time
+import sys, time
 import rclpy
+from rclpy.clock import Clock as Timing, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -78,6 +79,7 @@ from std_msgs.msg import UInt8
 rclpy.init(args=sys.argv)
 node = Node("standin")
 name = node.get_fully_qualified_name()
+steady = Timing(clock_type=ClockType.STEADY_TIME)
 command = [3]
 state = [3]
 
@@ -87,14 +89,9 @@ def say(text):
 
 
 def every(period, publish):
-    def loop():
-        while rclpy.ok():
-            try:
-                publish()
-            except Exception:  # shutting down
-                return
-            time.sleep(period)
-    threading.Thread(target=loop, daemon=True).start()
+    # a timer on the steady clock, spun with the node: no thread of its own that could
+    # outlive rclpy's shutdown (/vicon publishes the /clock every other node's ROS time is)
+    node.create_timer(period, publish, clock=steady)
 
 
 def pose(topic, kind=PoseStamped):
