@@ -38,7 +38,15 @@ import numpy as np
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, held_out_runs
 from imrosc.check import load_checked
-from imrosc.detectors import FOLDS, Learnt, Sampled, learn, run_of, variables_of
+from imrosc.detectors import (
+    FOLDS,
+    Learnt,
+    Sampled,
+    learn,
+    learnable,
+    run_of,
+    variables_of,
+)
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.folds import blocked
 from imrosc.infer.engine import default_workers
@@ -475,7 +483,7 @@ def classify(
     delays: Mapping[str, Sequence[float]] | None = None,
     untested: Mapping[Path, frozenset[str]] | None = None,
     select: str = SELECTIONS[0],
-    detectors: Mapping[str, int] | None = None,
+    detectors: Mapping[str, Nominal] | None = None,
     folds: Sequence[Sequence[Path]] = (),
 ) -> tuple[list[dict[str, Any]], dict[str, dict[str, int]], Cover | None]:
     """Scores per invariant, counts per family, and the chosen set (``select="cover"``;
@@ -487,10 +495,10 @@ def classify(
     positives. ``delays``: per invariant, its detection delays (s) on runs with an onset.
     ``untested``: per successful run scored from its held-out replays, the invariants it was
     not replayed against (no evidence either way: not counted among its runs).
-    ``detectors``: the learnt detectors among the invariants, each with the held-out
-    nominal runs its threshold was set on; with ``select="cover"`` the monitor is then the
-    best of the cover, the detectors, or both, as held-out failed runs (``folds``) show
-    (:func:`monitor_choice`).
+    ``detectors``: the learnt detectors among the invariants, each with what the held-out
+    nominal runs its threshold was set on say of it (:func:`detector_nominal`); with
+    ``select="cover"`` the monitor is then the best of the cover, the detectors, or both,
+    as held-out failed runs (``folds``) show (:func:`monitor_choice`).
     """
     scores: list[dict[str, Any]] = []
     families: dict[str, dict[str, int]] = {}
@@ -546,8 +554,7 @@ def classify(
         order = [s["id"] for s in by_delay]
         runs = len(success) + len(fail)
         if detectors:
-            for ident, held in detectors.items():  # 1/(held + 1): the threshold's rank
-                nominal[ident] = Nominal(max(held - 1, 0), 0)
+            nominal.update(detectors)
             chosen = monitor_choice(nominal, fail, before, runs, folds, order, set(detectors))
         else:
             chosen = cover(nominal, fail, before, runs, order=order)
@@ -994,7 +1001,7 @@ def run_check(
             delays=delays if onset_runs else None,
             untested={b: seen.untested for b, seen in held.items()},
             select=check.select,
-            detectors={d.invariant["id"]: d.choice.nominal for d in learnt},
+            detectors={d.invariant["id"]: detector_nominal(d) for d in learnt},
             folds=blocked_runs(runs["fail"]),
         )
         report["scores"], report["families"] = scores, families
@@ -1060,8 +1067,12 @@ def learn_detectors(
     failed: Mapping[Path, RunOutcome],
 ) -> list[Learnt]:
     """The fault detectors of the publish points (:mod:`imrosc.detectors`), from the samples
-    of the successful runs and of the failed runs with an onset."""
-    found = []
+    of the successful runs and of the failed runs with an onset. Each of the ``m`` points a
+    detector is learnt for gets ``budget / m`` of the document's false-alarm budget per run
+    (Bonferroni): the monitor's detectors together keep the budget."""
+    from imrosc.calibrate import DEFAULT_BUDGET
+
+    candidates = []
     for key, info in sorted(document["points"].items()):
         variables = variables_of(info)
         runs = [
@@ -1070,10 +1081,23 @@ def learn_detectors(
             for bag, o in group.items()
             if key in o.samples and len(o.samples[key].times)
         ]
-        learnt = learn(key, variables, runs)
+        if learnable(variables, runs):
+            candidates.append((key, variables, runs))
+    budget = float((document.get("calibration") or {}).get("budget", DEFAULT_BUDGET))
+    alpha = budget / max(1, len(candidates))
+    found = []
+    for key, variables, runs in candidates:
+        learnt = learn(key, variables, runs, alpha)
         if learnt is not None:
             found.append(learnt)
     return found
+
+
+def detector_nominal(learnt: Learnt) -> Nominal:
+    """What the held-out good runs say of a learnt detector: ``n`` runs, none above its
+    threshold (``1/(n+1)``: the threshold's rank), its share of the budget the ceiling."""
+    choice = learnt.choice
+    return Nominal(max(choice.nominal - 1, 0), 0, choice.false_alarm)
 
 
 def detector_entry(learnt: Learnt) -> dict[str, Any]:

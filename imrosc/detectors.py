@@ -16,10 +16,15 @@ threshold. How it is learnt (``docs/families/detector.md``):
    persists where a good run's odd moment passes, so a mean over a few seconds separates
    them better than one sample's score, at the cost of a delay of up to ``smooth``.
 3. **Threshold, cross-fitted**: the runs are cut into blocked folds by their start (as
-   calibration cuts its units); each fold's runs are scored by a model fitted without them,
-   and the threshold is the largest evidence any of them reached while nominal: with ``n``
-   such held-out runs, a new good run exceeds it with probability about ``1/(n+1)`` (the
-   largest held-out value, as calibration's rule uses with too few runs to certify).
+   calibration cuts its units); each fold's runs are scored by a model fitted without them.
+   Each held-out run's largest evidence while nominal is a draw of a good run's extreme;
+   the threshold is the largest of them, raised to their one-sided normal prediction bound
+   at the detector's share ``alpha`` of the false-alarm budget when that lies higher
+   (:func:`imrosc.calibrate.tolerance.prediction_bound`, as calibration bounds an
+   envelope). With ``n`` held-out runs the largest alone is exceeded by a new good run
+   with probability about ``1/(n+1)``; classification gives each of a document's ``m``
+   detectors ``budget / m`` (Bonferroni), so that a monitor of several detectors keeps the
+   budget per run, not each of them.
 4. **Penalty and smoothing**, from :data:`PENALTIES` x :data:`SMOOTHING`: the pair whose
    cross-fitted evidence detects the most held-out failed runs (evidence above the
    threshold from the onset on), the smallest mean delay on ties, then the strongest
@@ -31,6 +36,7 @@ classification's selection weighs it by, as it weighs every invariant.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -38,6 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from imrosc.calibrate.tolerance import prediction_bound
 from imrosc.folds import blocked
 from imrosc.invariants import hashed_id
 from imrosc.runtime.detector import evidence, features
@@ -149,6 +156,14 @@ class Choice:
     delays: Mapping[str, float]
     nominal: int
     """Held-out runs with nominal samples (the threshold's evidence)."""
+    alpha: float = 1.0
+    """The share of the false-alarm budget the threshold keeps (1: none asked)."""
+
+    @property
+    def false_alarm(self) -> float:
+        """The probability that a new good run alarms: at most ``1/(n+1)`` past the largest
+        of ``n`` held-out runs, and at most ``alpha`` past their prediction bound."""
+        return min(self.alpha, 1.0 / (self.nominal + 1))
 
     def rank(self) -> tuple[int, float, float, float]:
         """Larger is better: detections, then a short mean delay, a strong penalty and a
@@ -157,28 +172,45 @@ class Choice:
         return (len(self.detected), -delay, self.strength, -self.smooth)
 
 
-def judged(held: Sequence[tuple[Run, Any]], strength: float, smooth: float) -> Choice | None:
-    """The threshold of held-out scores evidenced over ``smooth`` seconds, and what it
-    detects (``None`` when no held-out run has a nominal sample)."""
+def threshold_of(extremes: Sequence[float], alpha: float) -> float:
+    """The threshold of held-out good runs' largest evidence (module docstring, step 3):
+    the largest, or their normal prediction bound at ``alpha`` when that is higher (an
+    ``alpha`` of 0, calibration off, or 1: the largest).
+
+    >>> threshold_of([1.0, 2.0, 3.0], 0.05) > 3.0
+    True
+    >>> threshold_of([1.0, 2.0, 9.0], 0.5)
+    9.0
+    """
+    bound = prediction_bound(extremes, alpha) if 0.0 < alpha < 1.0 else None
+    return max(*extremes, bound if bound is not None else -math.inf)
+
+
+def judged(
+    held: Sequence[tuple[Run, Any]], strength: float, smooth: float, alpha: float = 1.0
+) -> Choice | None:
+    """The threshold of held-out scores evidenced over ``smooth`` seconds at the detector's
+    share ``alpha`` of the budget, and what it detects (``None`` when no held-out run has a
+    nominal sample)."""
     weighed = [(run, evidence(run.times, scored, WINDOW, smooth)) for run, scored in held]
     nominal = [
         float(np.nanmax(e[~r.faulty])) for r, e in weighed if (~np.isnan(e[~r.faulty])).any()
     ]
     if not nominal:
         return None
-    threshold = max(nominal)
+    threshold = threshold_of(nominal, alpha)
     delays = {}
     for run, found in weighed:
         over = np.flatnonzero(run.faulty & (found > threshold))
         if len(over) and run.onset is not None:
             delays[run.name] = float(run.times[over[0]] - run.start - run.onset)
-    return Choice(strength, smooth, threshold, frozenset(delays), delays, len(nominal))
+    return Choice(strength, smooth, threshold, frozenset(delays), delays, len(nominal), alpha)
 
 
-def choose(runs: Sequence[Run]) -> Choice | None:
-    """The cross-fitted penalty, smoothing and threshold (module docstring, steps 2 to 4);
-    ``None`` with too few runs to hold any out or when no pair detects a held-out failed
-    run."""
+def choose(runs: Sequence[Run], alpha: float = 1.0) -> Choice | None:
+    """The cross-fitted penalty, smoothing and threshold at ``alpha`` (module docstring,
+    steps 2 to 4; 1: the largest held-out evidence); ``None`` with too few runs to hold any
+    out or when no pair detects a held-out failed run."""
     folds = blocked(runs, lambda r: (r.start, r.name), FOLDS)
     if len(folds) < 2:
         return None
@@ -192,7 +224,7 @@ def choose(runs: Sequence[Run]) -> Choice | None:
             model = fit(training, strength)
             held += [(runs[k], model.scores(runs[k])) for k in fold]
         for smooth in SMOOTHING:
-            found = judged(held, strength, smooth)
+            found = judged(held, strength, smooth, alpha)
             if found is not None and (best is None or found.rank() > best.rank()):
                 best = found
     return best if best is not None and best.detected else None
@@ -219,11 +251,14 @@ class Learnt:
     choice: Choice
 
 
-def learn(key: str, variables: Sequence[str], runs: Sequence[Run]) -> Learnt | None:
-    """The detector of point ``key`` from its runs' samples (``None``: none is kept)."""
-    if not variables or not any(r.faulty.any() for r in runs):
+def learn(
+    key: str, variables: Sequence[str], runs: Sequence[Run], alpha: float = 1.0
+) -> Learnt | None:
+    """The detector of point ``key`` from its runs' samples, its threshold at ``alpha``
+    (``None``: none is kept)."""
+    if not learnable(variables, runs):
         return None
-    choice = choose(runs)
+    choice = choose(runs, alpha)
     if choice is None:
         return None
     model = fit(runs, choice.strength)
@@ -248,6 +283,11 @@ def learn(key: str, variables: Sequence[str], runs: Sequence[Run]) -> Learnt | N
         f"<= {choice.threshold:.6g}",
     }
     return Learnt(invariant, choice)
+
+
+def learnable(variables: Sequence[str], runs: Sequence[Run]) -> bool:
+    """Whether a point has variables to weigh and failed samples to learn from."""
+    return bool(variables) and any(r.faulty.any() for r in runs)
 
 
 def evidence_text(smooth: float) -> str:

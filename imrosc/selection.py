@@ -49,15 +49,18 @@ class Nominal:
 
     tested: int
     broken: int
+    ceiling: float = 1.0
+    """A bound its threshold was set to keep (a learnt detector's share of the budget)."""
 
     @property
     def false_alarm(self) -> float:
-        """The probability that it breaks on a new nominal run (rule of succession).
+        """The probability that it breaks on a new nominal run (rule of succession, or the
+        ceiling when lower).
 
-        >>> Nominal(8, 0).false_alarm, Nominal(8, 2).false_alarm
-        (0.1, 0.3)
+        >>> Nominal(8, 0).false_alarm, Nominal(8, 2).false_alarm, Nominal(8, 0, 0.02).false_alarm
+        (0.1, 0.3, 0.02)
         """
-        return (self.broken + 1) / (self.tested + 2)
+        return min(self.ceiling, (self.broken + 1) / (self.tested + 2))
 
 
 @dataclass(frozen=True)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from imrosc import detectors
+from imrosc import classify, detectors
+from imrosc.classify import RunOutcome
 from imrosc.detectors import Choice, Run, Sampled, choose, learn, run_of
 from imrosc.runtime.detector import Detector
 
@@ -113,3 +115,57 @@ def test_the_evidence_of_a_lasting_fault_outweighs_a_good_run_s_passing_moment(
         len(instant.detected) < len(smoothed.detected)
         or mean_delay(instant) > mean_delay(smoothed) + 0.5
     )
+
+
+def test_a_smaller_share_of_the_budget_never_lowers_the_threshold(runs: list[Run]) -> None:
+    extremes = [0.5, 1.0, 1.5, 2.0, 4.0]
+    assert detectors.threshold_of(extremes, 1.0) == 4.0  # the largest held-out value
+    assert detectors.threshold_of(extremes, 0.3) == 4.0  # the bound lies lower
+    assert detectors.threshold_of(extremes, 0.05) > 4.0  # a twentieth per run: beyond
+    tight = detectors.threshold_of(extremes, 0.001)
+    assert tight > 4.0  # a thousandth per run: beyond what five runs reached
+    assert detectors.threshold_of([2.0, 2.0], 0.001) == 2.0  # no spread, nothing to add
+    assert detectors.threshold_of(extremes, 0.0) == 4.0  # a budget of 0: calibration off
+    loose, strict = choose(runs), choose(runs, 0.0005)
+    assert loose is not None
+    assert loose.false_alarm == pytest.approx(1 / (loose.nominal + 1))  # the largest's rank
+    assert strict is None or strict.threshold >= loose.threshold
+    if strict is not None:
+        assert strict.false_alarm == pytest.approx(0.0005)  # the share, below 1/(n+1)
+
+
+def _outcome(seed: int, onset: float | None, points: tuple[str, ...]) -> RunOutcome:
+    sampled = _sampled(_samples(seed, onset))
+    return RunOutcome(
+        Path(f"run{seed}.bag"),
+        start=100.0 * seed,
+        onset=onset,
+        samples=dict.fromkeys(points, sampled),
+    )
+
+
+def test_the_detectors_of_a_document_share_its_false_alarm_budget(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Each of ``m`` detectors is set at ``budget / m`` (Bonferroni), so that a monitor of
+    several detectors keeps the budget per run."""
+    shares: list[float] = []
+    learnt = detectors.learn
+
+    def spy(key: str, variables: Any, runs: Any, alpha: float = 1.0) -> Any:
+        shares.append(alpha)
+        return learnt(key, variables, runs, alpha)
+
+    monkeypatch.setattr(classify, "learn", spy)
+    point = {
+        "kind": "publish",
+        "variables": [{"name": "x", "type": "float"}, {"name": "y", "type": "float"}],
+    }
+    for names in (("p",), ("p", "q", "r", "s")):
+        shares.clear()
+        document = {"points": dict.fromkeys(names, point), "calibration": {"budget": 0.08}}
+        success = {o.bag: o for o in (_outcome(s, None, names) for s in range(1, 5))}
+        failed = {o.bag: o for o in (_outcome(s, 12.0, names) for s in range(5, 11))}
+        found = classify.learn_detectors(document, success, failed)
+        assert shares == [pytest.approx(0.08 / len(names))] * len(names)
+        assert {d.invariant["point"] for d in found} <= set(names)
