@@ -9,7 +9,7 @@ the oldest one in the window). Standardised by ``center`` and ``scale``, they ar
 evidence is the mean of the scores over the trailing ``smooth`` seconds (the sample's own
 score when ``smooth`` is 0 or absent): a fault persists, a good run's odd moment does not.
 Evidence above ``threshold`` is a violation, and an alarm at once: the threshold is already
-the calibrated decision (the largest evidence any held-out good run reached).
+the calibrated decision (set on the evidence held-out good runs reached; imrosc.detectors).
 
 The window of a sample at time ``t`` holds the point's samples with times ``> t - window``;
 a run's samples are scored once they span the window (``window`` seconds after the first),
