@@ -288,6 +288,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     work.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     config = configuration(work, refined=args.invariants == "refined", select=args.select)
+    onsets = work / "bags" / "fail_onsets.json"  # <fail onsets>: there even with no failed run
+    onsets.parent.mkdir(parents=True, exist_ok=True)
+    if not onsets.exists():
+        onsets.write_text("{}\n")
     ros = Ros(work / "ros")
     prepare(ros)
     ros.start()
