@@ -12,8 +12,12 @@ real time; ``tests/live/landing_system.py`` starts it):
    each through the ``--launch`` copy it writes (the servers remapped so it can relay their
    calls). Runs that landed are kept as training runs (``bags/nominal``) but for every
    fifth, kept out as ``<success>`` runs (``bags/success``); runs that failed are
-   ``<fail>`` runs (``bags/fail``, scored whole), as are those of ``--fail-runs`` recorded
-   runs of each fault scenario (seeds 2000, ...) that failed;
+   ``<fail>`` runs (``bags/fail``, scored whole: no fault was injected), as are the
+   ``--fail-runs`` recorded runs of each fault scenario (seeds 2000, ...) in which the
+   fault acted (whether the run failed or not: its samples from the onset on are faulty),
+   with the onset of their fault (``bags/fail_onsets.json``: when the simulator saw the fault
+   first act, ``landing_core.World.onset``, as seconds into the bag) so that classification
+   can also learn the detectors of ``<check detector>``;
 2. ``imrosc infer``, then ``imrosc classify`` (which writes ``landing.refined.inv``) on a
    copy of ``examples/uav_landing.xml`` whose ``<check>`` lists those folders and whose
    ``<monitor>`` checks the refined file (``--invariants inferred``: the inferred one, as
@@ -34,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 import os
 import re
 import shutil
@@ -45,10 +50,12 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from imrosc.bags import open_bag  # noqa: E402
 from tests.live.harness import Ros, ros_missing  # noqa: E402
 from tests.live.landing_system import (  # noqa: E402
     EXAMPLES,
@@ -105,7 +112,7 @@ def configuration(work: Path, refined: bool = True, select: str = "fscore") -> P
         check.group(0),
         f'  <check inv="landing.inv" {selection}>\n'
         "    <success>bags/success</success>\n"
-        "    <fail>bags/fail</fail>\n"
+        '    <fail onsets="bags/fail_onsets.json">bags/fail</fail>\n'
         "  </check>\n",
     )
     if refined:
@@ -134,6 +141,10 @@ def record(
     ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over; its outcome and
     bag (in ``bags/recording``)."""
     env = {**os.environ, **ros.env}
+    # the ROS graph's PYTHONPATH (the generated service types) and this tree's imrosc
+    env["PYTHONPATH"] = os.pathsep.join(
+        p for p in (ros.env.get("PYTHONPATH"), str(ROOT), os.environ.get("PYTHONPATH")) if p
+    )
     name = f"{scenario}_{seed}"
     command = [
         sys.executable,
@@ -178,6 +189,32 @@ def record(
         recorder.send_signal(signal.SIGINT)
         recorder.wait(120)
     return outcome, work / "bags" / "recording" / f"{name}.bag"
+
+
+def bag_onset(bag: Path, onset: float | None) -> float | None:
+    """The fault's onset in ``bag``: seconds from the bag's start (its clock is the
+    recorder's, wall time) to the first UAV pose stamped (simulated time, ``/vicon``'s
+    clock) at or after the simulated ``onset``; None without an onset."""
+    if onset is None:
+        return None
+    with open_bag(bag) as reader:
+        start = reader.start_time / 1e9
+        poses = [c for c in reader.connections if c.topic == "/a/subject_pose"]
+        for connection, stamp, raw in reader.messages(connections=poses):
+            pose: Any = reader.deserialize(raw, connection.msgtype)
+            if pose.header.stamp.sec + pose.header.stamp.nanosec * 1e-9 >= onset:
+                return round(max(stamp / 1e9 - start, 0.0), 3)
+    return None
+
+
+def note_onset(folder: Path, bag: Path, onset: float | None) -> None:
+    """Add the onset of ``bag`` (in ``folder``; seconds after its start, or null: unknown)
+    to ``<folder>_onsets.json`` beside the folder (``<fail onsets>``; inside, it would be
+    searched for bags)."""
+    path = folder.with_name(f"{folder.name}_onsets.json")
+    onsets = json.loads(path.read_text()) if path.exists() else {}
+    onsets[f"{folder.name}/{bag.name}"] = onset
+    path.write_text(json.dumps(onsets, indent=1, sort_keys=True) + "\n")
 
 
 def keep(bag: Path, folder: Path) -> None:
@@ -251,9 +288,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     work.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
     config = configuration(work, refined=args.invariants == "refined", select=args.select)
+    onsets = work / "bags" / "fail_onsets.json"  # <fail onsets>: there even with no failed run
+    onsets.parent.mkdir(parents=True, exist_ok=True)
+    if not onsets.exists():
+        onsets.write_text("{}\n")
     ros = Ros(work / "ros")
     prepare(ros)
     ros.start()
+    # the launch file sets it too, but only once started: a recorder started before the
+    # first launch would stamp its bag with wall time, the later ones with simulated time
+    ros.set_param("/use_sim_time", True)
     try:
         print(
             f"== recording {args.nominal} normal runs and {args.fail_runs} of each fault "
@@ -265,17 +309,25 @@ def main(argv: Sequence[str] | None = None) -> None:
             outcome, bag = record(ros, work, config, "normal", seed, args.speed, args.timeout)
             folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
             keep(bag, work / "bags" / folder)
+            if folder == "fail":  # no fault was injected: its samples cannot be labelled
+                note_onset(work / "bags" / "fail", bag, None)
             print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
         for scenario in SCENARIOS[1:]:
             for k in range(args.fail_runs):
                 seed = FAIL_SEED + k
                 outcome, bag = record(ros, work, config, scenario, seed, args.speed, args.timeout)
-                if outcome.success:  # the fault did no harm: neither nominal nor failed
+                onset = bag_onset(bag, outcome.onset)
+                if outcome.success and onset is None:  # the fault never acted: not used
                     bag.unlink()
                     print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
                     continue
                 keep(bag, work / "bags" / "fail")
-                print(f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail", flush=True)
+                note_onset(work / "bags" / "fail", bag, onset)
+                print(
+                    f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail "
+                    f"(onset {outcome.onset} s simulated, {onset} s into the bag)",
+                    flush=True,
+                )
         print("== imrosc infer, classify, build ==", flush=True)
         print(imrosc("infer", config.name, "-j", "2", cwd=work).strip(), flush=True)
         print(imrosc("classify", config.name, "-j", "2", cwd=work).strip()[-1500:], flush=True)

@@ -76,3 +76,26 @@ def test_the_referee_scores_avoid_landing_scenarios_by_not_landing() -> None:
 def test_an_unknown_scenario_is_refused() -> None:
     with pytest.raises(ValueError, match="unknown scenario 'storm'"):
         L.World("storm", 0)
+
+
+def _onset_after(scenario: str, seed: int, seconds: float) -> tuple[Any, float | None]:
+    """A world stepped ``seconds`` with the motors off; it and the first time the platform
+    was in the room's upper half (None: never)."""
+    world = L.World(scenario, seed)
+    upper = None
+    while world.t < seconds:
+        world.step()
+        if upper is None and world.platform.y > 0.0:
+            upper = world.t
+    return world, upper
+
+
+def test_a_fault_has_its_onset_when_it_first_acts() -> None:
+    assert _onset_after("normal", 0, 8.0)[0].onset is None
+    assert _onset_after("false_airport", 0, 1.0)[0].onset == pytest.approx(L.DT)
+    assert _onset_after("slowed", 0, 8.0)[0].onset == pytest.approx(5.0, abs=L.DT)
+    grounded = ("wind", "occupied", "fragile")  # no wind, object or tipping felt on the floor
+    assert all(_onset_after(name, 0, 8.0)[0].onset is None for name in grounded)
+    seed = next(s for s in range(50) if L.World("stealing", s).platform.y < -0.5)
+    world, upper = _onset_after("stealing", seed, 60.0)
+    assert upper is not None and world.onset == pytest.approx(upper)  # the thief's first lure

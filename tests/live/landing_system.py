@@ -60,6 +60,8 @@ class Outcome:
     time: float
     reinitiated: int
     wall: float
+    onset: float | None = None
+    """When the fault first acted (simulated s; ``landing_core.World.onset``)."""
 
     @classmethod
     def of(cls, data: dict[str, Any], wall: float) -> Outcome:
@@ -72,6 +74,7 @@ class Outcome:
             float(data["time"]),
             int(data["reinitiated"]),
             wall,
+            None if data.get("onset") is None else float(data["onset"]),
         )
 
 

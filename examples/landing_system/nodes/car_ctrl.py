@@ -49,12 +49,17 @@ def main() -> None:
             control.see_car(rospy.get_time(), p.x, p.y, p.z)
 
     def on_uav(msg: PoseStamped) -> None:
+        # the climb rate from the poses' own stamps: /a/uav forwards the latest motion-capture
+        # pose at its rate, so a pose may come again (a busy graph): no new measurement, and
+        # taking it for one would read a standstill, a touchdown, in mid-air
         p = msg.pose.position
-        now = rospy.get_time()
+        now = msg.header.stamp.to_sec()
         with lock:
             last = uav.get("pose")
+            if last is not None and now <= last[3]:
+                return
             vz = uav.get("vz", (0.0,))[0]
-            if last is not None and now > last[3]:
+            if last is not None:
                 vz = 0.7 * vz + 0.3 * (p.z - last[2]) / (now - last[3])
             uav["pose"] = (p.x, p.y, p.z, now)
             uav["vz"] = (vz, 0.0, 0.0, 0.0)

@@ -551,6 +551,9 @@ class World:
     wind: Wind = field(init=False)
     referee: Referee = field(init=False)
     command: Command = field(default_factory=Command)
+    onset: float | None = None
+    """When the scenario's fault first acted on the system (simulated s; None: not yet, or
+    no fault): see :meth:`_fault_acts`."""
 
     def __post_init__(self) -> None:
         if self.scenario not in SCENARIOS:
@@ -592,7 +595,29 @@ class World:
                     math.copysign(TIP_ANGLE, -v or 1.0),
                     math.copysign(TIP_ANGLE, u or 1.0),
                 )
+        if self.onset is None and self._fault_acts():
+            self.onset = self.t
         return self.referee.step(self.t, self.uav, self.command.motors)
+
+    def _fault_acts(self) -> bool:
+        """Whether the scenario's fault acts on the system now: the first moment it changes
+        what the nodes see or what the UAV does, not the moment it is set up. The wind once
+        the UAV is airborne in it; the occupied platform when the UAV touches the object;
+        the fragile one when it starts to tip; the slowed link in its first slow stretch
+        (``car.py``: 5 s in every 10 s); the thief when the platform enters the upper half
+        (``thief.py``); the false airport from the start (its pose is never the vehicle's)."""
+        name = self.scenario
+        if name == "wind":
+            return self.uav.resting is None
+        if name == "occupied":
+            return self.uav.resting == "object"
+        if name == "fragile":
+            return self.platform.tipping is not None
+        if name == "slowed":
+            return self.t % 10.0 >= 5.0
+        if name == "stealing":
+            return self.platform.y > 0.0
+        return name == "false_airport"
 
 
 def offline_trial(scenario: str, seed: int, timeout: float = 120.0) -> Referee:

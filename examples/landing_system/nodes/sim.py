@@ -102,6 +102,7 @@ def main() -> None:
         "detail": referee.detail,
         "time": round(world.t, 2),
         "reinitiated": referee.landings,
+        "onset": None if world.onset is None else round(world.onset, 2),
         "wall": round(time.monotonic() - start, 2),
     }
     text = json.dumps(report)
