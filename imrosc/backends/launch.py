@@ -21,10 +21,10 @@ in another file), a ``<remap>`` outside a node that touches an intercepted name,
 both publishes and subscribes to a blocked topic (a remap would move its output past the
 monitor) and ``$(dirname)``, which would name the copy's folder (``launch-unrewritten``).
 
-:data:`REWRITERS` maps a launch flavour to its rewriter: ``ros1`` (roslaunch XML,
-:func:`rewrite_ros1`) and ``ros2`` (ROS 2 launch XML, :func:`rewrite_ros2`), which take the
-same arguments. ROS 2 launch XML names a node with ``name`` and ``namespace`` attributes and
-scopes namespaces with ``<push-ros-namespace>`` inside ``<group>``; its arguments are read
+:func:`rewrite_ros1` rewrites roslaunch XML and :func:`rewrite_ros2` ROS 2 launch XML; they
+take the same arguments (a :data:`Rewriter`), and each monitor backend names the one it
+uses. ROS 2 launch XML names a node with ``name`` and ``namespace`` attributes and scopes
+namespaces with ``<push-ros-namespace>`` inside ``<group>``; its arguments are read
 with ``$(var ...)`` and packages found with ``$(find-pkg-share ...)``. What ROS 2 adds that
 cannot be rewritten safely is reported too: a node without a ``name`` (its name is set in
 its code), composable nodes, a ``<set_remap>`` that touches an intercepted name, and remaps
@@ -40,6 +40,7 @@ from pathlib import Path
 
 from lxml import etree
 
+from imrosc.backends.quoting import xml_comment
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.graph.model import Graph, Node
 from imrosc.schema.loader import MAX_CONFIG_BYTES
@@ -513,18 +514,6 @@ def rewrite_ros2(
     )
 
 
-def xml_comment(text: str) -> str:
-    """``text`` as the body of an XML comment: one line, no ``--``, padded with spaces.
-
-    >>> xml_comment("a--b\\nc")
-    ' a- -b\\\\nc '
-    """
-    shown = text.encode("unicode_escape").decode("ascii")
-    while "--" in shown:
-        shown = shown.replace("--", "- -")
-    return f" {shown} "
-
-
 Rewriter = Callable[..., Rewritten]
-REWRITERS: dict[str, Rewriter] = {"ros1": rewrite_ros1, "ros2": rewrite_ros2}
-"""Launch flavour to its rewriter."""
+"""A launch rewriter (:func:`rewrite_ros1`, :func:`rewrite_ros2`): a monitor backend names
+its own (:attr:`imrosc.backends.monitor_backend.MonitorBackend.launch_rewriter`)."""

@@ -920,12 +920,16 @@ def test_a_python_launch_file_is_not_rewritten(tmp_path: Path) -> None:
     assert diagnostic.code == "launch-error" and "ROS 2 launch XML" in diagnostic.message
 
 
-def test_the_backend_is_registered() -> None:
-    from imrosc.backends.launch import REWRITERS, rewrite_ros1, rewrite_ros2
+def test_the_backend_is_registered_with_its_own_launch_rewriter() -> None:
+    from imrosc.backends.launch import rewrite_ros1, rewrite_ros2
+    from imrosc.backends.monitor_backend import MonitorBackend
     from imrosc.backends.registry import available
 
-    assert "ros2" in available()
-    assert REWRITERS["ros1"] is rewrite_ros1 and REWRITERS["ros2"] is rewrite_ros2
+    backends = available()
+    ros1, ros2 = backends["ros1"], backends["ros2"]
+    assert isinstance(ros1, MonitorBackend) and isinstance(ros2, MonitorBackend)
+    assert type(ros1).launch_rewriter is rewrite_ros1
+    assert type(ros2).launch_rewriter is rewrite_ros2
 
 
 # -- the adapter's decisions, without ROS ---------------------------------------------------
