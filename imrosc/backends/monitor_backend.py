@@ -3,14 +3,14 @@
 A monitor backend (``ros1``, ``ros2``, or another package's) is a subclass of
 :class:`MonitorBackend` that says what differs between middlewares: its templates (a
 package with a ``templates/`` folder), the middleware adapters its package carries, its
-launch rewriter (:mod:`imrosc.backends.launch`) and the launch file extension, the message
+launch dialect (:mod:`imrosc.backends.launch`) and the launch file extension, the message
 type names its flatteners are commented with, and the files of its package
 (:meth:`MonitorBackend.package_files`). The base class holds what every monitor package
 does alike: the spec (:func:`imrosc.backends.monitor.monitor_spec`), one template
 environment with the quoting filters over the backend's templates and the shared ones
 (``imrosc/backends/templates/``: the flatteners), the vendored copies of imrosc
 (:func:`imrosc.backends.vendor.vendored`), the system's launch file rewritten by the
-backend's rewriter, and every path under ``<package>/``.
+backend's launch dialect, and every path under ``<package>/``.
 
 An instance is the backend's renderer: ``register(NAME, monitor=True)(Backend())``.
 """
@@ -58,8 +58,9 @@ class MonitorBackend(ABC):
     adapters: ClassVar[tuple[str, ...]]
     """The middleware adapters (imrosc packages) the package carries besides the onboard
     ones (:data:`imrosc.backends.vendor.ONBOARD`)."""
-    launch_rewriter: ClassVar[launch.Rewriter]
-    """Rewrites the system's launch file (``rewrite_ros1``, ``rewrite_ros2``)."""
+    launch_dialect: ClassVar[launch.LaunchDialect]
+    """The format of the system's launch file the backend rewrites
+    (:data:`~imrosc.backends.launch.ROSLAUNCH`, :data:`~imrosc.backends.launch.ROS2_LAUNCH`)."""
     launch_extension: ClassVar[str]
     """The extension of the package's launch files (``.launch``, ``.launch.xml``)."""
     message_type: ClassVar[str]
@@ -132,8 +133,8 @@ class MonitorBackend(ABC):
     def rewrite_system_launch(
         self, inputs: BuildInputs, spec: MonitorSpec, banner: str
     ) -> dict[str, bytes]:
-        """``{target: content}``: the system's launch file rewritten by the backend's
-        rewriter to start the monitor and remap the subscribers of the blocked topics; nothing
+        """``{target: content}``: the system's launch file rewritten in the backend's
+        launch dialect to start the monitor and remap the subscribers of the blocked topics; nothing
         when the ``<monitor>`` names none, and nothing with a diagnostic when it cannot be."""
         project = inputs.project
         monitor = project.monitor
@@ -155,7 +156,7 @@ class MonitorBackend(ABC):
                 )
             )
             return {}
-        rewritten = type(self).launch_rewriter(
+        rewritten = self.launch_dialect.rewrite(
             Path(project.source).parent / source,
             interception=interception,
             graph=graph,

@@ -920,16 +920,15 @@ def test_a_python_launch_file_is_not_rewritten(tmp_path: Path) -> None:
     assert diagnostic.code == "launch-error" and "ROS 2 launch XML" in diagnostic.message
 
 
-def test_the_backend_is_registered_with_its_own_launch_rewriter() -> None:
-    from imrosc.backends.launch import rewrite_ros1, rewrite_ros2
+def test_the_backend_is_registered_with_its_own_launch_dialect() -> None:
+    from imrosc.backends.launch import ROS2_LAUNCH, ROSLAUNCH
     from imrosc.backends.monitor_backend import MonitorBackend
     from imrosc.backends.registry import available
 
     backends = available()
     ros1, ros2 = backends["ros1"], backends["ros2"]
     assert isinstance(ros1, MonitorBackend) and isinstance(ros2, MonitorBackend)
-    assert type(ros1).launch_rewriter is rewrite_ros1
-    assert type(ros2).launch_rewriter is rewrite_ros2
+    assert ros1.launch_dialect is ROSLAUNCH and ros2.launch_dialect is ROS2_LAUNCH
 
 
 # -- the adapter's decisions, without ROS ---------------------------------------------------

@@ -67,7 +67,7 @@ class Ros1Monitor(MonitorBackend):
     templates = "imrosc.backends.ros1"
     autoescaped = ("xml.j2", "launch.j2")
     adapters = ("monitor_ros1",)
-    launch_rewriter = launch.rewrite_ros1
+    launch_dialect = launch.ROSLAUNCH
     launch_extension = ".launch"
     message_type = "ros1_type"
 

@@ -165,7 +165,7 @@ class Ros2Monitor(MonitorBackend):
     templates = "imrosc.backends.ros2"
     autoescaped = ("xml.j2",)
     adapters = ADAPTERS
-    launch_rewriter = launch.rewrite_ros2
+    launch_dialect = launch.ROS2_LAUNCH
     launch_extension = ".launch.xml"
     message_type = "ros2_type"
     field_note = "(rclpy messages have the field names of the message definition)"
