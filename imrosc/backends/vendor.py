@@ -50,10 +50,11 @@ VENDOR = "imrosc"
 
 def vendored(root: str, backend: str, adapters: tuple[str, ...]) -> dict[str, bytes]:
     """The copies a package's Python package at ``root`` carries: ``imrosc/__init__.py``,
-    the :data:`ONBOARD` packages and the middleware ``adapters`` (``monitor_ros1``, ...),
-    each whole, under ``root/imrosc/<name>/``."""
+    the :data:`ONBOARD` packages and the middleware ``adapters`` (``onboard.monitor_ros1``,
+    ...), each package's modules (not its subpackages) under ``root/imrosc/<its path>/``."""
     folder = f"{root}/{VENDOR}"
     files = copied_modules("imrosc", folder, backend, only=("__init__.py",))
     for name in (*ONBOARD, *adapters):
-        files.update(copied_modules(f"imrosc.{name}", f"{folder}/{name}", backend))
+        path = name.replace(".", "/")
+        files.update(copied_modules(f"imrosc.{name}", f"{folder}/{path}", backend))
     return files

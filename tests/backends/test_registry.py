@@ -136,8 +136,8 @@ def test_an_installed_monitor_backend_is_found_by_its_entry_point(tmp_path: Path
     flatteners = files["toy_monitor/toy/flatteners.py"].decode()
     assert "# /cmd (std_msgs/msg/Float64)\ndef " in flatteners
     # the vendored copies, each naming its module and this backend
-    adapter = files["toy_monitor/toy/imrosc/monitor_ros2/node.py"].decode()
-    assert "(backend toy_monitor): a copy of imrosc/monitor_ros2/node.py" in adapter
+    adapter = files["toy_monitor/toy/imrosc/onboard/monitor_ros2/node.py"].decode()
+    assert "(backend toy_monitor): a copy of imrosc/onboard/monitor_ros2/node.py" in adapter
     assert "toy_monitor/toy/imrosc/onboard/monitor.py" in files
     assert "toy_monitor/toy/imrosc/runtime/engine.py" in files
 
@@ -160,7 +160,7 @@ def test_the_command_line_offers_and_builds_an_installed_backend(tmp_path: Path)
     built = imrosc("build", str(config), "--backend", "toy_monitor", "-o", "out")
     assert built.returncode == 0, built.stderr
     assert "monitor package out/toy_monitor" in built.stdout
-    assert (tmp_path / "out/toy_monitor/toy/imrosc/monitor_ros2/node.py").is_file()
+    assert (tmp_path / "out/toy_monitor/toy/imrosc/onboard/monitor_ros2/node.py").is_file()
     env["PYTHONPATH"] = str(ROOT)  # not installed: not a choice
     missing = imrosc("build", str(config), "--backend", "toy_monitor")
     assert missing.returncode == 2 and "toy_monitor" in missing.stderr

@@ -40,11 +40,11 @@ from imrosc.build import BuildResult, build
 from imrosc.cli import main
 from imrosc.detect import run_detect
 from imrosc.invariants import dumps
-from imrosc.monitor_ros1 import messages as ros1_messages
-from imrosc.monitor_ros2 import logic
 from imrosc.msgtypes import flatten
 from imrosc.onboard import monitor as common
 from imrosc.onboard.fill import FillError
+from imrosc.onboard.monitor_ros1 import messages as ros1_messages
+from imrosc.onboard.monitor_ros2 import logic
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
@@ -75,8 +75,8 @@ from tests.backends.test_ros1 import (
 
 PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
-ADAPTER = ROOT / "imrosc" / "monitor_ros2"
-CARRIED = ("runtime", "onboard", "monitor_ros2", "record_ros2")
+ADAPTER = ROOT / "imrosc" / "onboard" / "monitor_ros2"
+CARRIED = ("runtime", "onboard", "onboard/monitor_ros2", "onboard/record_ros2")
 """The imrosc packages a ROS 2 monitor package with its recorder carries (under
 ``<package>/imrosc``)."""
 VENDOR = f"{PACKAGE}/imrosc"

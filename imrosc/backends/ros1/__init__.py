@@ -11,7 +11,7 @@ The package ``<project>_monitor`` (under ``-o DIR``) holds
   ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout, each copied unchanged
   below a banner (:func:`imrosc.backends.vendor.vendored`): the runtime engine
   (``imrosc/runtime``), the onboard logic (``imrosc/onboard``) and the rospy adapter
-  (``imrosc/monitor_ros1``), so the robot needs no pip install;
+  (``imrosc/onboard/monitor_ros1``), so the robot needs no pip install;
 * ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
 * ``launch/<project>_monitor.launch`` and, with ``<monitor launch="...">``,
   ``launch/system_monitored.launch``: the system's launch file rewritten
@@ -66,7 +66,7 @@ class Ros1Monitor(MonitorBackend):
     name = "ros1"
     templates = "imrosc.backends.ros1"
     autoescaped = ("xml.j2", "launch.j2")
-    adapters = ("monitor_ros1",)
+    adapters = ("onboard.monitor_ros1",)
     launch_dialect = launch.ROSLAUNCH
     launch_extension = ".launch"
     message_type = "ros1_type"

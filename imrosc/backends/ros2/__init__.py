@@ -13,7 +13,7 @@ The package ``<project>_monitor`` (under ``-o DIR``) holds
   ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout, each copied unchanged
   below a banner (:func:`imrosc.backends.vendor.vendored`, as the ``ros1`` backend does):
   the runtime engine (``imrosc/runtime``), the onboard logic (``imrosc/onboard``) and the
-  rclpy adapter (``imrosc/monitor_ros2``);
+  rclpy adapter (``imrosc/onboard/monitor_ros2``);
 * ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
 * ``launch/<package>.launch.xml`` and, with ``<monitor launch="....launch.xml">`` (or
   ``launch_ros2="....launch.xml"`` beside a roslaunch ``launch``),
@@ -31,7 +31,7 @@ checked to be field names first. ``docs/monitor.md`` describes the package and t
 With a :class:`RecorderScope` (:data:`RENDER_RECORDER`), the package also holds the ROS 2
 recorder (``docs/record.md``, "ROS 2"): ``<package>/recorder.py`` (entry point
 ``<package>_recorder``), ``<package>/recorder.json`` (the scope's services and parameters),
-the rclpy adapter ``imrosc/record_ros2`` (copied unchanged, like ``monitor_ros2``, which
+the rclpy adapter ``imrosc/onboard/record_ros2`` (copied unchanged, like ``monitor_ros2``, which
 it imports; it writes records with ``imrosc/onboard/records.py``) and
 ``launch/<package>_recorder.launch.xml``.
 """
@@ -53,10 +53,10 @@ from imrosc.onboard.monitor import WARM
 if TYPE_CHECKING:
     from imrosc import ir
 
-ADAPTERS = ("monitor_ros2",)
+ADAPTERS = ("onboard.monitor_ros2",)
 """The middleware adapters the package carries besides :data:`~imrosc.backends.vendor.ONBOARD`
-(and ``record_ros2`` with the recorder)."""
-RECORDER_ADAPTERS = ("record_ros2",)
+(and ``onboard.record_ros2`` with the recorder)."""
+RECORDER_ADAPTERS = ("onboard.record_ros2",)
 EXEC_DEPENDS = (
     "ament_index_python",
     "builtin_interfaces",
