@@ -95,6 +95,19 @@ def test_a_third_party_backend_builds(monkeypatch: pytest.MonkeyPatch, tmp_path:
     assert not registry.is_monitor("toy")
 
 
+def test_a_broken_backend_stops_only_the_builds_that_use_it(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    with_entry_points(monkeypatch, gone="tests.backends.third_party.missing")
+    (tmp_path / "toy.xml").write_text(CONFIG)
+    assert "gone" in registry.names()
+    assert build(tmp_path / "toy.xml", "plan").ok
+    with pytest.raises(registry.BackendError, match="backend gone: cannot import"):
+        build(tmp_path / "toy.xml", "gone")
+    with pytest.raises(registry.BackendError, match=r"no backend nope \(backends: gone, plan"):
+        registry.load("nope")
+
+
 def test_a_backend_that_registers_nothing_is_an_error(monkeypatch: pytest.MonkeyPatch) -> None:
     with_entry_points(monkeypatch, silent="tests.backends.third_party.silent")
     with pytest.raises(registry.BackendError, match="registers no renderer named silent"):
