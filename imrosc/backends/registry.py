@@ -134,10 +134,9 @@ def load(name: str) -> Renderer:
 
 
 def available() -> dict[str, Renderer]:
-    """Every backend, its module imported (and so its renderer registered)."""
-    for name, module in _entry_points().items():
-        _import(name, module)
-    return dict(sorted(BACKENDS.items()))
+    """Every backend by name (:func:`names`), its module imported (and so its renderer
+    registered)."""
+    return {name: _import(name, module) for name, module in sorted(_entry_points().items())}
 
 
 def is_monitor(name: str) -> bool:

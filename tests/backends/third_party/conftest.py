@@ -1,4 +1,7 @@
-"""``dist/`` is a folder as a site-packages directory holds an installed distribution: the
-tests put it on the path; collecting it would import (and so register) its backend."""
+"""Backends as installed packages ship them; none is collected: importing one registers it.
 
-collect_ignore = ["dist"]
+``dist/`` is a folder as a site-packages directory holds an installed distribution (the tests
+put it on the path); ``toy.py`` and ``silent.py`` are found through entry points the tests
+declare."""
+
+collect_ignore = ["dist", "toy.py", "silent.py"]
