@@ -28,7 +28,7 @@ paths, measured one after the other in the same run, at each rate:
   the topic (it reads the values from the bytes, checks the invariants with
   ``imrosc.runtime``, and republishes the bytes on ``/m/bench/wide``) -> sink.
 
-The monitor relays a blocked topic as bytes (``imrosc/monitor_ros1/wire.py``), so it is also
+The monitor relays a blocked topic as bytes (``imrosc/onboard/monitor_ros1/wire.py``), so it is also
 compared with the raw relay, which does the same less the checks.
 
 The monitor's invariants are those ``bench/check.py`` uses: inferred by imrosc from 20,000

@@ -18,7 +18,7 @@ from imrosc.backends.registry import (
     BuildInputs,
     Executable,
     TopicType,
-    available,
+    load,
 )
 from imrosc.bags import BagError, discover_bags, open_bag
 from imrosc.check import load_checked
@@ -114,7 +114,7 @@ def build(
         project = replace(project, monitor=replace(project.monitor, inv=deployed))
     problems += context.diagnostics
     inputs = BuildInputs(project, tuple(str(b) for b in bags), types, graph)
-    renderer = available()[backend]
+    renderer = load(backend)
     files = renderer(inputs) if not has_errors(problems) else {}
     problems += inputs.diagnostics
     if has_errors(problems):

@@ -35,15 +35,18 @@ MOVED = (
     # ROS 2: the neutral modules of monitor_ros1 became imrosc/onboard
     (r"/imrosc/monitor_ros1/logic\.py$", "/imrosc/onboard/monitor.py"),
     (r"/imrosc/monitor_ros1/flat\.py$", "/imrosc/onboard/flat.py"),
+    # both: the middleware adapters became subpackages of imrosc/onboard
+    (r"/imrosc/(monitor_ros1|monitor_ros2|record_ros2)/", r"/imrosc/onboard/\1/"),
 )
 """Old path pattern -> new path (``None``: given by :func:`moved_ros1`)."""
 
 
 def moved_ros1(path: str) -> str:
-    """Where an old ROS 1 copy of ``imrosc/monitor_ros1`` stands now."""
+    """Where an old ROS 1 copy of ``imrosc/monitor_ros1`` stands now (in
+    ``imrosc/onboard/monitor_ros1``)."""
     name = path.rsplit("/", 1)[1]
     target = {"logic.py": "onboard/monitor.py", "flat.py": "onboard/flat.py"}.get(
-        name, f"monitor_ros1/{name}"
+        name, f"onboard/monitor_ros1/{name}"
     )
     return path.rsplit("/", 1)[0] + "/imrosc/" + target
 

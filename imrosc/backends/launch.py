@@ -21,25 +21,27 @@ in another file), a ``<remap>`` outside a node that touches an intercepted name,
 both publishes and subscribes to a blocked topic (a remap would move its output past the
 monitor) and ``$(dirname)``, which would name the copy's folder (``launch-unrewritten``).
 
-:data:`REWRITERS` maps a launch flavour to its rewriter: ``ros1`` (roslaunch XML,
-:func:`rewrite_ros1`) and ``ros2`` (ROS 2 launch XML, :func:`rewrite_ros2`), which take the
-same arguments. ROS 2 launch XML names a node with ``name`` and ``namespace`` attributes and
-scopes namespaces with ``<push-ros-namespace>`` inside ``<group>``; its arguments are read
-with ``$(var ...)`` and packages found with ``$(find-pkg-share ...)``. What ROS 2 adds that
-cannot be rewritten safely is reported too: a node without a ``name`` (its name is set in
-its code), composable nodes, a ``<set_remap>`` that touches an intercepted name, and remaps
-in a node's command-line arguments (they come first and win).
+:data:`ROSLAUNCH` (roslaunch XML, :func:`rewrite_ros1`) and :data:`ROS2_LAUNCH` (ROS 2
+launch XML, :func:`rewrite_ros2`) are the two dialects (:class:`LaunchDialect`); each
+monitor backend names the one it rewrites (its ``launch_dialect``). ROS 2 launch XML names a
+node with ``name`` and ``namespace`` attributes and scopes namespaces with
+``<push-ros-namespace>`` inside ``<group>``; its arguments are read with ``$(var ...)`` and
+packages found with ``$(find-pkg-share ...)``. What ROS 2 adds that cannot be rewritten
+safely is reported too: a node without a ``name`` (its name is set in its code), composable
+nodes, a ``<set_remap>`` that touches an intercepted name, and remaps in a node's
+command-line arguments (they come first and win).
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from lxml import etree
 
+from imrosc.backends.quoting import xml_comment
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.graph.model import Graph, Node
 from imrosc.schema.loader import MAX_CONFIG_BYTES
@@ -277,8 +279,9 @@ class _Rewriter:
 
 
 @dataclass(frozen=True)
-class _Dialect:
-    """What differs between roslaunch XML and ROS 2 launch XML when a file is rewritten."""
+class LaunchDialect:
+    """A launch format the monitor backends rewrite (:data:`ROSLAUNCH`, :data:`ROS2_LAUNCH`):
+    what differs between roslaunch XML and ROS 2 launch XML when a file is rewritten."""
 
     rewriter: type[_Rewriter]
     find: str
@@ -288,60 +291,48 @@ class _Dialect:
     value: str
     """The substitution that reads an argument."""
 
-
-def _rewrite(
-    dialect: _Dialect,
-    path: Path,
-    *,
-    interception: Interception,
-    graph: Graph | None,
-    monitor: MonitorLaunch,
-    banner: str,
-    label: str | None = None,
-) -> Rewritten:
-    shown = label if label is not None else str(path)
-    tree, problems = read_launch(path, shown)
-    if tree is None:
-        return Rewritten(None, diagnostics=problems)
-    rewriter = dialect.rewriter(shown, interception, graph)
-    root = tree.getroot()
-    if b"$(dirname)" in etree.tostring(root):
-        rewriter.report(
+    def rewrite(
+        self,
+        path: Path,
+        *,
+        interception: Interception,
+        graph: Graph | None,
+        monitor: MonitorLaunch,
+        banner: str,
+        label: str | None = None,
+    ) -> Rewritten:
+        """The rewritten copy of the launch file at ``path`` (see the module docstring):
+        remaps added to the ``<node>`` elements, the monitor's launch file ``monitor``
+        included through the package share substitution (``$(find ...)``,
+        ``$(find-pkg-share ...)``)."""
+        shown = label if label is not None else str(path)
+        tree, problems = read_launch(path, shown)
+        if tree is None:
+            return Rewritten(None, diagnostics=problems)
+        rewriter = self.rewriter(shown, interception, graph)
+        root = tree.getroot()
+        if b"$(dirname)" in etree.tostring(root):
+            rewriter.report(
+                root,
+                "launch-unrewritten",
+                "the launch file uses $(dirname), which in the rewritten copy names the monitor "
+                f"package's launch folder; make those paths $({self.find} pkg)/... instead",
+            )
+        rewriter.scope(root, "/")
+        rewriter.out.content = _finish(
             root,
-            "launch-unrewritten",
-            "the launch file uses $(dirname), which in the rewritten copy names the monitor "
-            f"package's launch folder; make those paths $({dialect.find} pkg)/... instead",
+            banner,
+            argument={self.doc: "true: relay the blocked names unchecked when the monitor dies"},
+            include_file=f"$({self.find} {monitor.package})/launch/{monitor.launch_file}",
+            passed=f"$({self.value} {FAIL_OPEN_ARG})",
         )
-    rewriter.scope(root, "/")
-    rewriter.out.content = _finish(
-        root,
-        banner,
-        argument={dialect.doc: "true: relay the blocked names unchecked when the monitor dies"},
-        include_file=f"$({dialect.find} {monitor.package})/launch/{monitor.launch_file}",
-        passed=f"$({dialect.value} {FAIL_OPEN_ARG})",
-    )
-    return rewriter.out
+        return rewriter.out
 
 
-def rewrite_ros1(
-    path: Path,
-    *,
-    interception: Interception,
-    graph: Graph | None,
-    monitor: MonitorLaunch,
-    banner: str,
-    label: str | None = None,
-) -> Rewritten:
-    """The rewritten copy of the roslaunch file at ``path`` (see the module docstring)."""
-    return _rewrite(
-        _Dialect(_Rewriter, "find", "doc", "arg"),
-        path,
-        interception=interception,
-        graph=graph,
-        monitor=monitor,
-        banner=banner,
-        label=label,
-    )
+ROSLAUNCH = LaunchDialect(_Rewriter, "find", "doc", "arg")
+"""roslaunch XML (ROS 1)."""
+rewrite_ros1 = ROSLAUNCH.rewrite
+"""The rewritten copy of a roslaunch file (:meth:`LaunchDialect.rewrite`)."""
 
 
 def _finish(
@@ -490,41 +481,7 @@ class _Ros2Rewriter(_Rewriter):
             )
 
 
-def rewrite_ros2(
-    path: Path,
-    *,
-    interception: Interception,
-    graph: Graph | None,
-    monitor: MonitorLaunch,
-    banner: str,
-    label: str | None = None,
-) -> Rewritten:
-    """The rewritten copy of the ROS 2 launch XML file at ``path`` (see the module
-    docstring): remaps added to the ``<node>`` elements, the monitor's
-    ``<package>.launch.xml`` included through ``$(find-pkg-share ...)``."""
-    return _rewrite(
-        _Dialect(_Ros2Rewriter, "find-pkg-share", "description", "var"),
-        path,
-        interception=interception,
-        graph=graph,
-        monitor=monitor,
-        banner=banner,
-        label=label,
-    )
-
-
-def xml_comment(text: str) -> str:
-    """``text`` as the body of an XML comment: one line, no ``--``, padded with spaces.
-
-    >>> xml_comment("a--b\\nc")
-    ' a- -b\\\\nc '
-    """
-    shown = text.encode("unicode_escape").decode("ascii")
-    while "--" in shown:
-        shown = shown.replace("--", "- -")
-    return f" {shown} "
-
-
-Rewriter = Callable[..., Rewritten]
-REWRITERS: dict[str, Rewriter] = {"ros1": rewrite_ros1, "ros2": rewrite_ros2}
-"""Launch flavour to its rewriter."""
+ROS2_LAUNCH = LaunchDialect(_Ros2Rewriter, "find-pkg-share", "description", "var")
+"""ROS 2 launch XML."""
+rewrite_ros2 = ROS2_LAUNCH.rewrite
+"""The rewritten copy of a ROS 2 launch XML file (:meth:`LaunchDialect.rewrite`)."""

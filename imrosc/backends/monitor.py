@@ -44,7 +44,6 @@ from pathlib import Path
 from typing import Any
 
 from imrosc import ir
-from imrosc.backends import launch
 from imrosc.backends.registry import BuildInputs
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.invariants import InvariantsFileError, load
@@ -598,49 +597,6 @@ def invariants_copy(spec: MonitorSpec, banner: str) -> bytes:
         **{k: v for k, v in spec.invariants.items() if k != "$comment"},
     }
     return dumps(document)
-
-
-def system_launch(
-    inputs: BuildInputs,
-    spec: MonitorSpec,
-    banner: str,
-    *,
-    flavour: str,
-    source: str,
-    included: str,
-    target: str,
-) -> dict[str, bytes]:
-    """``{target: content}``: the system's launch file ``source`` (relative to the
-    configuration) rewritten by the ``flavour`` rewriter of :mod:`imrosc.backends.launch` to
-    start the monitor (the package's launch file ``included``) and remap the subscribers of
-    the blocked topics; nothing, with a diagnostic, when it cannot be."""
-    project = inputs.project
-    monitor = project.monitor
-    assert monitor is not None
-    interception = launch.Interception(spec.topic_relays, spec.service_relays)
-    graph = inputs.graph
-    if interception and (graph is None or not graph.knows_subscriptions):
-        inputs.diagnostics.append(
-            make(
-                project.source,
-                monitor.span.line,
-                monitor.span.column,
-                "launch-without-graph",
-                "rewriting the launch file needs to know who subscribes to the blocked topics "
-                "and who serves the relayed services: pass --graph FILE or --bags with "
-                "architecture records",
-            )
-        )
-        return {}
-    rewritten = launch.REWRITERS[flavour](
-        Path(project.source).parent / source,
-        interception=interception,
-        graph=graph,
-        monitor=launch.MonitorLaunch(spec.package, included),
-        banner=banner,
-    )
-    inputs.diagnostics.extend(rewritten.diagnostics)
-    return {} if rewritten.content is None else {target: rewritten.content}
 
 
 def flattener_helpers(spec: MonitorSpec) -> list[str]:

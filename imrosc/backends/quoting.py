@@ -1,18 +1,19 @@
-"""Quoting filters of the backends' templates: text from a configuration or an invariants
-file becomes a Python literal or comment text that cannot end its comment, whatever it
-holds. Templates only format; every such value goes through one of these."""
+"""Quoting helpers of the backends: text from a configuration or an invariants file becomes a
+Python literal, a CMake word or comment text (``#`` or XML) that cannot end its comment,
+whatever it holds. Templates only format; every such value goes through one of these
+filters (:func:`environment`), and the launch rewriters write their banner comments with
+:func:`xml_comment`."""
 
 from __future__ import annotations
 
 import json
 import math
+import re
 import textwrap
 from typing import Any
 
-from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+from jinja2 import ChoiceLoader, Environment, PackageLoader, StrictUndefined, select_autoescape
 from markupsafe import Markup
-
-from imrosc.backends import launch
 
 
 def py_literal(value: Any) -> str:
@@ -41,16 +42,39 @@ def hash_comment(text: Any) -> str:
     return "\n".join(["# " + lines[0], *("#   " + line for line in lines[1:])])
 
 
+def xml_comment(text: str) -> str:
+    """``text`` as the body of an XML comment: one line, no ``--``, padded with spaces.
+
+    >>> xml_comment("a--b\\nc")
+    ' a- -b\\\\nc '
+    """
+    shown = text.encode("unicode_escape").decode("ascii")
+    while "--" in shown:
+        shown = shown.replace("--", "- -")
+    return f" {shown} "
+
+
 def xml_comment_filter(text: Any) -> Markup:
     """The body of an XML comment (already safe: no ``--``, one line)."""
-    return Markup(launch.xml_comment(str(text)))
+    return Markup(xml_comment(str(text)))
 
 
-def environment(package: str, xml_extensions: tuple[str, ...]) -> Environment:
-    """The template environment of a backend's package (its ``templates/`` folder): strict,
-    templates ending in ``xml_extensions`` autoescaped, with the quoting filters."""
+_CMAKE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+def cmake_name(text: Any) -> str:
+    """A CMake word that needs no quoting (package and script names are checked before)."""
+    if not isinstance(text, str) or not _CMAKE_NAME.fullmatch(text):
+        raise ValueError(f"{text!r} is not a plain CMake name")
+    return text
+
+
+def environment(packages: tuple[str, ...], xml_extensions: tuple[str, ...]) -> Environment:
+    """The template environment of backends' packages (their ``templates/`` folders, the
+    first that holds a name wins): strict, templates ending in ``xml_extensions``
+    autoescaped, with the quoting filters."""
     env = Environment(
-        loader=PackageLoader(package, "templates"),
+        loader=ChoiceLoader([PackageLoader(package, "templates") for package in packages]),
         autoescape=select_autoescape(enabled_extensions=xml_extensions, default=False),
         undefined=StrictUndefined,
         keep_trailing_newline=True,
@@ -60,4 +84,5 @@ def environment(package: str, xml_extensions: tuple[str, ...]) -> Environment:
     env.filters["py"] = py_literal
     env.filters["hash_comment"] = hash_comment
     env.filters["xml_comment"] = xml_comment_filter
+    env.filters["cmake_name"] = cmake_name
     return env

@@ -32,6 +32,7 @@ __all__ = [
     "TopicType",
     "available",
     "is_monitor",
+    "load",
     "names",
     "register",
 ]
@@ -113,19 +114,32 @@ class BackendError(Exception):
     """A backend's module that cannot be imported, or registers no renderer of its name."""
 
 
+def _import(name: str, module: str) -> Renderer:
+    try:
+        importlib.import_module(module)
+    except Exception as error:  # a third-party backend may raise anything
+        raise BackendError(f"backend {name}: cannot import {module}: {error}") from error
+    if name not in BACKENDS:
+        raise BackendError(f"backend {name}: {module} registers no renderer named {name}")
+    return BACKENDS[name]
+
+
+def load(name: str) -> Renderer:
+    """Backend ``name``'s renderer, its module imported (only its own: a broken backend
+    of another package stops only builds that use it)."""
+    modules = _entry_points()
+    if name not in modules:
+        raise BackendError(f"no backend {name} (backends: {', '.join(sorted(modules))})")
+    return _import(name, modules[name])
+
+
 def available() -> dict[str, Renderer]:
-    """Every backend, its module imported (and so its renderer registered)."""
-    for name, module in _entry_points().items():
-        try:
-            importlib.import_module(module)
-        except Exception as error:  # a third-party backend may raise anything
-            raise BackendError(f"backend {name}: cannot import {module}: {error}") from error
-        if name not in BACKENDS:
-            raise BackendError(f"backend {name}: {module} registers no renderer named {name}")
-    return dict(sorted(BACKENDS.items()))
+    """Every backend by name (:func:`names`), its module imported (and so its renderer
+    registered)."""
+    return {name: _import(name, module) for name, module in sorted(_entry_points().items())}
 
 
 def is_monitor(name: str) -> bool:
     """Whether backend ``name`` renders a monitor package."""
-    available()
+    load(name)
     return name in MONITORS

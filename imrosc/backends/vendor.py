@@ -2,9 +2,10 @@
 logic, the monitor adapters, the recorder): the robot needs no pip install.
 
 Both monitor backends copy them the same way (:func:`vendored`): into ``imrosc/`` of the
-package's Python package, each imrosc package under its own name, so the relative imports
-between them (``from ..onboard import monitor``, ``from ..runtime import families``) work
-in imrosc and in every generated package alike, and nothing is renamed on the way.
+package's Python package, each imrosc package at its own path (the adapters under
+``imrosc/onboard/``), so the relative imports between them (``from ..runtime import
+families`` in ``onboard/monitor.py``, ``from .. import monitor`` in an adapter) work in
+imrosc and in every generated package alike, and nothing is renamed on the way.
 
 Each copy starts with a banner naming the module it copies, imrosc's version and the
 backend, as rosidl's generated files name their template and input; the rest is the module
@@ -50,10 +51,11 @@ VENDOR = "imrosc"
 
 def vendored(root: str, backend: str, adapters: tuple[str, ...]) -> dict[str, bytes]:
     """The copies a package's Python package at ``root`` carries: ``imrosc/__init__.py``,
-    the :data:`ONBOARD` packages and the middleware ``adapters`` (``monitor_ros1``, ...),
-    each whole, under ``root/imrosc/<name>/``."""
+    the :data:`ONBOARD` packages and the middleware ``adapters`` (``onboard.monitor_ros1``,
+    ...), each package's modules (not its subpackages) under ``root/imrosc/<its path>/``."""
     folder = f"{root}/{VENDOR}"
     files = copied_modules("imrosc", folder, backend, only=("__init__.py",))
     for name in (*ONBOARD, *adapters):
-        files.update(copied_modules(f"imrosc.{name}", f"{folder}/{name}", backend))
+        path = name.replace(".", "/")
+        files.update(copied_modules(f"imrosc.{name}", f"{folder}/{path}", backend))
     return files

@@ -1,9 +1,10 @@
 """What monitors and recorders decide without ROS: the middleware-neutral robot-side code.
 
 Both monitor backends copy this package, unchanged and under this name, into every package
-they render, beside ``imrosc/runtime`` (the engine) and their middleware adapter
-(``imrosc/monitor_ros1``, ``imrosc/monitor_ros2``, ``imrosc/record_ros2``), so relative
-imports (``from ..onboard import monitor``) work alike in imrosc and in a generated package.
+they render, beside ``imrosc/runtime`` (the engine) and their middleware adapters, which
+are its subpackages (``monitor_ros1``: rospy; ``monitor_ros2``: rclpy; ``record_ros2``: the
+ROS 2 recorder), so relative imports (``from ..runtime import families``, in an adapter
+``from .. import monitor``) work alike in imrosc and in a generated package.
 
 * :mod:`.monitor`: what a monitor node decides (alarms, actions, warnings, the graph with
   the relays folded back, filling an action's message) and the package's files;
@@ -11,6 +12,6 @@ imports (``from ..onboard import monitor``) work alike in imrosc and in a genera
 * :mod:`.records`: the record format's encoder (``docs/record-format.md``), the one both
   recorders and :mod:`imrosc.records` write with.
 
-Python 3.8 syntax, numpy and the standard library only (and ``..runtime``): a ROS Noetic
-robot runs it unchanged.
+Python 3.8 syntax, numpy and the standard library only (and ``..runtime``; the adapters
+besides rospy or rclpy): a ROS Noetic robot runs it unchanged.
 """

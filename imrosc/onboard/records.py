@@ -5,7 +5,7 @@ one JSON object with ``"version": 1``: the node graph (:func:`arch_text`), the p
 (:func:`params_text`) or one service call (:func:`call_text`). The text is canonical (keys
 and name lists sorted, no spaces), so one snapshot is one string and a recorder publishes a
 snapshot only when its text changed. The ROS 1 recorder (``imrosc/record/node``), the ROS 2
-recorder (``imrosc/record_ros2``) and :func:`imrosc.records.encode` all write through this
+recorder (``imrosc/onboard/record_ros2``) and :func:`imrosc.records.encode` all write through this
 module; :mod:`imrosc.records` reads the records back.
 
 Python 3.8 syntax, standard library only: the ROS 2 backend copies it into generated

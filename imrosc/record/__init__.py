@@ -16,7 +16,7 @@ through the recorder from servers remapped to ``/rec/<srv>`` (Figure 3.4).
 On ROS 2 (``--ros2``) rosbag2 is not needed: the bag tap (:mod:`imrosc.record.ros2`, an
 rclpy node under the ROS 2 Python) sends every message of the scope's topics to imrosc,
 which writes the MCAP bag as they come (:mod:`imrosc.record.mcap`), while the ROS 2
-recorder node (:mod:`imrosc.record_ros2`) publishes the records, service calls from service
+recorder node (:mod:`imrosc.onboard.record_ros2`) publishes the records, service calls from service
 introspection:
 
 * :mod:`imrosc.record.session_ros2`: starting and stopping the tap and the recorder, the

@@ -25,7 +25,8 @@ from pathlib import Path
 
 from lxml import etree
 
-from imrosc.backends.launch import join_namespace, read_launch, resolve, xml_comment
+from imrosc.backends.launch import join_namespace, read_launch, resolve
+from imrosc.backends.quoting import xml_comment
 from imrosc.diagnostics import Diagnostic, make
 
 __all__ = ["RecordLaunch", "record_launch_name", "rewrite_for_recording"]

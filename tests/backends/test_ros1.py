@@ -50,8 +50,8 @@ from tests.backends.test_monitor_spec import (
 
 PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
-ADAPTER = ROOT / "imrosc" / "monitor_ros1"
-CARRIED = ("runtime", "onboard", "monitor_ros1")
+ADAPTER = ROOT / "imrosc" / "onboard" / "monitor_ros1"
+CARRIED = ("runtime", "onboard", "onboard/monitor_ros1")
 """The imrosc packages a ROS 1 monitor package carries (under ``scripts/imrosc_monitor/imrosc``)."""
 ROS_PYTHON = Path("/usr/bin/python3")
 
@@ -510,7 +510,7 @@ import io, json, math, random, struct, sys
 sys.path.insert(0, sys.argv[1])
 import roslib.message
 from imrosc_monitor import flatteners
-from imrosc_monitor.imrosc.monitor_ros1 import wire
+from imrosc_monitor.imrosc.onboard.monitor_ros1 import wire
 """
     + _FILL
     + r"""

@@ -40,11 +40,11 @@ from imrosc.build import BuildResult, build
 from imrosc.cli import main
 from imrosc.detect import run_detect
 from imrosc.invariants import dumps
-from imrosc.monitor_ros1 import messages as ros1_messages
-from imrosc.monitor_ros2 import logic
 from imrosc.msgtypes import flatten
 from imrosc.onboard import monitor as common
 from imrosc.onboard.fill import FillError
+from imrosc.onboard.monitor_ros1 import messages as ros1_messages
+from imrosc.onboard.monitor_ros2 import logic
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
@@ -75,8 +75,8 @@ from tests.backends.test_ros1 import (
 
 PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
-ADAPTER = ROOT / "imrosc" / "monitor_ros2"
-CARRIED = ("runtime", "onboard", "monitor_ros2", "record_ros2")
+ADAPTER = ROOT / "imrosc" / "onboard" / "monitor_ros2"
+CARRIED = ("runtime", "onboard", "onboard/monitor_ros2", "onboard/record_ros2")
 """The imrosc packages a ROS 2 monitor package with its recorder carries (under
 ``<package>/imrosc``)."""
 VENDOR = f"{PACKAGE}/imrosc"
@@ -920,12 +920,15 @@ def test_a_python_launch_file_is_not_rewritten(tmp_path: Path) -> None:
     assert diagnostic.code == "launch-error" and "ROS 2 launch XML" in diagnostic.message
 
 
-def test_the_backend_is_registered() -> None:
-    from imrosc.backends.launch import REWRITERS, rewrite_ros1, rewrite_ros2
+def test_the_backend_is_registered_with_its_own_launch_dialect() -> None:
+    from imrosc.backends.launch import ROS2_LAUNCH, ROSLAUNCH
+    from imrosc.backends.monitor_backend import MonitorBackend
     from imrosc.backends.registry import available
 
-    assert "ros2" in available()
-    assert REWRITERS["ros1"] is rewrite_ros1 and REWRITERS["ros2"] is rewrite_ros2
+    backends = available()
+    ros1, ros2 = backends["ros1"], backends["ros2"]
+    assert isinstance(ros1, MonitorBackend) and isinstance(ros2, MonitorBackend)
+    assert ros1.launch_dialect is ROSLAUNCH and ros2.launch_dialect is ROS2_LAUNCH
 
 
 # -- the adapter's decisions, without ROS ---------------------------------------------------

@@ -27,9 +27,9 @@ from lxml import etree
 import imrosc.backends.ros2 as ros2_backend
 from imrosc import records
 from imrosc.backends.registry import GENERATED_MARK
-from imrosc.monitor_ros2 import logic as graph
 from imrosc.onboard import records as record_format
-from imrosc.record_ros2 import logic
+from imrosc.onboard.monitor_ros2 import logic as graph
+from imrosc.onboard.record_ros2 import logic
 from tests.backends.ros2_support import require_ros2, ros2_environment
 from tests.backends.support import assert_carried_unchanged, vendored_sources
 from tests.backends.test_monitor_spec import ROOT, write_package
@@ -45,7 +45,7 @@ from tests.backends.test_ros2 import (
 
 __all__ = ["landing_ros2"]  # the fixture, shared with test_ros2
 
-RECORDER = ROOT / "imrosc" / "record_ros2"
+RECORDER = ROOT / "imrosc" / "onboard" / "record_ros2"
 GID = bytes(range(16))
 OTHER = bytes(range(1, 17))
 
@@ -89,7 +89,7 @@ def test_the_recorder_adds_its_files_and_leaves_the_monitor_alone(
 ) -> None:
     plain_files = _without_recorder(landing_ros2)
     added = set(recorder_package) - set(plain_files)
-    copies = {f"{PACKAGE}/{VENDOR}/record_ros2/{p.name}" for p in RECORDER.glob("*.py")}
+    copies = {f"{PACKAGE}/{VENDOR}/onboard/record_ros2/{p.name}" for p in RECORDER.glob("*.py")}
     assert added == {
         f"{PACKAGE}/{PACKAGE}/recorder.py",
         f"{PACKAGE}/{PACKAGE}/recorder.json",
@@ -99,7 +99,7 @@ def test_the_recorder_adds_its_files_and_leaves_the_monitor_alone(
     changed = {n for n in plain_files if plain_files[n] != recorder_package[n]}
     assert changed == {f"{PACKAGE}/setup.py"}
     assert_carried_unchanged(
-        recorder_package, vendored_sources(f"{PACKAGE}/{PACKAGE}", ("record_ros2",))
+        recorder_package, vendored_sources(f"{PACKAGE}/{PACKAGE}", ("onboard/record_ros2",))
     )
 
 
@@ -118,7 +118,7 @@ def test_setup_py_installs_the_recorder(recorder_package: dict[str, bytes], tmp_
     scripts = arguments["entry_points"]["console_scripts"]
     assert f"{PACKAGE}_recorder = {PACKAGE}.recorder:main" in scripts
     assert f"{PACKAGE} = {PACKAGE}.main:monitor" in scripts
-    assert f"{PACKAGE}.{VENDOR.split('/')[1]}.record_ros2" in arguments["packages"]
+    assert f"{PACKAGE}.{VENDOR.split('/')[1]}.onboard.record_ros2" in arguments["packages"]
     for dotted in arguments["packages"]:
         assert (package / dotted.replace(".", "/") / "__init__.py").is_file(), dotted
     assert arguments["package_data"] == {PACKAGE: ["spec.json", "recorder.json"]}

@@ -13,60 +13,50 @@ The package ``<project>_monitor`` (under ``-o DIR``) holds
   ``imrosc/`` the parts of imrosc it carries, in imrosc's own layout, each copied unchanged
   below a banner (:func:`imrosc.backends.vendor.vendored`, as the ``ros1`` backend does):
   the runtime engine (``imrosc/runtime``), the onboard logic (``imrosc/onboard``) and the
-  rclpy adapter (``imrosc/monitor_ros2``);
+  rclpy adapter (``imrosc/onboard/monitor_ros2``);
 * ``config/invariants.json``: a copy of the ``<monitor>``'s invariants file;
 * ``launch/<package>.launch.xml`` and, with ``<monitor launch="....launch.xml">`` (or
   ``launch_ros2="....launch.xml"`` beside a roslaunch ``launch``),
   ``launch/system_monitored.launch.xml``: the system's ROS 2 launch XML rewritten
   (:func:`imrosc.backends.launch.rewrite_ros2`).
 
-The spec is :mod:`imrosc.backends.monitor`'s, shared with ``ros1``; so are the quoting
-filters (:mod:`imrosc.backends.ros1`): every name or literal from the configuration or the
-invariants file reaches Python as a JSON/``repr`` literal or a ``#`` comment, XML through
-autoescaping, and field paths, the only text that becomes code, are checked to be field
-names first. ``docs/monitor.md`` describes the package and the node.
+The spec is :mod:`imrosc.backends.monitor`'s and what every monitor package does alike (the
+shared ``flatteners.py`` template, the vendored copies, the launch rewriting) is
+:class:`~imrosc.backends.monitor_backend.MonitorBackend`'s, as for ``ros1``; so are the
+quoting filters (:mod:`imrosc.backends.quoting`): every name or literal from the
+configuration or the invariants file reaches Python as a JSON/``repr`` literal or a ``#``
+comment, XML through autoescaping, and field paths, the only text that becomes code, are
+checked to be field names first. ``docs/monitor.md`` describes the package and the node.
 
 With a :class:`RecorderScope` (:data:`RENDER_RECORDER`), the package also holds the ROS 2
 recorder (``docs/record.md``, "ROS 2"): ``<package>/recorder.py`` (entry point
 ``<package>_recorder``), ``<package>/recorder.json`` (the scope's services and parameters),
-the rclpy adapter ``imrosc/record_ros2`` (copied unchanged, like ``monitor_ros2``, which
+the rclpy adapter ``imrosc/onboard/record_ros2`` (copied unchanged, like ``monitor_ros2``, which
 it imports; it writes records with ``imrosc/onboard/records.py``) and
 ``launch/<package>_recorder.launch.xml``.
 """
 
 from __future__ import annotations
 
-import re
 import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from jinja2 import Environment
-
-from imrosc import __version__
-from imrosc.backends import quoting
-from imrosc.backends.monitor import (
-    MonitorSpec,
-    dumps,
-    flattener_helpers,
-    invariants_copy,
-    monitor_spec,
-    system_launch,
-)
+from imrosc.backends import launch
+from imrosc.backends.monitor import MonitorSpec, dumps, invariants_copy
+from imrosc.backends.monitor_backend import MonitorBackend, package_version
 from imrosc.backends.registry import BuildInputs, register
-from imrosc.backends.vendor import ONBOARD, VENDOR, vendored
+from imrosc.backends.vendor import ONBOARD, VENDOR
 from imrosc.diagnostics import make
 from imrosc.onboard.monitor import WARM
 
 if TYPE_CHECKING:
     from imrosc import ir
 
-BACKEND = "ros2"
-SYSTEM_LAUNCH = "launch/system_monitored.launch.xml"
-ADAPTERS = ("monitor_ros2",)
+ADAPTERS = ("onboard.monitor_ros2",)
 """The middleware adapters the package carries besides :data:`~imrosc.backends.vendor.ONBOARD`
-(and ``record_ros2`` with the recorder)."""
-RECORDER_ADAPTERS = ("record_ros2",)
+(and ``onboard.record_ros2`` with the recorder)."""
+RECORDER_ADAPTERS = ("onboard.record_ros2",)
 EXEC_DEPENDS = (
     "ament_index_python",
     "builtin_interfaces",
@@ -83,7 +73,6 @@ RENDER_RECORDER = True
 ``tests/backends/test_ros2.py`` expects the recorder's files (it checks the package's file
 list, its launch ``data_files`` and its console scripts exactly); ``render_package`` with
 a :class:`RecorderScope` renders it already (``tests/backends/test_ros2_recorder.py``)."""
-_VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+")
 LAUNCH_SUFFIXES = (".launch.xml", ".xml")
 """Launch files the ``ros2`` backend rewrites (ROS 2 launch XML); Python and YAML launch
 files are code or a format it does not read."""
@@ -121,12 +110,6 @@ def recorder_scope(project: ir.Project) -> RecorderScope:
 
     scope = scope_of(project)
     return RecorderScope(tuple(scope.services), tuple(scope.params))
-
-
-def environment() -> Environment:
-    """The template environment: strict, XML autoescaped, with ``ros1``'s quoting filters."""
-    env = quoting.environment("imrosc.backends.ros2", ("xml.j2",))
-    return env
 
 
 def chunks(text: str, width: int = 72) -> list[str]:
@@ -175,121 +158,110 @@ def data_files(spec: MonitorSpec, launch_files: list[str]) -> list[tuple[str, li
     ]
 
 
-def render_package(
-    spec: MonitorSpec,
-    banner: str,
-    extra_launch: tuple[str, ...] = (),
-    recorder: RecorderScope | None = None,
-) -> dict[str, bytes]:
-    """The files of the package (paths relative to the package folder); ``extra_launch``
-    names launch files written beside the monitor's own (the rewritten system launch);
-    with ``recorder`` the package holds the recorder too."""
-    env = environment()
-    version = __version__ if _VERSION.fullmatch(__version__) else "0.0.0"
-    flattened = [t for t in spec.topics if t.flattener is not None]
-    root = spec.package
-    description = (
-        f"Monitor of the invariants of {spec.project}: checks them live and warns, blocks, "
-        "publishes or calls a service when one breaks."
-    )
-    monitor_launch = f"launch/{spec.package}.launch.xml"
-    launch_files = [monitor_launch, *extra_launch]
-    scripts = [f"{spec.node} = {root}.main:monitor", f"{spec.watchdog} = {root}.main:watchdog"]
-    package_data = ["spec.json"]
-    if recorder is not None:
-        launch_files.append(recorder_launch(spec))
-        scripts.append(recorder_script(spec))
-        package_data.append(RECORDER_SPEC)
+class Ros2Monitor(MonitorBackend):
+    """The ament_python package of the monitor, with the rclpy adapter (and the recorder)."""
 
-    def render(template: str, **extra: Any) -> bytes:
-        context = {"spec": spec, "banner": banner, **extra}
-        return env.get_template(template).render(**context).encode("utf-8")
+    name = "ros2"
+    templates = "imrosc.backends.ros2"
+    autoescaped = ("xml.j2",)
+    adapters = ADAPTERS
+    launch_dialect = launch.ROS2_LAUNCH
+    launch_extension = ".launch.xml"
+    message_type = "ros2_type"
+    field_note = "(rclpy messages have the field names of the message definition)"
 
-    files: dict[str, bytes] = {
-        "package.xml": render(
-            "package.xml.j2", version=version, depends=sorted({*EXEC_DEPENDS, *spec.depends})
-        ),
-        "setup.py": render(
-            "setup.py.j2",
-            version=version,
-            packages=python_packages(spec, recorder is not None),
-            package_data=package_data,
-            data_files=data_files(spec, launch_files),
-            description=chunks(description),
-            scripts=scripts,
-        ),
-        "setup.cfg": render("setup.cfg.j2"),
-        f"resource/{root}": f"{banner}\n".encode(),
-        f"{root}/__init__.py": render(
-            "init.py.j2", docstring=textwrap.fill(PACKAGE_DOCSTRING.format(package=root), 92)
-        ),
-        f"{root}/main.py": render("main.py.j2"),
-        f"{root}/flatteners.py": render(
-            "flatteners.py.j2", topics=flattened, helpers=flattener_helpers(spec)
-        ),
-        f"{root}/spec.json": dumps(spec.runtime_document(banner)),
-        spec.invariants_path: invariants_copy(spec, banner),
-        monitor_launch: render("monitor.launch.xml.j2", warm=WARM),
-    }
-    adapters = ADAPTERS if recorder is None else ADAPTERS + RECORDER_ADAPTERS
-    files.update(vendored(root, BACKEND, adapters))
-    if recorder is not None:
-        files[f"{root}/recorder.py"] = render("recorder.py.j2")
-        files[f"{root}/{RECORDER_SPEC}"] = dumps(recorder.document(spec, banner))
-        files[recorder_launch(spec)] = render("recorder.launch.xml.j2")
-    return dict(sorted(files.items()))
+    def package_files(
+        self, inputs: BuildInputs, spec: MonitorSpec, banner: str, system_launch: tuple[str, ...]
+    ) -> dict[str, bytes]:
+        """The files of the package (the recorder's with :data:`RENDER_RECORDER`)."""
+        recorder = recorder_scope(inputs.project) if RENDER_RECORDER else None
+        return self.render_package(spec, banner, system_launch, recorder)
 
-
-def rewrite_system_launch(inputs: BuildInputs, spec: MonitorSpec, banner: str) -> dict[str, bytes]:
-    """``launch/system_monitored.launch.xml`` when the ``<monitor>`` names a launch file:
-    its ``launch_ros2`` when given (a configuration shared with ROS 1, whose ``launch`` is a
-    roslaunch file), else its ``launch``."""
-    project = inputs.project
-    monitor = project.monitor
-    source = spec.launch_ros2 or spec.launch
-    if source is None or monitor is None:
-        return {}
-
-    def problem(code: str, message: str) -> dict[str, bytes]:
-        inputs.diagnostics.append(
-            make(project.source, monitor.span.line, monitor.span.column, code, message)
+    def render_package(
+        self,
+        spec: MonitorSpec,
+        banner: str,
+        extra_launch: tuple[str, ...] = (),
+        recorder: RecorderScope | None = None,
+    ) -> dict[str, bytes]:
+        """The files of the package (paths relative to the package folder); ``extra_launch``
+        names launch files written beside the monitor's own (the rewritten system launch);
+        with ``recorder`` the package holds the recorder too."""
+        render = self.renderer(spec, banner)
+        version = package_version()
+        root = spec.package
+        description = (
+            f"Monitor of the invariants of {spec.project}: checks them live and warns, blocks, "
+            "publishes or calls a service when one breaks."
         )
-        return {}
+        monitor_launch = self.monitor_launch(spec)
+        launch_files = [monitor_launch, *extra_launch]
+        scripts = [f"{spec.node} = {root}.main:monitor", f"{spec.watchdog} = {root}.main:watchdog"]
+        package_data = ["spec.json"]
+        if recorder is not None:
+            launch_files.append(recorder_launch(spec))
+            scripts.append(recorder_script(spec))
+            package_data.append(RECORDER_SPEC)
+        files: dict[str, bytes] = {
+            "package.xml": render(
+                "package.xml.j2", version=version, depends=sorted({*EXEC_DEPENDS, *spec.depends})
+            ),
+            "setup.py": render(
+                "setup.py.j2",
+                version=version,
+                packages=python_packages(spec, recorder is not None),
+                package_data=package_data,
+                data_files=data_files(spec, launch_files),
+                description=chunks(description),
+                scripts=scripts,
+            ),
+            "setup.cfg": render("setup.cfg.j2"),
+            f"resource/{root}": f"{banner}\n".encode(),
+            f"{root}/__init__.py": render(
+                "init.py.j2", docstring=textwrap.fill(PACKAGE_DOCSTRING.format(package=root), 92)
+            ),
+            f"{root}/main.py": render("main.py.j2"),
+            f"{root}/flatteners.py": self.flatteners(render, spec),
+            f"{root}/spec.json": dumps(spec.runtime_document(banner)),
+            spec.invariants_path: invariants_copy(spec, banner),
+            monitor_launch: render("monitor.launch.xml.j2", warm=WARM),
+        }
+        files.update(self.vendored(root, () if recorder is None else RECORDER_ADAPTERS))
+        if recorder is not None:
+            files[f"{root}/recorder.py"] = render("recorder.py.j2")
+            files[f"{root}/{RECORDER_SPEC}"] = dumps(recorder.document(spec, banner))
+            files[recorder_launch(spec)] = render("recorder.launch.xml.j2")
+        return dict(sorted(files.items()))
 
-    if not source.endswith(LAUNCH_SUFFIXES):
+    def launch_source(self, inputs: BuildInputs, spec: MonitorSpec) -> str | None:
+        """The ``<monitor>``'s ``launch_ros2`` when given (a configuration shared with ROS 1,
+        whose ``launch`` is a roslaunch file), else its ``launch``; ``None`` with a
+        ``launch-error`` when that is not ROS 2 launch XML."""
+        project = inputs.project
+        monitor = project.monitor
+        source = spec.launch_ros2 or spec.launch
+        if source is None or monitor is None or source.endswith(LAUNCH_SUFFIXES):
+            return source
         attribute = "launch_ros2" if spec.launch_ros2 else "launch"
         hint = (
             ""
             if spec.launch_ros2
             else "; name the ROS 2 launch XML of the system in <monitor launch_ros2=...>, or"
         )
-        return problem(
-            "launch-error",
-            f"the ros2 backend rewrites ROS 2 launch XML (*.launch.xml), not "
-            f"{attribute}={source!r}{hint}: include launch/{spec.package}.launch.xml from your "
-            "launch file and remap the subscribers of the blocked topics to /m/<topic> "
-            "yourself (see docs/monitor.md)",
+        inputs.diagnostics.append(
+            make(
+                project.source,
+                monitor.span.line,
+                monitor.span.column,
+                "launch-error",
+                f"the ros2 backend rewrites ROS 2 launch XML (*.launch.xml), not "
+                f"{attribute}={source!r}{hint}: include launch/{spec.package}.launch.xml from "
+                "your launch file and remap the subscribers of the blocked topics to "
+                "/m/<topic> yourself (see docs/monitor.md)",
+            )
         )
-    return system_launch(
-        inputs,
-        spec,
-        banner,
-        flavour=BACKEND,
-        source=source,
-        included=f"{spec.package}.launch.xml",
-        target=SYSTEM_LAUNCH,
-    )
+        return None
 
 
-@register(BACKEND, monitor=True)
-def render(inputs: BuildInputs) -> dict[str, bytes]:
-    """The monitor package, each path under ``<package>/``."""
-    spec = monitor_spec(inputs)
-    if spec is None:
-        return {}
-    banner = inputs.banner(BACKEND)
-    system = rewrite_system_launch(inputs, spec, banner)
-    recorder = recorder_scope(inputs.project) if RENDER_RECORDER else None
-    files = render_package(spec, banner, tuple(system), recorder)
-    files.update(system)
-    return {f"{spec.package}/{name}": content for name, content in sorted(files.items())}
+BACKEND = Ros2Monitor()
+register(BACKEND.name, monitor=True)(BACKEND)

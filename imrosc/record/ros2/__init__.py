@@ -5,7 +5,7 @@
 * :mod:`.tap`: the bag tap, an rclpy node (hidden: ``/_imrosc_bag_<pid>``) that subscribes
   to the scope's topics and the three record topics with serialized (``raw``) subscriptions
   and sends every message to imrosc as received, CDR bytes and receive time;
-* :mod:`.recorder`: runs the recorder node of :mod:`imrosc.record_ros2` with the scope
+* :mod:`.recorder`: runs the recorder node of :mod:`imrosc.onboard.record_ros2` with the scope
   imrosc gives it.
 
 imrosc writes the bag itself (:mod:`imrosc.record.mcap`, rosbags' ``rosbag2.Writer`` with

@@ -36,11 +36,11 @@ import threading
 import time
 from typing import IO, Any, Dict, List, Optional, Set
 
-from ...monitor_ros2 import logic as graph
-from ...monitor_ros2 import plumbing
 from ...onboard import records
-from ...record_ros2 import logic as recorder_logic
-from ...record_ros2 import node as recorder
+from ...onboard.monitor_ros2 import logic as graph
+from ...onboard.monitor_ros2 import plumbing
+from ...onboard.record_ros2 import logic as recorder_logic
+from ...onboard.record_ros2 import node as recorder
 from . import wire
 
 try:  # only a ROS 2 system has these

@@ -20,8 +20,8 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Mapping, Optional, Set
 
-from ..onboard import files
-from ..onboard import monitor as common
+from .. import files
+from .. import monitor as common
 
 try:  # only a ROS 1 robot has these
     import rosgraph  # type: ignore[import-not-found, unused-ignore]

@@ -48,9 +48,9 @@ from typing import (
     Tuple,
 )
 
-from ..onboard import fill as check
-from ..onboard import monitor as common
-from ..onboard.fill import FillError
+from .. import fill as check
+from .. import monitor as common
+from ..fill import FillError
 
 RELIABLE, BEST_EFFORT = "reliable", "best_effort"
 VOLATILE, TRANSIENT_LOCAL = "volatile", "transient_local"

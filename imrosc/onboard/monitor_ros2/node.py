@@ -57,9 +57,9 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from ..onboard import files
-from ..onboard import monitor as common
-from ..onboard.fill import FillError
+from .. import files
+from .. import monitor as common
+from ..fill import FillError
 from . import logic, plumbing
 
 try:  # only a ROS 2 system has these; the helpers above are usable without them
@@ -99,8 +99,8 @@ def default_invariants(package: str) -> str:
 
         return os.path.join(get_package_share_directory(package), "config", "invariants.json")
     except Exception:
-        here = os.path.dirname(os.path.abspath(__file__))
-        return os.path.normpath(os.path.join(here, "..", "..", "..", "config", "invariants.json"))
+        source = os.path.dirname(files.package_folder())  # the source package
+        return os.path.normpath(os.path.join(source, "config", "invariants.json"))
 
 
 class Topic:

@@ -1,5 +1,6 @@
 """A generated ROS 1 script started by a Python without rospy (a virtualenv's) runs under the
-system's Python instead, or says in one line what to do (imrosc/monitor_ros1/interpreter.py)."""
+system's Python instead, or says in one line what to do
+(imrosc/onboard/monitor_ros1/interpreter.py)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-import imrosc.monitor_ros1 as adapter
-from imrosc.monitor_ros1 import interpreter
+import imrosc.onboard.monitor_ros1 as adapter
+from imrosc.onboard.monitor_ros1 import interpreter
 
 SYSTEM = "/usr/bin/python3"
 

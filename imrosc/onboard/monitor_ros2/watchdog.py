@@ -21,8 +21,8 @@ import threading
 import time
 from typing import Any, Callable, Dict, List, Mapping, Optional, Set, Tuple
 
-from ..onboard import files
-from ..onboard import monitor as common
+from .. import files
+from .. import monitor as common
 from . import logic, plumbing
 
 try:  # only a ROS 2 system has these

@@ -47,8 +47,8 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, 
 
 import numpy as np
 
-from ..onboard import files
-from ..onboard import monitor as common
+from .. import files
+from .. import monitor as common
 from . import messages, wire
 
 try:  # only a ROS 1 robot has these; the helpers above are usable without them

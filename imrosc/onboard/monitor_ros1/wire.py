@@ -45,7 +45,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..onboard.flat import at_, avg_, len_, max_, min_, std_
+from ..flat import at_, avg_, len_, max_, min_, std_
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type``) -> its genpy class."""

@@ -29,9 +29,9 @@ import threading
 import time
 from typing import Any, Dict, List, Optional, Set, Tuple
 
+from .. import records
 from ..monitor_ros2 import logic as graph
 from ..monitor_ros2 import plumbing
-from ..onboard import records
 from . import logic
 
 try:  # only a ROS 2 system has these

@@ -1,10 +1,10 @@
 """The ROS 2 monitor adapter: the rclpy code a generated ``ros2`` monitor package carries.
 
-The ``ros2`` backend copies these modules into ``<pkg>/imrosc/monitor_ros2/`` of the
+The ``ros2`` backend copies these modules into ``<pkg>/imrosc/onboard/monitor_ros2/`` of the
 ament_python package it renders, beside the middleware-neutral logic both monitor nodes
 share (``imrosc/onboard``, copied to ``<pkg>/imrosc/onboard/``), a copy of the runtime
 engine (``<pkg>/imrosc/runtime/``) and the generated ``flatteners.py`` and ``spec.json``.
-The package mirrors imrosc's own layout, so the relative imports (``from ..onboard import
+The package mirrors imrosc's own layout, so the relative imports (``from .. import
 monitor``) work both here and in the generated package.
 
 ``logic.py`` holds what the ROS 2 node decides as plain functions (tested without ROS:

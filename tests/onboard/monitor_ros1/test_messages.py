@@ -1,5 +1,5 @@
 """rospy messages as the ROS 1 monitor reads and fills them
-(``imrosc/monitor_ros1/messages.py``), with stand-ins for genpy's message classes."""
+(``imrosc/onboard/monitor_ros1/messages.py``), with stand-ins for genpy's message classes."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from typing import Any
 
 import pytest
 
-from imrosc.monitor_ros1 import messages
 from imrosc.onboard import monitor as common
+from imrosc.onboard.monitor_ros1 import messages
 from tests.backends.support import HOSTILE
 
 

@@ -15,7 +15,7 @@ import importlib
 import threading
 from typing import Any, Callable, Dict, List, Optional, Sequence, Set, Tuple
 
-from ..onboard.fill import FillError
+from ..fill import FillError
 from . import logic
 
 try:  # only a ROS 2 system has these; the functions below need them

@@ -25,8 +25,8 @@ from __future__ import annotations
 
 from typing import Any, Dict, Iterable, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
+from .. import files, records
 from ..monitor_ros2 import logic as graph
-from ..onboard import files, records
 
 SPEC_FILE = "recorder.json"
 SPEC_FORMAT = "imrosc-recorder"

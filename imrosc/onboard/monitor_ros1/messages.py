@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, Mapping, Optional
 
-from ..onboard import fill as check
-from ..onboard.fill import FillError
+from .. import fill as check
+from ..fill import FillError
 
 __all__ = ["FillError", "fill", "message_data"]
 
