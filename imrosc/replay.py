@@ -159,7 +159,7 @@ class Replayer:
         chunked: bool | None = None,
     ) -> None:
         self.document = document
-        self.engine = engine if engine is not None else Engine(document)
+        self.engine = engine if engine is not None else Engine(document, lazy=True)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
@@ -406,7 +406,7 @@ class RunReplayer:
     def __init__(self, document: Mapping[str, Any], plots: bool) -> None:
         self.document = document
         self.trace = PlotTrace(document) if plots else None
-        self.replayer = Replayer(document, Engine(document, self.trace))
+        self.replayer = Replayer(document, Engine(document, self.trace, lazy=True))
 
     def __call__(self, bag: Path) -> tuple[RunResult, dict[str, Any]]:
         """A bag's result and its run in the report."""

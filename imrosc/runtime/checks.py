@@ -85,6 +85,7 @@ class Checks:
         strings: Mapping[str, int],
         stats: Sequence[str] = (),
         compile: bool = True,
+        lazy: bool = False,
     ) -> None:
         self.index = index
         self.string_index = strings
@@ -152,7 +153,7 @@ class Checks:
         self.finite_at = _ints([f[0] for f in finite])
         """Variables whose bounds say they are never NaN nor infinite."""
         self.finite_inv = [f[1] for f in finite]
-        self._compile(bounds, one_of, nonzero, pairs, linear, edges)
+        self._compile(bounds, one_of, nonzero, pairs, linear, edges, lazy)
         if compile:
             self.compile()
 
@@ -164,8 +165,9 @@ class Checks:
         pairs: Dict[str, List[Tuple[int, int, Mapping[str, Any]]]],
         linear: List[Tuple[Tuple[int, ...], Tuple[float, ...], float, Mapping[str, Any]]],
         edges: List[Tuple[int, int, float, float, float, int]],
+        lazy: bool = False,
     ) -> None:
-        self.polygon_checks = PolygonChecks(self.polygons, edges)
+        self.polygon_checks = PolygonChecks(self.polygons, edges, lazy)
         self.polygon_words = [
             (inv, self.index[inv["variables"][0]], self.index[inv["variables"][1]], _inside(inv))
             for inv in self.polygons
