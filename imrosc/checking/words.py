@@ -10,8 +10,9 @@ and the engine's words:
   ``-x`` and ``x - y`` are rounded at most once whatever the order of summation, so their
   value, and so whether they break, is the engine's bit for bit (its dense product or its
   gathered terms alike);
-* polygons: the plain half-plane test ``a*x + b*y > c`` of every edge, which is the answer
-  of the engine's lookup tables (:mod:`imrosc.runtime.polygons`);
+* polygons: the plain half-plane test ``a*x + b*y > c`` of every edge at finite
+  coordinates, which is the answer of the engine's lookup tables
+  (:mod:`imrosc.runtime.polygons`);
 * one-of sets, non-zero values, finiteness, string sets and functions: the same comparisons,
   per column.
 
@@ -146,6 +147,9 @@ class RowChecks:
             x = values[:, first, None]
             y = values[:, second, None]
             outside = np.asarray(np.asarray(a * x + b * y > c).any(axis=1), dtype=bool)
+            # as the engine: a NaN or infinite coordinate breaks no polygon (its hull was
+            # built from finite samples; an inf would reach past an edge)
+            outside &= np.isfinite(x[:, 0]) & np.isfinite(y[:, 0])
             parts.append(outside[:, None])
         for at_k, known in self.one_of:
             x = values[:, at_k]

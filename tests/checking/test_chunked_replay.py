@@ -319,7 +319,7 @@ def _ends(invariants: list[dict[str, Any]]) -> list[float]:
 
 @given(data=st.data())
 @settings(
-    max_examples=25,
+    max_examples=50,
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
@@ -353,11 +353,12 @@ def test_row_checks_word_what_the_engine_s_check_words(
         ]
         times = [0.5 * k for k in range(len(rows))]
         words = RowChecks(checks)
-        mine = np.flatnonzero(~words.may_relate(values))
-        found = words.violations(
-            [times[k] for k in mine], key, values[mine], [t[mine] for t in texts]
-        )
-        for k, worded in zip(mine.tolist(), found, strict=True):
-            strings = [t[k] for t in texts]
-            expected = checks.check(times[k], key, values[k].copy(), strings)
-            assert json.dumps(worded, default=repr) == json.dumps(expected, default=repr)
+        with np.errstate(all="ignore"):  # as a replay runs both
+            mine = np.flatnonzero(~words.may_relate(values))
+            found = words.violations(
+                [times[k] for k in mine], key, values[mine], [t[mine] for t in texts]
+            )
+            for k, worded in zip(mine.tolist(), found, strict=True):
+                strings = [t[k] for t in texts]
+                expected = checks.check(times[k], key, values[k].copy(), strings)
+                assert json.dumps(worded, default=repr) == json.dumps(expected, default=repr)
