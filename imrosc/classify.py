@@ -361,7 +361,7 @@ def replayer_of(document: Mapping[str, Any], collect: bool) -> tuple[Replayer, S
     if not collect:
         return Replayer(document), None
     sampler = Sampler(document)
-    return Replayer(document, Engine(document, trace=sampler.trace)), sampler
+    return Replayer(document, Engine(document, trace=sampler.trace, lazy=True)), sampler
 
 
 def _start_worker(document: Mapping[str, Any], collect: bool = False) -> None:

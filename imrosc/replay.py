@@ -22,7 +22,7 @@ import numpy as np
 from imrosc import records
 from imrosc.bags import BagError, MessageError, open_bag, recovered
 from imrosc.checking.recorded import RECORDS, record_call
-from imrosc.checking.run import ChunkedChecker
+from imrosc.checking.run import ChunkedChecker, gc_paused
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.outputs import REPORT, mark
 from imrosc.progress import Progress, bag_done
@@ -159,7 +159,7 @@ class Replayer:
         chunked: bool | None = None,
     ) -> None:
         self.document = document
-        self.engine = engine if engine is not None else Engine(document)
+        self.engine = engine if engine is not None else Engine(document, lazy=True)
         self.flatteners: dict[str, Callable[[Any], list[Any]]] = {
             topic: make_flattener(info["variables"]) for topic, info in document["topics"].items()
         }
@@ -341,6 +341,7 @@ class PlotTrace:
             if v.family in ("polygon", "frequency"):
                 broken.setdefault(v.invariant, []).append(v)
         polygons, frequencies = [], []
+        matrices: dict[str, Any] = {}
         for inv in document["invariants"]:
             hits = broken.get(inv["id"])
             if not hits:
@@ -353,6 +354,8 @@ class PlotTrace:
             ]
             if inv["family"] == "polygon":
                 xi, yi = (numeric.index(n) for n in inv["variables"])
+                if inv["point"] not in matrices:  # the point's kept rows, once
+                    matrices[inv["point"]] = np.array([r for _, r, _ in samples], np.float64)
                 polygons.append(
                     {
                         "invariant": inv["id"],
@@ -361,10 +364,7 @@ class PlotTrace:
                         "x": inv["variables"][0],
                         "y": inv["variables"][1],
                         "vertices": inv["params"]["vertices"],
-                        "trajectory": [
-                            [t, json_safe(float(r[xi])), json_safe(float(r[yi]))]
-                            for t, r, _ in samples
-                        ],
+                        "trajectory": _trajectory(samples, matrices[inv["point"]], xi, yi),
                         "offending": [[v.time, *json_safe(list(v.observed))] for v in hits][
                             :PLOT_POINTS
                         ],
@@ -384,21 +384,43 @@ class PlotTrace:
         return {"polygons": polygons, "frequencies": frequencies}
 
 
+def _trajectory(
+    samples: Sequence[tuple[float, Any, float | None]], rows: Any, xi: int, yi: int
+) -> list[list[Any]]:
+    """``[time, x, y]`` of each kept sample (``rows``: their values), JSON-safe."""
+    if not len(samples):
+        return []
+    xs, ys = rows[:, xi], rows[:, yi]
+    times = [t for t, _, _ in samples]
+    if np.isfinite(xs).all() and np.isfinite(ys).all():
+        return [[t, x, y] for t, x, y in zip(times, xs.tolist(), ys.tolist(), strict=True)]
+    return [
+        [t, json_safe(x), json_safe(y)]
+        for t, x, y in zip(times, xs.tolist(), ys.tolist(), strict=True)
+    ]
+
+
 class RunReplayer:
     """Replays bag after bag against one invariants document (its engine built once)."""
 
     def __init__(self, document: Mapping[str, Any], plots: bool) -> None:
         self.document = document
         self.trace = PlotTrace(document) if plots else None
-        self.replayer = Replayer(document, Engine(document, self.trace))
+        self.replayer = Replayer(document, Engine(document, self.trace, lazy=True))
 
     def __call__(self, bag: Path) -> tuple[RunResult, dict[str, Any]]:
         """A bag's result and its run in the report."""
+        if self.trace is not None:
+            self.trace.reset()
+        with gc_paused():  # the run's checking, then its plots
+            result = self.replayer.run(bag)
+            run = self._run(bag, result)
+        return result, run
+
+    def _run(self, bag: Path, result: RunResult) -> dict[str, Any]:
+        """A bag's run in the report."""
         trace, document = self.trace, self.document
-        if trace is not None:
-            trace.reset()
-        result = self.replayer.run(bag)
-        run = {
+        return {
             "bag": str(bag),
             "start": result.start,
             "end": result.end,
@@ -415,7 +437,6 @@ class RunReplayer:
             if trace is not None
             else {"polygons": [], "frequencies": []},
         }
-        return result, run
 
 
 RunsReplay = Callable[

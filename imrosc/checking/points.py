@@ -42,6 +42,8 @@ from imrosc.runtime.engine import PARAMS, Engine, _Point
 from imrosc.runtime.families import RATE, VARIANCE
 from imrosc.runtime.violation import Violation
 
+from .words import RowChecks
+
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 BoolArray = npt.NDArray[np.bool_]
@@ -158,6 +160,9 @@ class ChunkPoint:
             c = np.asarray(inv["params"]["b"], dtype=np.float64)[:, None]
             self.polygons.append((xi, yi, a, b, c))
         self.timed = point.windows is not None and point.min_frequency > 0
+        self.words = None if checks.compiled else RowChecks(checks)
+        """The value violations of a chunk's flagged samples at once (``None``: numba
+        compiled the checks, whose kernel answers first: the engine checks each sample)."""
         self.reset()
 
     def _used_columns(self) -> IntArray:
@@ -466,6 +471,26 @@ class ChunkPoint:
         found: BoolArray = flags & defined
         return found
 
+    def _worded(
+        self,
+        time: FloatArray,
+        values: FloatArray,
+        texts: list[npt.NDArray[Any]],
+        flagged: BoolArray,
+    ) -> dict[int, list[Violation]]:
+        """The value violations of the flagged samples :class:`RowChecks` words at once, by
+        sample (the others, near a relation's tolerance, are the engine's to check)."""
+        words = self.words
+        rows = np.flatnonzero(flagged)
+        if words is None or not len(rows):
+            return {}
+        if words.relations:
+            rows = rows[~words.may_relate(values[rows])]
+        found = words.violations(
+            time[rows].tolist(), self.point.key, values[rows], [t[rows] for t in texts]
+        )
+        return dict(zip(rows.tolist(), found, strict=True))
+
     def _violations(
         self,
         pos: IntArray,
@@ -488,12 +513,16 @@ class ChunkPoint:
         if alarms.busy(key_of):
             visit.add(0)
         count = len(pos)
+        worded = self._worded(time, values, texts, flagged)
         for k in sorted(r for r in visit if r < count):
             broken: list[Violation] = []
             t = float(time[k])
             if flagged[k]:
-                strings = [column[k] for column in texts]
-                broken = point.checks.check(t, key_of, values[k], strings)
+                found_k = worded.get(k)
+                if found_k is None:
+                    strings = [column[k] for column in texts]
+                    found_k = point.checks.check(t, key_of, values[k], strings)
+                broken = found_k
             if window_flags[k] and window is not None:
                 frequency = float(window["frequency"][k])
                 row = k

@@ -167,6 +167,8 @@ class AlarmTracker:
         self._episodes: Dict[str, Dict[str, List[float]]] = {}
         """Point to invariant to ``[first time, samples, alarmed]`` of its open episode."""
         self._recent: Dict[str, Deque[Tuple[float, str]]] = {}
+        self._counts: Dict[str, Dict[str, int]] = {}
+        """Per point: how many of ``_recent``'s entries each invariant has."""
         self._agreeing: Set[str] = set()
         self.raised: List[Alarm] = []
         self.fed: List[Fed] = []
@@ -239,11 +241,17 @@ class AlarmTracker:
 
     def _agree(self, point: str, time: float, found: Sequence[Violation]) -> List[Alarm]:
         recent = self._recent.setdefault(point, deque())
+        distinct = self._counts.setdefault(point, {})
         for v in found:
             recent.append((time, v.invariant))
+            distinct[v.invariant] = distinct.get(v.invariant, 0) + 1
         while recent and recent[0][0] < time - self.rule.window:
-            recent.popleft()
-        distinct = {ident for _, ident in recent}
+            ident = recent.popleft()[1]
+            left = distinct[ident] - 1
+            if left:
+                distinct[ident] = left
+            else:
+                del distinct[ident]
         if len(distinct) < self.rule.distinct:
             self._agreeing.discard(point)
             return []

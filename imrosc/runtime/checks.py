@@ -85,6 +85,7 @@ class Checks:
         strings: Mapping[str, int],
         stats: Sequence[str] = (),
         compile: bool = True,
+        lazy: bool = False,
     ) -> None:
         self.index = index
         self.string_index = strings
@@ -152,7 +153,7 @@ class Checks:
         self.finite_at = _ints([f[0] for f in finite])
         """Variables whose bounds say they are never NaN nor infinite."""
         self.finite_inv = [f[1] for f in finite]
-        self._compile(bounds, one_of, nonzero, pairs, linear, edges)
+        self._compile(bounds, one_of, nonzero, pairs, linear, edges, lazy)
         if compile:
             self.compile()
 
@@ -164,8 +165,14 @@ class Checks:
         pairs: Dict[str, List[Tuple[int, int, Mapping[str, Any]]]],
         linear: List[Tuple[Tuple[int, ...], Tuple[float, ...], float, Mapping[str, Any]]],
         edges: List[Tuple[int, int, float, float, float, int]],
+        lazy: bool = False,
     ) -> None:
-        self.polygon_checks = PolygonChecks(self.polygons, edges)
+        self.polygon_checks = PolygonChecks(self.polygons, edges, lazy)
+        self.polygon_words = [
+            (inv, self.index[inv["variables"][0]], self.index[inv["variables"][1]], _inside(inv))
+            for inv in self.polygons
+        ]
+        """Per polygon: the invariant, its variables' places and what a violation expected."""
         self.bounds_inv = [b[3] for b in bounds]
         self.one_of_at = _ints([o[0] for o in one_of])
         table = np.full((len(one_of), max([len(o[1]) for o in one_of] + [1])), np.nan)
@@ -173,6 +180,10 @@ class Checks:
             table[row, : len(values)] = values
         self.one_of_values = table
         self.one_of_inv = [o[2] for o in one_of]
+        self.one_of_expected = [
+            "one of " + show(set(inv["params"]["values"])) for _, _, inv in one_of
+        ]
+        """What each one-of violation expected (worded once)."""
         # a few sets: one membership test each beats four array operations
         self.one_of_few = (
             [(at, frozenset(values), k) for k, (at, values, _) in enumerate(one_of)]
@@ -331,10 +342,9 @@ class Checks:
             found += forms.gathered(time, point, row)
         if self.polygon_checks.count:
             for owner in self.polygon_checks.broken(row, in_range):
-                inv = self.polygons[owner]
-                first, second = inv["variables"]
-                observed = (float(row[self.index[first]]), float(row[self.index[second]]))
-                found.append(_violation(time, point, inv, observed, _inside(inv)))
+                inv, first, second, expected = self.polygon_words[owner]
+                observed = (float(row.item(first)), float(row.item(second)))
+                found.append(_violation(time, point, inv, observed, expected))
         if self.one_of_few is not None:
             for at, held, k in self.one_of_few:
                 number = row.item(at)
@@ -361,9 +371,7 @@ class Checks:
         self.check(0.0, "", row)
 
     def _not_one_of(self, time: float, point: str, k: int, observed: float) -> Violation:
-        inv = self.one_of_inv[k]
-        expected = "one of " + show(set(inv["params"]["values"]))
-        return _violation(time, point, inv, observed, expected)
+        return _violation(time, point, self.one_of_inv[k], observed, self.one_of_expected[k])
 
 
 _TAIL = np.array([0.0, 1.0])
@@ -419,6 +427,7 @@ class _Forms:
                 weights[k, j] = weight
         self.at = at
         self.weights = weights
+        self.words = [self._words(k) for k in range(self.size)]
         self.limit = np.asarray([limit for _, limit in self.rows], dtype=np.float64)
         # a bound that is at least as tight as a guard serves as that guard (firing more
         # often only sends a violating sample down the exact path)
@@ -458,6 +467,21 @@ class _Forms:
         self.dense_limit = limit
         self.dense_guard = guard
 
+    def _words(self, k: int) -> Tuple[Mapping[str, Any], Tuple[int, ...], bool, str]:
+        """How a violation of form ``k`` is worded: its invariant, the places of ``z`` it
+        observes, whether it observes one value (a bound), and what it expected."""
+        inv, expected = self.owners[k]
+        places = [int(i) for i, w in zip(self.at[k], self.weights[k]) if w != 0]
+        family = inv["family"]
+        if family in (BOUNDS, ARRAY):
+            lo = inv["params"].get("min", "-inf")
+            hi = inv["params"].get("max", "inf")
+            return inv, (places[0],), True, f"[{show(_number(lo))}, {show(_number(hi))}]"
+        if family in (LINEAR, TERNARY):
+            count = len(inv["variables"])
+            return inv, tuple(int(i) for i in self.at[k][:count]), False, expected
+        return inv, tuple(places[:2]), False, expected
+
     def moved(self) -> List[Tuple[List[Tuple[int, float]], float]]:
         """The forms over the sample alone, as the dense product reads them: each form's
         terms on the sample's values and its limit less its constant."""
@@ -481,21 +505,14 @@ class _Forms:
         """The violations of the forms at ``broken`` (indices) on ``z``."""
         found: Found = []
         seen = set()
+        words = self.words
+        value = z.item
         for k in broken.tolist():
-            inv, expected = self.owners[k]
+            inv, places, single, expected = words[k]
             if id(inv) in seen:  # an equality or relation has a form for each side
                 continue
             seen.add(id(inv))
-            values = tuple(float(z[i]) for i, w in zip(self.at[k], self.weights[k]) if w != 0)
-            if inv["family"] in (BOUNDS, ARRAY):
-                observed: Any = values[0]
-                lo = inv["params"].get("min", "-inf")
-                hi = inv["params"].get("max", "inf")
-                expected = f"[{show(_number(lo))}, {show(_number(hi))}]"
-            elif inv["family"] in (LINEAR, TERNARY):
-                observed = tuple(float(z[i]) for i in self.at[k][: len(inv["variables"])])
-            else:
-                observed = values[:2]
+            observed: Any = value(places[0]) if single else tuple(value(i) for i in places)
             found.append(_violation(time, point, inv, observed, expected))
         return found
 

@@ -81,6 +81,7 @@ class _Point:
         info: Mapping[str, Any],
         invariants: List[Mapping[str, Any]],
         compile: bool = True,
+        lazy: bool = False,
     ):
         self.key = key
         self.kind: str = info["kind"]
@@ -105,7 +106,7 @@ class _Point:
         string_index = {name: k for k, name in enumerate(self.string_names)}
         stats = [v["name"] for v in numeric if v.get("derived") in ("avg", "std")]
         self.invariants = invariants
-        self.checks = Checks(invariants, index, string_index, stats, compile)
+        self.checks = Checks(invariants, index, string_index, stats, compile, lazy)
         tracked = [
             v["name"] for v in numeric if v.get("trigger", True) and v.get("derived") is None
         ]
@@ -260,7 +261,10 @@ class Engine:
     violations it found; the alarms they raise under the file's rule (``alarms``, or
     ``rule`` when given) are collected by :meth:`take_alarms`. ``compile=False`` leaves
     the compiling of the checks by numba to :meth:`compile` (a monitor node does it in a
-    thread of its own once it relays; numpy checks every sample until then).
+    thread of its own once it relays; numpy checks every sample until then). ``lazy=True``
+    builds each point's polygon lookup tables at their first use instead of here (a replay,
+    which checks most samples over column chunks without them; a monitor has them ready
+    before its first message).
     """
 
     def __init__(
@@ -269,6 +273,7 @@ class Engine:
         trace: Optional[Trace] = None,
         rule: Optional[AlarmRule] = None,
         compile: bool = True,
+        lazy: bool = False,
     ) -> None:
         self.document = document
         self.trace = trace
@@ -281,7 +286,7 @@ class Engine:
         for inv in document["invariants"]:
             by_point.setdefault(inv["point"], []).append(inv)
         self.points: Dict[str, _Point] = {
-            key: _Point(key, info, by_point.get(key, []), compile)
+            key: _Point(key, info, by_point.get(key, []), compile, lazy)
             for key, info in sorted(document["points"].items())
         }
         self.by_id: Dict[str, Tuple[_Point, Mapping[str, Any]]] = {

@@ -122,7 +122,10 @@ class PolygonChecks:
         self,
         polygons: Sequence[Mapping[str, Any]],
         edges: Sequence[Tuple[int, int, float, float, float, int]],
+        lazy: bool = False,
     ) -> None:
+        """``lazy``: the tables are built at their first use (:meth:`broken`,
+        :meth:`compiled`), not here."""
         count = len(polygons)
         self.count = count
         per: List[List[Edge]] = [[] for _ in range(count)]
@@ -153,7 +156,17 @@ class PolygonChecks:
         self.size = int(max(self.x.max(), self.y.max())) + 1 if count else 0
         self._ranges(polygons, axes)
         self.grid = grid_size(count)
-        self._tables(per, axes)
+        self._pending: Optional[Tuple[List[List[Edge]], List[Tuple[int, int]]]] = (per, axes)
+        """The edges and axes of the tables not built yet (``None`` once they are)."""
+        if not lazy:
+            self._build()
+
+    def _build(self) -> None:
+        """Build the tables (once)."""
+        if self._pending is not None:
+            per, axes = self._pending
+            self._tables(per, axes)
+            self._pending = None
 
     def _ranges(self, polygons: Sequence[Mapping[str, Any]], axes: List[Tuple[int, int]]) -> None:
         """Each variable's range over the polygons' vertices, and its quantisation."""
@@ -252,6 +265,7 @@ class PolygonChecks:
         """The grids' variables, the polygons and the shift from a fine cell to its coarse
         one, as :func:`.compiled.pack` takes them (the bits' quantisation, offsets and bits,
         each polygon's coarse bits and its edges once)."""
+        self._build()
         guards: List[Guard] = [
             (
                 int(v),
@@ -302,6 +316,8 @@ class PolygonChecks:
         find out)."""
         if not self.count:
             return []
+        if self._pending is not None:
+            self._build()
         if in_range is None:
             in_range = self.in_range(row)
         if not in_range:

@@ -9,6 +9,8 @@ own values added, an invariant cleared, another alarm rule), picks a bag (the tr
 one; one with other values, NaN and infinities, a silent topic and no architecture
 records; one cut short) and a chunk size, and replays it both ways: the reports' runs, the
 violations with their times and values, the alarms and the samples a trace sees are equal.
+The value violations of a chunk's flagged samples, worded at once (``RowChecks``), are also
+held equal to the engine's check of each sample on values at the invariants' very ends.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from hypothesis import strategies as st
 
 from imrosc import records
 from imrosc.checking import run as chunked_run
+from imrosc.checking.words import RowChecks
 from imrosc.classify import Sampler
 from imrosc.cli import main
 from imrosc.replay import Replayer, RunReplayer, RunResult
@@ -297,3 +300,65 @@ def test_a_recording_tracker_keeps_the_engine_s_order(
         Replayer(document, engine, chunked=chunks).run(bags["odd"])
         kept.append(list(engine.alarms.fed))
     assert kept[0] == kept[1] and len({f[1] for f in kept[0]}) > 3
+
+
+def _ends(invariants: list[dict[str, Any]]) -> list[float]:
+    """Every finite number the invariants state (bounds, sets, edges, vertices)."""
+    found: set[float] = set()
+    stack: list[Any] = [inv["params"] for inv in invariants]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            stack += item.values()
+        elif isinstance(item, list):
+            stack += item
+        elif _number(item) is not None:
+            found.add(float(item))
+    return sorted(found)
+
+
+@given(data=st.data())
+@settings(
+    max_examples=50,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+def test_row_checks_word_what_the_engine_s_check_words(
+    inferred: tuple[dict[str, Any], dict[str, Path]], data: st.DataObject
+) -> None:
+    """Samples at the invariants' ends, NaN, infinities and signed zeros: the violations
+    ``RowChecks`` words for a matrix of samples are ``Checks.check``'s of each sample, but
+    for the samples near a relation's tolerance (the engine checks those itself)."""
+    document = data.draw(_edited(inferred[0]))
+    engine = Engine(document, compile=False)
+    cleared = data.draw(st.sampled_from([None, *sorted(i["id"] for i in document["invariants"])]))
+    if cleared is not None:
+        engine.clear(cleared)
+    for key, point in engine.points.items():
+        checks = point.checks
+        if point.kind != "publish" or not checks.size:
+            continue
+        width = len(checks.index)
+        ends = _ends([inv for inv in document["invariants"] if inv["point"] == key])
+        number = st.one_of(
+            st.sampled_from([*ends, 0.0, -0.0, 1.0, math.nan, math.inf, -math.inf]),
+            st.floats(-1e3, 1e3),
+        )
+        rows = data.draw(st.lists(st.lists(number, min_size=width, max_size=width), max_size=6))
+        values = np.array(rows, dtype=np.float64).reshape(len(rows), width)
+        word = st.sampled_from(["go", "stop", "wait", ""])
+        texts = [
+            np.array(data.draw(st.lists(word, min_size=len(rows), max_size=len(rows))), object)
+            for _ in point.string_names
+        ]
+        times = [0.5 * k for k in range(len(rows))]
+        words = RowChecks(checks)
+        with np.errstate(all="ignore"):  # as a replay runs both
+            mine = np.flatnonzero(~words.may_relate(values))
+            found = words.violations(
+                [times[k] for k in mine], key, values[mine], [t[mine] for t in texts]
+            )
+            for k, worded in zip(mine.tolist(), found, strict=True):
+                strings = [t[k] for t in texts]
+                expected = checks.check(times[k], key, values[k].copy(), strings)
+                assert json.dumps(worded, default=repr) == json.dumps(expected, default=repr)

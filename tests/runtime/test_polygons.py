@@ -3,6 +3,7 @@ the slow path), the answer is the polygons with an edge ``a*x + b*y > c``."""
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -213,3 +214,23 @@ def test_polygons_sharing_bytes_read_the_same_row_variable() -> None:
     full = [members for members in slots.values() if len(members) == 8]
     assert len(full) == 2 and all(row == 0 for members in full for row, _ in members)
     assert len(slots) == 5
+
+
+def test_lazy_tables_are_built_at_first_use_and_answer_alike() -> None:
+    """``lazy``: no tables until a sample or the compiled kernel needs them; then the
+    answers and the kernel's tables are those of tables built at once."""
+    rng = np.random.default_rng(7)
+    clouds, data = clouds_over(rng, 5, 200, "mixed")
+    invariants, edges, plain = hull_polygons(clouds)
+    built, lazy = PolygonChecks(invariants, edges), PolygonChecks(invariants, edges, lazy=True)
+    assert not hasattr(lazy, "bits")
+    low, high = data.min(axis=0), data.max(axis=0)
+    for query in (data[0], low - 1.0, high + 1.0, (low + high) / 2):
+        sample = query.tolist()
+        assert answers(lazy, sample) == answers(built, sample) == expected(plain, sample)
+    compiled_lazy = PolygonChecks(invariants, edges, lazy=True).compiled()
+    assert _json(compiled_lazy) == _json(built.compiled())
+
+
+def _json(value: Any) -> str:
+    return json.dumps(value, default=lambda array: np.asarray(array).tolist())

@@ -122,11 +122,16 @@ class Locator:
         mine, slot, px, py = mine.take(sel), slot.take(sel), px.take(sel), py.take(sel)
         # on or left of the lower chain, then on or right of the upper one
         a, b = low.edge(slot, px)
-        ok = orientation(low.x.take(a), low.y.take(a), low.x.take(b), low.y.take(b), px, py) >= 0
+        turn = orientation(low.x.take(a), low.y.take(a), low.x.take(b), low.y.take(b), px, py)
+        ok = turn >= 0
         ok &= ((px != low.x.take(a)) | (py != low.y.take(a))) & (
             (px != low.x.take(b)) | (py != low.y.take(b))
         )
-        rest = np.flatnonzero(ok)
+        # a segment's upper chain is its lower one (L, R): on or right of the same edge,
+        # so on it (the same exact sign); the other hulls test their upper chain
+        segment = (low.size.take(slot) == 2) & (up.size.take(slot) == 2)
+        out[mine[ok & segment & (turn == 0)]] = True
+        rest = np.flatnonzero(ok & ~segment)
         slot, px, py = slot.take(rest), px.take(rest), py.take(rest)
         a, b = up.edge(slot, px)
         fit = orientation(up.x.take(a), up.y.take(a), up.x.take(b), up.y.take(b), px, py) <= 0

@@ -1,0 +1,78 @@
+"""Exact point location (``Locator.covered``) against exact rational arithmetic: a sample is
+covered when it lies in its group's closed hull and is none of the hull's vertices; hulls
+of exactly collinear points (segments), of few integers and of scattered floats alike."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from itertools import pairwise
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from imrosc.infer.polygon.hull import GroupSet, hulls
+from imrosc.infer.polygon.locate import Locator
+
+
+def _turn(a: tuple[float, float], b: tuple[float, float], p: tuple[float, float]) -> int:
+    ax, ay, bx, by, px, py = (Fraction(v) for v in (*a, *b, *p))
+    det = (ax - px) * (by - py) - (ay - py) * (bx - px)
+    return (det > 0) - (det < 0)
+
+
+def _covered(vertices: list[tuple[float, float]], p: tuple[float, float]) -> bool:
+    """In the closed hull of ``vertices`` (counter-clockwise), and none of them; hulls of
+    one point or a vertical segment cover nothing (the locator has no chain for them)."""
+    if len(vertices) < 2 or vertices[0][0] == max(v[0] for v in vertices) or p in vertices:
+        return False
+    if len(vertices) == 2:
+        (lx, _), (rx, _) = vertices
+        return _turn(vertices[0], vertices[1], p) == 0 and lx <= p[0] <= rx
+    pairs = zip(vertices, vertices[1:] + vertices[:1], strict=True)
+    return all(_turn(a, b, p) >= 0 for a, b in pairs)
+
+
+@st.composite
+def _group(draw: st.DrawFn) -> list[tuple[float, float]]:
+    shape = draw(st.sampled_from(["segment", "integers", "floats"]))
+    count = draw(st.integers(1, 12))
+    if shape == "segment":  # y = s*x + c, rounded: on the line or within a rounding of it
+        slope = draw(st.sampled_from([-1.0, 2.0, 0.5, 3.0, 0.0]))
+        shift = draw(st.sampled_from([0.0, 3.0, 0.1]))
+        xs = draw(st.lists(st.floats(-10, 10), min_size=count, max_size=count))
+        return [(x, slope * x + shift) for x in xs]
+    if shape == "integers":
+        value = st.integers(-3, 3).map(float)
+        return draw(st.lists(st.tuples(value, value), min_size=count, max_size=count))
+    value = st.floats(-10, 10)
+    return draw(st.lists(st.tuples(value, value), min_size=count, max_size=count))
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(_group(), min_size=1, max_size=4), st.data())
+def test_covered_is_the_closed_hull_less_its_vertices(
+    groups: list[list[tuple[float, float]]], data: st.DataObject
+) -> None:
+    points = [(g, x, y) for g, group in enumerate(groups) for x, y in group]
+    group = np.asarray([p[0] for p in points], dtype=np.int64)
+    xs = np.asarray([p[1] for p in points])
+    ys = np.asarray([p[2] for p in points])
+    hull = hulls(GroupSet(group, xs, ys, np.arange(len(points), dtype=np.int64)))
+    vertices: dict[int, list[tuple[float, float]]] = {}
+    for g, x, y in zip(hull.group.tolist(), hull.x.tolist(), hull.y.tolist(), strict=True):
+        vertices.setdefault(g, []).append((x, y))
+    locator = Locator.build(hull, len(groups))
+    # the groups' own points, the midpoints of pairs of them, and a few others
+    queries = [(g, x, y) for g, x, y in points]
+    for g, group_points in enumerate(groups):
+        for (x1, y1), (x2, y2) in pairwise(group_points):
+            queries.append((g, (x1 + x2) / 2, (y1 + y2) / 2))
+    other = st.tuples(st.integers(0, len(groups) - 1), st.floats(-11, 11), st.floats(-11, 30))
+    queries += data.draw(st.lists(other, max_size=10))
+    pair = np.asarray([q[0] for q in queries], dtype=np.int64)
+    qx = np.asarray([q[1] for q in queries])
+    qy = np.asarray([q[2] for q in queries])
+    found = locator.covered(pair, qx, qy).tolist()
+    expected = [_covered(vertices.get(g, []), (x, y)) for g, x, y in queries]
+    assert found == expected
