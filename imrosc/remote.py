@@ -44,6 +44,11 @@ PACKAGES = {
     "https": ("aiohttp", "http"),
 }
 """Per protocol, the package fsspec needs for it and imrosc's extra that installs it."""
+GCS_EMULATOR = "STORAGE_EMULATOR_HOST"
+"""The variable naming a Google Cloud Storage endpoint other than Google's (gcsfs's)."""
+GCSFS_CONTROL_PLANE = "GCSFS_EXPERIMENTAL_ZB_HNS_SUPPORT"
+"""gcsfs's switch of its bucket-type lookup (Google's gRPC control plane): off by default
+when :data:`GCS_EMULATOR` names another endpoint, which does not serve it."""
 
 SCRATCH_MB = 2048
 """Downloaded bags a process keeps (MiB, ``IMROSC_SCRATCH_MB``) for its next reads of them."""
@@ -173,6 +178,10 @@ def _filesystem(url: BagUrl) -> Any:
     except ImportError:  # pragma: no cover - a dependency of imrosc
         raise RemoteError("reading bags by URL needs fsspec: pip install fsspec") from None
     protocol = url.protocol
+    if PACKAGES.get(protocol, ("",))[0] == "gcsfs" and os.environ.get(GCS_EMULATOR):
+        # gcsfs asks Google's gRPC control plane what kind of bucket it reads: an emulator
+        # or a compatible store does not serve it, and each bucket then waits a minute
+        os.environ.setdefault(GCSFS_CONTROL_PLANE, "false")
     try:
         return fsspec.filesystem(protocol)
     except ImportError:

@@ -1,13 +1,16 @@
-"""Bags by URL and globs (imrosc.remote): bags served over HTTP and by an S3 server on
-loopback read by ``infer`` and ``replay`` as the same bags on disk are, globs of URLs and of
-paths, and the local copies a reading process makes deleted after."""
+"""Bags by URL and globs (imrosc.remote): bags served over HTTP and by S3 and Google Cloud
+Storage servers on loopback read by ``infer`` and ``replay`` as the same bags on disk are,
+globs of URLs and of paths, and the local copies a reading process makes deleted after."""
 
 from __future__ import annotations
 
+import os
 import pickle
 import socket
 import tempfile
+import urllib.request
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -15,7 +18,7 @@ from click.testing import CliRunner, Result
 
 from imrosc.bags import discover_bags, open_bag
 from imrosc.cli import main
-from imrosc.remote import BagUrl, Scratch, bag_path
+from imrosc.remote import GCS_EMULATOR, GCSFS_CONTROL_PLANE, BagUrl, Scratch, bag_path
 from imrosc.sim import write_run
 from tests.served import serve
 from tests.translate import good_run
@@ -211,7 +214,7 @@ def test_an_object_stores_folders_and_globs_name_its_bags(folder: Path, tmp_path
     assert got == (tmp_path / "local.inv").read_text()
 
 
-# --- s3:// -------------------------------------------------------------------------------
+# --- object stores: s3:// and gs:// ------------------------------------------------------
 
 BUCKET = "fleet"
 
@@ -222,10 +225,10 @@ def _free_port() -> int:
         return int(probe.getsockname()[1])
 
 
-@pytest.fixture(scope="module")
-def endpoint(folder: Path) -> Iterator[str]:
+@contextmanager
+def _s3(bags: list[Path]) -> Iterator[None]:
     """An S3 server on 127.0.0.1 (moto's: the S3 API as AWS serves it) whose bucket holds
-    the folder's bags under ``runs/``; s3fs reaches it through botocore's endpoint."""
+    ``bags`` under ``runs/``; s3fs reaches it through botocore's endpoint variable."""
     boto3 = pytest.importorskip("boto3")
     pytest.importorskip("s3fs")
     server = pytest.importorskip("moto.server")
@@ -244,38 +247,78 @@ def endpoint(folder: Path) -> Iterator[str]:
     try:
         client = boto3.client("s3", endpoint_url=url)
         client.create_bucket(Bucket=BUCKET)
-        for bag in sorted((folder / "bags").glob("r*.bag")):
+        for bag in bags:
             client.upload_file(str(bag), BUCKET, f"runs/{bag.name}")
-        yield url
+        yield
     finally:
         patch.undo()
         served.stop()
 
 
-def test_infer_and_replay_of_s3_bags_give_what_the_bags_on_disk_give(
-    folder: Path, endpoint: str, tmp_path: Path
+@contextmanager
+def _gcs(bags: list[Path]) -> Iterator[None]:
+    """A Google Cloud Storage server on 127.0.0.1 (gcp-storage-emulator: the JSON API as
+    Google serves it) whose bucket holds ``bags`` under ``runs/``; gcsfs reaches it through
+    its endpoint variable, and imrosc turns gcsfs's gRPC bucket lookup off for it."""
+    pytest.importorskip("gcsfs")
+    server = pytest.importorskip("gcp_storage_emulator.server")
+    port = _free_port()
+    served = server.create_server("127.0.0.1", port, in_memory=True, default_bucket=BUCKET)
+    served.start()
+    url = f"http://127.0.0.1:{port}"
+    patch = pytest.MonkeyPatch()
+    patch.setenv(GCS_EMULATOR, url)
+    patch.delenv(GCSFS_CONTROL_PLANE, raising=False)  # imrosc sets it: undone after
+    try:
+        for bag in bags:
+            upload = urllib.request.Request(
+                f"{url}/upload/storage/v1/b/{BUCKET}/o?uploadType=media&name=runs/{bag.name}",
+                data=bag.read_bytes(),
+                method="POST",
+            )
+            urllib.request.urlopen(upload, timeout=30).close()
+        yield
+    finally:
+        patch.undo()
+        served.stop()
+
+
+STORES = {"s3": _s3, "gs": _gcs}
+"""Per protocol, a server on loopback holding the bags, and what points its client at it."""
+
+
+@pytest.fixture(scope="module", params=sorted(STORES))
+def store(request: pytest.FixtureRequest, folder: Path) -> Iterator[str]:
+    """The URL of the folder's bags (``runs/``) in an object store on loopback."""
+    with STORES[request.param](sorted((folder / "bags").glob("r*.bag"))):
+        yield f"{request.param}://{BUCKET}/runs/"
+
+
+def test_infer_and_replay_of_stored_bags_give_what_the_bags_on_disk_give(
+    folder: Path, store: str, tmp_path: Path
 ) -> None:
-    local = configured(folder, "s3_local.xml", "bags/r0.bag", "bags/r1.bag")
-    remote = configured(folder, "s3_remote.xml", f"s3://{BUCKET}/runs/r[01].bag")
+    local = configured(folder, "store_local.xml", "bags/r0.bag", "bags/r1.bag")
+    remote = configured(folder, "store_remote.xml", f"{store}r[01].bag")
     done = invoke("infer", str(local), "-j", "1", "-o", str(tmp_path / "local.inv"))
     assert done.exit_code == 0, done.output
     done = invoke("infer", str(remote), "-j", "1", "-o", str(tmp_path / "remote.inv"))
     assert done.exit_code == 0, done.output
     assert "from 2 bags" in done.output
-    expected = (tmp_path / "local.inv").read_text().replace("s3_local.xml", "s3_remote.xml")
-    got = (tmp_path / "remote.inv").read_text().replace(f"s3://{BUCKET}/runs/", f"{folder}/bags/")
+    expected = (tmp_path / "local.inv").read_text().replace("store_local.xml", "store_remote.xml")
+    got = (tmp_path / "remote.inv").read_text().replace(store, f"{folder}/bags/")
     assert got == expected
     inv = str(tmp_path / "local.inv")
     on_disk = invoke("replay", inv, str(folder / "bags" / "r2.bag"), "--json")
-    stored = invoke("replay", inv, f"s3://{BUCKET}/runs/r2.bag", "--json")
+    stored = invoke("replay", inv, f"{store}r2.bag", "--json")
     assert stored.exit_code == on_disk.exit_code
     assert '"error": null' in stored.stdout
-    assert stored.stdout.replace(f"s3://{BUCKET}/runs/", f"{folder}/bags/") == on_disk.stdout
+    assert stored.stdout.replace(store, f"{folder}/bags/") == on_disk.stdout
+    if store.startswith("gs://"):  # no minute-long gRPC lookup of the bucket's kind
+        assert os.environ.get(GCSFS_CONTROL_PLANE) == "false"
 
 
-def test_a_missing_object_is_one_line_naming_it(folder: Path, endpoint: str) -> None:
-    missing = f"s3://{BUCKET}/runs/absent.bag"
-    done = invoke("info", missing)
+def test_a_missing_object_is_one_line_naming_it(store: str) -> None:
+    done = invoke("info", f"{store}absent.bag")
     assert done.exit_code == 2 and "Traceback" not in done.output
     lines = [line for line in done.output.splitlines() if "absent.bag" in line]
     assert len(lines) == 1, done.output
