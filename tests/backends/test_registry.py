@@ -18,7 +18,7 @@ from imrosc.backends.monitor_backend import MonitorBackend
 from imrosc.build import build
 from tests.backends.support import ROOT
 
-DIST = Path(__file__).parent / "third_party" / "dist"
+DIST = Path(__file__).parent / "third_party" / "site"
 """A site folder holding one installed distribution, ``imrosc-toy-monitor``: the package
 ``toy_monitor`` (a monitor backend) and its entry point, nothing else."""
 MONITOR_CONFIG = """<imROS project="toy">
