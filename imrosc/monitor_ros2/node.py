@@ -120,6 +120,9 @@ class Topic:
         self.relay_name = relay
         self.message_class: Any = None
         self.read: Optional[cdr.Reader] = None
+        self.take: Optional[Callable[[], Any]] = None
+        """The subscription's next message, ``None`` when none is waiting
+        (:func:`plumbing.taker`)."""
         self.qos: Optional[logic.Qos] = None
         self.relay_qos: Optional[logic.Qos] = None
         self.subscription: Any = None
@@ -287,6 +290,7 @@ class Monitor(common.Checking):
                 callback_group=self.checks,
                 raw=topic.relay_name is not None,
             )
+            topic.take = plumbing.taker(topic.subscription)
         if topic.relay_name is None:
             return
         offer = logic.qos_update(topic.relay_qos, publishers, topic.msgtype, logic.relay_qos)
@@ -334,38 +338,50 @@ class Monitor(common.Checking):
 
     def on_message_of(self, topic: Topic) -> Callable[[Any], None]:
         """The subscription callback of ``topic``: a message object, or the bytes of a
-        blocked topic's message (relayed as they are)."""
-        name = topic.name
-        flatten = self.flatteners.get(name)
+        blocked topic's message (relayed as they are). The messages that arrived meanwhile
+        are then taken in the same callback, in order, up to a history's worth
+        (:func:`plumbing.taker`): rclpy's executor rebuilds its wait set and makes a task for
+        every message it hands over, which costs more than the checks, so a node that fell
+        behind (a loaded machine) catches up at the cost of the checks alone."""
+        flatten = self.flatteners.get(topic.name)
 
         def on_message(message: Any) -> None:
-            if topic.relay_name is not None:
-                readable, values = self.read(topic, message, flatten)
-                if not readable:  # neither checked nor relayed
+            self.check_message(topic, flatten, message)
+            take = topic.take
+            if take is None:
+                return
+            for _ in range(QUEUE - 1):
+                more = take()
+                if more is None:
                     return
-            else:
-                values = flatten(message) if flatten is not None else None
-            with self.lock:
-                now = self.now()
-                found = self.engine.advance(now)
-                caused = self.engine.message(name, now, values) if values is not None else []
-                raised, alarmed = common.take_alarms(self.engine, found + caused)
-                precheck = self.precheck
-                if (
-                    precheck is not None
-                    and values is not None
-                    and name in precheck.condition_topics
-                ):
-                    precheck.message(name, now, values)
-            if topic.relay is not None:
-                self.last_relayed = time.time()
-                if not common.withheld(caused, alarmed):
-                    topic.relay.publish(message)
-                else:
-                    self.warn(common.blocked_line(name, caused, alarmed), throttle_duration_sec=1.0)
-            self.report(found + caused, raised, alarmed)
+                self.check_message(topic, flatten, more)
 
         return on_message
+
+    def check_message(self, topic: Topic, flatten: Optional[Flatten], message: Any) -> None:
+        """Check one message of ``topic`` and relay it unless it is withheld."""
+        name = topic.name
+        if topic.relay_name is not None:
+            readable, values = self.read(topic, message, flatten)
+            if not readable:  # neither checked nor relayed
+                return
+        else:
+            values = flatten(message) if flatten is not None else None
+        with self.lock:
+            now = self.now()
+            found = self.engine.advance(now)
+            caused = self.engine.message(name, now, values) if values is not None else []
+            raised, alarmed = common.take_alarms(self.engine, found + caused)
+            precheck = self.precheck
+            if precheck is not None and values is not None and name in precheck.condition_topics:
+                precheck.message(name, now, values)
+        if topic.relay is not None:
+            self.last_relayed = time.time()
+            if not common.withheld(caused, alarmed):
+                topic.relay.publish(message)
+            else:
+                self.warn(common.blocked_line(name, caused, alarmed), throttle_duration_sec=1.0)
+        self.report(found + caused, raised, alarmed)
 
     def read(
         self, topic: Topic, data: bytes, flatten: Optional[Flatten]

@@ -89,6 +89,27 @@ def profile(qos: logic.Qos, depth: int = QUEUE) -> Any:
     )
 
 
+def taker(subscription: Any) -> Optional[Callable[[], Any]]:
+    """A function that takes the next message waiting on ``subscription`` (bytes for a raw
+    one) outside the executor, ``None`` when none is waiting (or the subscription is gone);
+    ``None`` itself where rclpy has no ``take_message`` on the handle (before Humble)."""
+    handle: Any = getattr(subscription, "handle", None)
+    take = getattr(handle, "take_message", None)
+    if take is None:
+        return None
+    kind, raw = subscription.msg_type, subscription.raw
+
+    def next_message() -> Any:
+        try:
+            with handle:
+                taken = take(kind, raw)
+        except Exception:  # destroyed, or the context shut down: nothing to take
+            return None
+        return None if taken is None else taken[0]
+
+    return next_message
+
+
 def get_param(node: Any, name: str, default: Any) -> Any:
     """A parameter of ``node`` (created with ``allow_undeclared_parameters`` and
     ``automatically_declare_parameters_from_overrides``, so any type given on the command
