@@ -286,7 +286,7 @@ class Monitor(common.Checking):
                 topic.message_class,
                 topic.name,
                 self.checked(f"message on {topic.name}", self.on_message_of(topic)),
-                plumbing.profile(wanted),
+                plumbing.profile(wanted, plumbing.TOPIC_DEPTH),
                 callback_group=self.checks,
                 raw=topic.relay_name is not None,
             )
@@ -299,7 +299,7 @@ class Monitor(common.Checking):
                 self.node.destroy_publisher(topic.relay)
             topic.relay_qos = offer
             topic.relay = self.node.create_publisher(
-                topic.message_class, topic.relay_name, plumbing.profile(offer)
+                topic.message_class, topic.relay_name, plumbing.profile(offer, plumbing.TOPIC_DEPTH)
             )
 
     def connect_action(self, ident: str, view: logic.GraphView) -> None:
@@ -339,7 +339,7 @@ class Monitor(common.Checking):
     def on_message_of(self, topic: Topic) -> Callable[[Any], None]:
         """The subscription callback of ``topic``: a message object, or the bytes of a
         blocked topic's message (relayed as they are). The messages that arrived meanwhile
-        are then taken in the same callback, in order, up to a history's worth
+        are then taken in the same callback, in order, up to :data:`QUEUE` of them
         (:func:`plumbing.taker`): rclpy's executor rebuilds its wait set and makes a task for
         every message it hands over, which costs more than the checks, so a node that fell
         behind (a loaded machine) catches up at the cost of the checks alone."""

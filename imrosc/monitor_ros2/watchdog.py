@@ -156,7 +156,7 @@ class Watchdog:
             relay.publisher = self.node.create_publisher(
                 relay.message_class,
                 common.relay_name(self.namespace, name),
-                plumbing.profile(offer),
+                plumbing.profile(offer, plumbing.TOPIC_DEPTH),
             )
         wanted = logic.qos_update(relay.qos, publishers, relay.msgtype)
         if wanted is not None:
@@ -164,7 +164,10 @@ class Watchdog:
                 self.node.destroy_subscription(relay.subscription)
             relay.qos = wanted
             relay.subscription = self.node.create_subscription(
-                relay.message_class, name, relay.forward, plumbing.profile(wanted)
+                relay.message_class,
+                name,
+                relay.forward,
+                plumbing.profile(wanted, plumbing.TOPIC_DEPTH),
             )
 
     def serve_service(self, view: logic.GraphView, name: str) -> bool:
