@@ -14,8 +14,9 @@ variables read from ``position[0]`` .. ``position[55]``.
   publisher that encodes) -> sink (the target's baseline);
 * ``raw relay``: the same relay with ``raw=True``: it republishes the CDR bytes;
 * ``monitor``: the package ``imrosc build --backend ros2`` renders, built with ``colcon``,
-  blocking the topic (it decodes, flattens, checks, republishes the message on
-  ``/m/bench/wide``), started as its installed console script; measured once it logged
+  blocking the topic (it subscribes raw, reads the 56 values from the CDR bytes, checks
+  them and republishes the same bytes on ``/m/bench/wide``: ``imrosc/onboard/monitor_ros2/cdr.py``),
+  started as its installed console script; measured once it logged
   that its checks are compiled, where numba compiles them;
 * ``monitor, numpy`` (``bench/monitor_latency.py --numpy-too``): the same with
   ``IMROSC_NUMBA=0``.

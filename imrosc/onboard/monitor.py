@@ -636,11 +636,26 @@ def param_values(read: Callable[[str], Any], names: Iterable[str]) -> Dict[str, 
     return values
 
 
-def should_relay(last_beat: float, now: float, timeout: float) -> bool:
-    """The fail-open watchdog's decision: relay while the monitor's heartbeat has been
-    silent for more than ``timeout`` seconds; stop as soon as it beats again.
+STARTUP = 5.0
+"""Least default ``startup`` of a watchdog: seconds it waits for the monitor's first beat
+before it fails open (a monitor imports numpy and loads its invariants before it beats,
+which took over a second on a loaded machine)."""
 
-    >>> should_relay(10.0, 12.0, 3.0), should_relay(10.0, 13.5, 3.0)
+
+def should_relay(
+    last_beat: Optional[float], now: float, timeout: float, started: float, startup: float
+) -> bool:
+    """The fail-open watchdog's decision: relay while the monitor's heartbeat has been
+    silent for more than ``timeout`` seconds; stop as soon as it beats again. Before the
+    first beat (``last_beat`` ``None``) relay once ``startup`` seconds passed since the
+    watchdog ``started``: a monitor starting slowly is not a monitor that died, and a
+    watchdog that failed open meanwhile would relay beside it until it noticed the beat.
+
+    >>> should_relay(10.0, 12.0, 3.0, 0.0, 5.0), should_relay(10.0, 13.5, 3.0, 0.0, 5.0)
+    (False, True)
+    >>> should_relay(None, 4.0, 1.0, 0.0, 5.0), should_relay(None, 5.5, 1.0, 0.0, 5.0)
     (False, True)
     """
+    if last_beat is None:
+        return now - started > startup
     return now - last_beat > timeout

@@ -212,8 +212,16 @@ def test_parameters_are_polled_flattened_and_missing_ones_left_out() -> None:
 
 
 def test_the_watchdog_relays_only_while_the_heartbeat_is_silent() -> None:
-    assert not monitor.should_relay(10.0, 12.9, 3.0)
-    assert monitor.should_relay(10.0, 13.1, 3.0)
+    assert not monitor.should_relay(10.0, 12.9, 3.0, 0.0, 5.0)
+    assert monitor.should_relay(10.0, 13.1, 3.0, 0.0, 5.0)
+
+
+def test_the_watchdog_waits_startup_seconds_for_the_first_beat() -> None:
+    # a monitor that has not beaten yet is starting: one timeout is not enough
+    assert not monitor.should_relay(None, 4.9, 1.0, 0.0, 5.0)
+    assert monitor.should_relay(None, 5.1, 1.0, 0.0, 5.0)
+    # once it beat, the timeout alone counts
+    assert monitor.should_relay(3.0, 4.1, 1.0, 0.0, 5.0)
 
 
 def test_the_guard_stops_checking_at_the_first_exception_and_reports_it() -> None:

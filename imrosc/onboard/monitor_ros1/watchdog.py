@@ -10,7 +10,8 @@ monitor registers its services again when it restarts, which replaces the watchd
 topic whose type the master does not know yet and a service not registered yet are looked
 for again at every check of the heartbeat while failing open, and relayed once found.
 
-Parameters: ``~namespace``, ``~period``, ``~timeout``. Python 3.8 syntax.
+Parameters: ``~namespace``, ``~period``, ``~timeout``, ``~startup`` (seconds to wait for the
+monitor's first beat: ``~timeout``, at least five). Python 3.8 syntax.
 """
 
 from __future__ import annotations
@@ -42,7 +43,9 @@ class Watchdog:
         period = float(rospy.get_param("~period", spec["period"]))
         self.timeout = float(rospy.get_param("~timeout", max(3.0 * period, 1.0)))
         self.master = rosgraph.Master(rospy.get_name())
-        self.last_beat = time.monotonic()  # a grace period for the monitor to start
+        self.startup = float(rospy.get_param("~startup", max(self.timeout, common.STARTUP)))
+        self.started = time.monotonic()
+        self.last_beat: Optional[float] = None  # no beat yet: ``startup`` applies
         self.relaying = False
         self.endpoints: List[Any] = []
         self.pending_topics: List[Mapping[str, Any]] = []  # blocked topics of unknown type
@@ -61,7 +64,9 @@ class Watchdog:
         """Check the heartbeat four times per timeout; start or stop relaying; while
         relaying, relay what was not found yet."""
         while not rospy.is_shutdown():
-            wanted = common.should_relay(self.last_beat, time.monotonic(), self.timeout)
+            wanted = common.should_relay(
+                self.last_beat, time.monotonic(), self.timeout, self.started, self.startup
+            )
             with self.lock:
                 try:
                     if wanted and not self.relaying:

@@ -9,7 +9,9 @@ and its generated flatteners. The node
   publisher shows), flattens each message and feeds it to the engine; a blocked topic's
   message is republished on ``/m/<topic>``, with the source's QoS, unless one of its
   violations belongs to an alarm (the rewritten launch file remaps the topic's subscribers
-  there);
+  there). A blocked topic is subscribed raw: its values are read from the CDR bytes
+  (``cdr.py``) and the relay publishes the same bytes, so a relayed message is neither
+  decoded into a Python object nor encoded again;
 * serves ``/m/<service>`` for every watched or blocked service once the graph tells the
   service's type, forwards each call to the real service and feeds the call to the engine;
   for a blocked service a request that breaks an invariant of the request in alarm is not
@@ -49,6 +51,7 @@ from __future__ import annotations
 import gc
 import os
 import queue
+import struct
 import sys
 import threading
 import time
@@ -60,7 +63,7 @@ import numpy as np
 from .. import files
 from .. import monitor as common
 from ..fill import FillError
-from . import logic, plumbing
+from . import cdr, logic, plumbing
 
 try:  # only a ROS 2 system has these; the helpers above are usable without them
     import rclpy  # type: ignore[import-not-found, unused-ignore]
@@ -76,6 +79,9 @@ try:  # only a ROS 2 system has these; the helpers above are usable without them
         SingleThreadedExecutor,
     )
     from rclpy.node import Node  # type: ignore[import-not-found, unused-ignore]
+    from rclpy.serialization import (  # type: ignore[import-not-found, unused-ignore]
+        deserialize_message,
+    )
     from std_msgs.msg import String  # type: ignore[import-not-found, unused-ignore]
 except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
     rclpy = None
@@ -104,13 +110,19 @@ def default_invariants(package: str) -> str:
 
 
 class Topic:
-    """A watched or blocked topic: its type, class, QoS, subscription and relay."""
+    """A watched or blocked topic: its type, class, QoS, subscription and relay. A blocked
+    topic is subscribed raw and relayed as the bytes it came in (``cdr.py``): ``read`` gives
+    the values from the bytes, or is ``None`` when the node deserialises them instead."""
 
     def __init__(self, name: str, msgtype: Optional[str], relay: Optional[str]) -> None:
         self.name = name
         self.msgtype = msgtype
         self.relay_name = relay
         self.message_class: Any = None
+        self.read: Optional[cdr.Reader] = None
+        self.take: Optional[Callable[[], Any]] = None
+        """The subscription's next message, ``None`` when none is waiting
+        (:func:`plumbing.taker`)."""
         self.qos: Optional[logic.Qos] = None
         self.relay_qos: Optional[logic.Qos] = None
         self.subscription: Any = None
@@ -147,6 +159,9 @@ class Monitor(common.Checking):
         self.own: Set[str] = {self.name, logic.resolve_node(node.get_namespace(), watchdog)}
         ns = self.namespace
         self.flatteners = flatteners
+        self.layouts: Mapping[str, Sequence[Mapping[str, Any]]] = {
+            name: info.get("variables", []) for name, info in document.get("topics", {}).items()
+        }
         self.broken = node.create_publisher(
             String, ns + "/broken_inv", plumbing.profile(logic.DEFAULT)
         )
@@ -258,6 +273,9 @@ class Monitor(common.Checking):
                 )
                 topic.msgtype = None
                 return
+            if topic.relay_name is not None and topic.name in self.flatteners:
+                layout = self.layouts.get(topic.name, ())
+                topic.read = cdr.reader(topic.message_class, layout, plumbing.message_class)
         publishers = logic.publisher_qos(view, topic.name, self.own)
         wanted = logic.qos_update(topic.qos, publishers, topic.msgtype)
         if wanted is not None:
@@ -268,9 +286,11 @@ class Monitor(common.Checking):
                 topic.message_class,
                 topic.name,
                 self.checked(f"message on {topic.name}", self.on_message_of(topic)),
-                plumbing.profile(wanted),
+                plumbing.profile(wanted, plumbing.TOPIC_DEPTH),
                 callback_group=self.checks,
+                raw=topic.relay_name is not None,
             )
+            topic.take = plumbing.taker(topic.subscription)
         if topic.relay_name is None:
             return
         offer = logic.qos_update(topic.relay_qos, publishers, topic.msgtype, logic.relay_qos)
@@ -279,7 +299,7 @@ class Monitor(common.Checking):
                 self.node.destroy_publisher(topic.relay)
             topic.relay_qos = offer
             topic.relay = self.node.create_publisher(
-                topic.message_class, topic.relay_name, plumbing.profile(offer)
+                topic.message_class, topic.relay_name, plumbing.profile(offer, plumbing.TOPIC_DEPTH)
             )
 
     def connect_action(self, ident: str, view: logic.GraphView) -> None:
@@ -317,33 +337,76 @@ class Monitor(common.Checking):
     # -- what happens -----------------------------------------------------------------------
 
     def on_message_of(self, topic: Topic) -> Callable[[Any], None]:
-        """The subscription callback of ``topic``."""
-        name = topic.name
-        flatten = self.flatteners.get(name)
+        """The subscription callback of ``topic``: a message object, or the bytes of a
+        blocked topic's message (relayed as they are). The messages that arrived meanwhile
+        are then taken in the same callback, in order, up to :data:`QUEUE` of them
+        (:func:`plumbing.taker`): rclpy's executor rebuilds its wait set and makes a task for
+        every message it hands over, which costs more than the checks, so a node that fell
+        behind (a loaded machine) catches up at the cost of the checks alone."""
+        flatten = self.flatteners.get(topic.name)
 
         def on_message(message: Any) -> None:
-            values = flatten(message) if flatten is not None else None
-            with self.lock:
-                now = self.now()
-                found = self.engine.advance(now)
-                caused = self.engine.message(name, now, values) if values is not None else []
-                raised, alarmed = common.take_alarms(self.engine, found + caused)
-                precheck = self.precheck
-                if (
-                    precheck is not None
-                    and values is not None
-                    and name in precheck.condition_topics
-                ):
-                    precheck.message(name, now, values)
-            if topic.relay is not None:
-                self.last_relayed = time.time()
-                if not common.withheld(caused, alarmed):
-                    topic.relay.publish(message)
-                else:
-                    self.warn(common.blocked_line(name, caused, alarmed), throttle_duration_sec=1.0)
-            self.report(found + caused, raised, alarmed)
+            self.check_message(topic, flatten, message)
+            take = topic.take
+            if take is None:
+                return
+            for _ in range(QUEUE - 1):
+                more = take()
+                if more is None:
+                    return
+                self.check_message(topic, flatten, more)
 
         return on_message
+
+    def check_message(self, topic: Topic, flatten: Optional[Flatten], message: Any) -> None:
+        """Check one message of ``topic`` and relay it unless it is withheld."""
+        name = topic.name
+        if topic.relay_name is not None:
+            readable, values = self.read(topic, message, flatten)
+            if not readable:  # neither checked nor relayed
+                return
+        else:
+            values = flatten(message) if flatten is not None else None
+        with self.lock:
+            now = self.now()
+            found = self.engine.advance(now)
+            caused = self.engine.message(name, now, values) if values is not None else []
+            raised, alarmed = common.take_alarms(self.engine, found + caused)
+            precheck = self.precheck
+            if precheck is not None and values is not None and name in precheck.condition_topics:
+                precheck.message(name, now, values)
+        if topic.relay is not None:
+            self.last_relayed = time.time()
+            if not common.withheld(caused, alarmed):
+                topic.relay.publish(message)
+            else:
+                self.warn(common.blocked_line(name, caused, alarmed), throttle_duration_sec=1.0)
+        self.report(found + caused, raised, alarmed)
+
+    def read(
+        self, topic: Topic, data: bytes, flatten: Optional[Flatten]
+    ) -> Tuple[bool, Optional[List[Any]]]:
+        """Whether a message that came as bytes is readable, and its values: read by
+        ``topic.read``, or, when it cannot read them (no plan for the layout, another
+        encapsulation), from the message rclpy deserialises (bytes that do not deserialise
+        are logged, and the message is neither checked nor relayed)."""
+        if flatten is None:
+            return True, None
+        if topic.read is not None:
+            try:
+                values: List[Any] = topic.read(data)
+                return True, values
+            except (struct.error, IndexError, ValueError, TypeError):
+                pass
+        try:
+            message = deserialize_message(data, topic.message_class)
+        except Exception as error:  # the type support raises several kinds on bad bytes
+            self.log.error(
+                f"imrosc: a message on {topic.name} does not deserialise: {error}",
+                throttle_duration_sec=60.0,
+            )
+            return False, None
+        return True, flatten(message)
 
     def handler(self, service: str, client: Any) -> Callable[[Any, Any], Any]:
         """The callback of ``/m/<service>``: check, forward, check, answer. A refused or

@@ -11,7 +11,8 @@ takes its time: a topic whose publishers are not discovered yet and a service no
 yet are looked for again at every check of the heartbeat while failing open, and relayed
 as soon as they are found (a relay follows its publishers' QoS as they come and go).
 
-Parameters: ``namespace``, ``period``, ``timeout``, ``service_timeout``. Python 3.8 syntax.
+Parameters: ``namespace``, ``period``, ``timeout``, ``startup`` (seconds to wait for the
+monitor's first beat: ``timeout``, at least five), ``service_timeout``. Python 3.8 syntax.
 """
 
 from __future__ import annotations
@@ -76,7 +77,9 @@ class Watchdog:
         self.timeout = float(plumbing.get_param(node, "timeout", max(3.0 * period, 1.0)))
         self.call_timeout = float(plumbing.get_param(node, "service_timeout", 10.0))
         self.name = logic.node_name(node.get_namespace(), node.get_name())
-        self.last_beat = time.monotonic()  # a grace period for the monitor to start
+        self.startup = float(plumbing.get_param(node, "startup", max(self.timeout, common.STARTUP)))
+        self.started = time.monotonic()
+        self.last_beat: Optional[float] = None  # no beat yet: ``startup`` applies
         self.relaying = False
         self.endpoints: List[Tuple[str, Any]] = []
         self.topics: Dict[str, Relay] = {}
@@ -96,7 +99,9 @@ class Watchdog:
         """Check the heartbeat four times per timeout; start or stop relaying; while
         relaying, relay what was not discovered yet and follow the publishers' QoS."""
         while rclpy.ok():
-            wanted = common.should_relay(self.last_beat, time.monotonic(), self.timeout)
+            wanted = common.should_relay(
+                self.last_beat, time.monotonic(), self.timeout, self.started, self.startup
+            )
             with self.lock:
                 try:
                     if wanted and not self.relaying:
@@ -156,7 +161,7 @@ class Watchdog:
             relay.publisher = self.node.create_publisher(
                 relay.message_class,
                 common.relay_name(self.namespace, name),
-                plumbing.profile(offer),
+                plumbing.profile(offer, plumbing.TOPIC_DEPTH),
             )
         wanted = logic.qos_update(relay.qos, publishers, relay.msgtype)
         if wanted is not None:
@@ -164,7 +169,10 @@ class Watchdog:
                 self.node.destroy_subscription(relay.subscription)
             relay.qos = wanted
             relay.subscription = self.node.create_subscription(
-                relay.message_class, name, relay.forward, plumbing.profile(wanted)
+                relay.message_class,
+                name,
+                relay.forward,
+                plumbing.profile(wanted, plumbing.TOPIC_DEPTH),
             )
 
     def serve_service(self, view: logic.GraphView, name: str) -> bool:
