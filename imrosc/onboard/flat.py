@@ -22,7 +22,8 @@ functions do not wrap their work in ``np.errstate``.
 from __future__ import annotations
 
 import math
-from typing import Any, Callable, List, Sequence, Tuple
+import re
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -91,3 +92,32 @@ def careful(message: Any, fields: Sequence[Field]) -> List[Any]:
             value = "" if text else math.nan
         values.append(str(value) if text else number(value))
     return values
+
+
+STATISTICS: Dict[str, Callable[[Any], float]] = {
+    "len": len_,
+    "avg": avg_,
+    "std": std_,
+    "min": min_,
+    "max": max_,
+}
+"""A derived variable's statistic of its array, by name."""
+VARIABLE_PATH = re.compile(
+    r"^(?P<fields>[A-Za-z][A-Za-z0-9_]*(?:\.[A-Za-z][A-Za-z0-9_]*)*)(?:\[(?P<index>\d+)\])?$"
+)
+"""A variable's path in its message: the fields, then an element's index."""
+
+
+class UnsupportedError(Exception):
+    """A byte reader's layout needs what its plan does not read (the ROS 1 wire reader's and
+    the ROS 2 CDR reader's): the node decodes the message instead."""
+
+
+def converter(index: Optional[int], derived: Optional[str], text: bool) -> Callable[[Any], Any]:
+    """What makes a byte reader's raw field a variable's value: its statistic, its element,
+    or the field as a string or a number."""
+    if derived is not None:
+        return STATISTICS[derived]
+    if index is not None:
+        return lambda array: float(at_(array, index))
+    return str if text else float

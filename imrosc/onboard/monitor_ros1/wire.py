@@ -45,7 +45,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..flat import at_, avg_, len_, max_, min_, std_
+from ..flat import STATISTICS, VARIABLE_PATH, UnsupportedError, converter
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type``) -> its genpy class."""
@@ -73,21 +73,7 @@ _TIMES = {"time": "2I", "duration": "2i"}
 _BYTES = ("uint8", "char")
 """Arrays of these are ``bytes`` in genpy."""
 _ARRAY = re.compile(r"^(?P<base>[^\[]+)\[(?P<count>\d*)\]$")
-_PATH = re.compile(
-    r"^(?P<fields>[A-Za-z][A-Za-z0-9_]*(?:\.[A-Za-z][A-Za-z0-9_]*)*)(?:\[(?P<index>\d+)\])?$"
-)
 _U32 = struct.Struct("<I")
-_STATISTICS: Dict[str, Callable[[Any], float]] = {
-    "len": len_,
-    "avg": avg_,
-    "std": std_,
-    "min": min_,
-    "max": max_,
-}
-
-
-class UnsupportedError(Exception):
-    """The layout needs what the plan does not read; decode the message instead."""
 
 
 def raw_class(message_class: Any) -> Any:
@@ -211,7 +197,7 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
     by_path = {leaf[0]: k for k, leaf in enumerate(leaves)}
     wanted: List[Tuple[int, Optional[int], Optional[str], bool]] = []
     for variable in variables:
-        found = _PATH.match(str(variable.get("path", "")))
+        found = VARIABLE_PATH.match(str(variable.get("path", "")))
         if found is None or found.group("fields") not in by_path:
             raise UnsupportedError(f"no field {variable.get('path')!r}")
         leaf = by_path[found.group("fields")]
@@ -220,7 +206,7 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
         text = variable.get("type") == "string"
         _, kind, code, _ = leaves[leaf]
         if derived is not None:
-            if derived not in _STATISTICS or index is not None or text:
+            if derived not in STATISTICS or index is not None or text:
                 raise UnsupportedError(f"statistic {derived!r} of {variable.get('path')!r}")
             if kind not in ("array", "bytes") or code in _TIMES.values():
                 raise UnsupportedError(f"a statistic of {kind} {variable.get('path')!r}")
@@ -434,7 +420,7 @@ def _finish(
             return list(map(float, pick(got)))
 
         return numbers
-    convert = [_convert(index, derived, text) for _, index, derived, text in wanted]
+    convert = [converter(index, derived, text) for _, index, derived, text in wanted]
     pairs = list(zip(convert, at))
 
     def mixed(data: bytes) -> List[Any]:
@@ -445,11 +431,3 @@ def _finish(
         return [make(got[slot]) for make, slot in pairs]
 
     return mixed
-
-
-def _convert(index: Optional[int], derived: Optional[str], text: bool) -> Callable[[Any], Any]:
-    if derived is not None:
-        return _STATISTICS[derived]
-    if index is not None:
-        return lambda array: float(at_(array, index))
-    return str if text else float

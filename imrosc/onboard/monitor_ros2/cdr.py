@@ -46,7 +46,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..flat import at_, avg_, len_, max_, min_, std_
+from ..flat import STATISTICS, VARIABLE_PATH, UnsupportedError, converter
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type`` or ``pkg/msg/Type``) -> its rclpy class, or ``None``."""
@@ -77,21 +77,7 @@ read: rclpy gives them as bytes, one-character strings or numpy's long double)."
 _SEQUENCE = re.compile(r"^sequence<(?P<base>.+?)(?:,\s*\d+)?>$")
 _ARRAY = re.compile(r"^(?P<base>[^\[]+)\[(?P<count>\d+)\]$")
 _STRING = re.compile(r"^string(?:<=\d+)?$")
-_PATH = re.compile(
-    r"^(?P<fields>[A-Za-z][A-Za-z0-9_]*(?:\.[A-Za-z][A-Za-z0-9_]*)*)(?:\[(?P<index>\d+)\])?$"
-)
 _U32 = struct.Struct("<I")
-_STATISTICS: Dict[str, Callable[[Any], float]] = {
-    "len": len_,
-    "avg": avg_,
-    "std": std_,
-    "min": min_,
-    "max": max_,
-}
-
-
-class UnsupportedError(Exception):
-    """The layout needs what the plan does not read; deserialise the message instead."""
 
 
 Leaf = Tuple[str, str, str, Optional[int], Any]
@@ -157,7 +143,7 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
     wanted: List[Wanted] = []
     for variable in variables:
         path = str(variable.get("path", ""))
-        found = _PATH.match(path)
+        found = VARIABLE_PATH.match(path)
         if found is None or found.group("fields") not in by_path:
             raise UnsupportedError(f"no field {path!r}")
         leaf = by_path[found.group("fields")]
@@ -166,7 +152,7 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
         text = variable.get("type") == "string"
         kind = leaves[leaf][1]
         if derived is not None:
-            if derived not in _STATISTICS or index is not None or text or kind != "array":
+            if derived not in STATISTICS or index is not None or text or kind != "array":
                 raise UnsupportedError(f"statistic {derived!r} of {kind} {path!r}")
         elif index is not None:
             if kind != "array" or text:
@@ -300,7 +286,7 @@ def _dynamic(leaf: Leaf, keep: bool) -> Step:
 def _finish(steps: Sequence[Step], wanted: Sequence[Wanted]) -> Reader:
     """The reader: walk the steps, then give each variable its value as the generated
     flattener computes it."""
-    convert = [_convert(index, derived, text) for _, index, derived, text in wanted]
+    convert = [converter(index, derived, text) for _, index, derived, text in wanted]
     pairs = list(zip(convert, [slot for slot, _, _, _ in wanted]))
 
     def values(data: bytes) -> List[Any]:
@@ -311,11 +297,3 @@ def _finish(steps: Sequence[Step], wanted: Sequence[Wanted]) -> Reader:
         return [make(got[slot]) for make, slot in pairs]
 
     return values
-
-
-def _convert(index: Optional[int], derived: Optional[str], text: bool) -> Callable[[Any], Any]:
-    if derived is not None:
-        return _STATISTICS[derived]
-    if index is not None:
-        return lambda array: float(at_(array, index))
-    return str if text else float
