@@ -616,14 +616,6 @@ def main(
         threading.Thread(
             target=monitor.compile, args=(compiler,), name="imrosc-compile", daemon=True
         ).start()
-    try:
-        executor.spin()
-    except plumbing.SPIN_ENDED:  # Ctrl-C, either way
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+    plumbing.spin_until_stopped(executor, node)
     if monitor.guard.failure is not None:
         sys.exit(1)  # the launch reports the exit

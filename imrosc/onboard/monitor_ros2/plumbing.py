@@ -39,6 +39,23 @@ except ImportError:  # Foxy, Galactic (and no ROS 2 at all)
 SPIN_ENDED = (KeyboardInterrupt, ExternalShutdownException)
 """What ends an executor's ``spin()`` on Ctrl-C or SIGINT, in every ROS 2 release."""
 
+
+def spin_until_stopped(executor: Any, node: Any) -> None:
+    """Spin ``executor`` until Ctrl-C (either way it ends the spin), then shut it, ``node``
+    and rclpy down."""
+    import rclpy  # type: ignore[import-not-found, unused-ignore]
+
+    try:
+        executor.spin()
+    except SPIN_ENDED:
+        pass
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+
+
 QUEUE = 100
 """Depth of the monitor's other subscriptions and publishers (KEEP_LAST), as ROS 1's
 queue_size; and the most messages a topic's callback takes at once (node.py)."""

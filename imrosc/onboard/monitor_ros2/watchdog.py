@@ -247,12 +247,4 @@ def main(package: str, args: Optional[List[str]] = None) -> None:
     Watchdog(node, files.load_spec())
     executor = MultiThreadedExecutor(num_threads=THREADS)
     executor.add_node(node)
-    try:
-        executor.spin()
-    except plumbing.SPIN_ENDED:  # Ctrl-C, either way
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
+    plumbing.spin_until_stopped(executor, node)
