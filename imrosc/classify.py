@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
-from imrosc.calibrate.rule import HeldOutRun, held_out_runs
+from imrosc.calibrate.rule import HeldOutRun, alarms_under, covered, held_out_runs
 from imrosc.check import load_checked
 from imrosc.detectors import (
     FOLDS,
@@ -66,6 +66,7 @@ from imrosc.selection import (
     SELECTIONS,
     Cover,
     Nominal,
+    Whole,
     Worth,
     cover,
     detected_by,
@@ -485,6 +486,7 @@ def classify(
     select: str = SELECTIONS[0],
     detectors: Mapping[str, Nominal] | None = None,
     folds: Sequence[Sequence[Path]] = (),
+    whole: Whole | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, dict[str, int]], Cover | None]:
     """Scores per invariant, counts per family, and the chosen set (``select="cover"``;
     :mod:`imrosc.selection`).
@@ -498,7 +500,8 @@ def classify(
     ``detectors``: the learnt detectors among the invariants, each with what the held-out
     nominal runs its threshold was set on say of it (:func:`detector_nominal`); with
     ``select="cover"`` the monitor is then the best of the cover, the detectors, or both,
-    as held-out failed runs (``folds``) show (:func:`monitor_choice`).
+    as held-out failed runs (``folds``) show (:func:`monitor_choice`); ``whole``: the
+    inferred monitor as calibrated is a candidate too (:func:`whole_monitor`).
     """
     scores: list[dict[str, Any]] = []
     families: dict[str, dict[str, int]] = {}
@@ -553,9 +556,11 @@ def classify(
         )
         order = [s["id"] for s in by_delay]
         runs = len(success) + len(fail)
-        if detectors:
-            nominal.update(detectors)
-            chosen = monitor_choice(nominal, fail, before, runs, folds, order, set(detectors))
+        if detectors or whole is not None:
+            nominal.update(detectors or {})
+            chosen = monitor_choice(
+                nominal, fail, before, runs, folds, order, set(detectors or {}), whole
+            )
         else:
             chosen = cover(nominal, fail, before, runs, order=order)
         picked = {ident: rank for rank, ident in enumerate(chosen.chosen)}
@@ -579,14 +584,17 @@ def monitor_choice(
     folds: Sequence[Sequence[Path]],
     order: Sequence[str],
     detectors: set[str],
+    whole: Whole | None = None,
 ) -> Cover:
-    """The monitor of the invariants ``cover`` chooses, of the learnt ``detectors``, or of
-    both: whichever held-out failed runs show worth the most (failed runs detected, less
-    those alarmed on before their onset, less the false alarms expected on ``runs`` new
-    nominal runs). The cover is chosen without each fold of failed runs in turn and judged
-    on it (:func:`imrosc.selection.held_out_cover`); the detectors' detections are
-    cross-fitted already, their thresholds above every held-out nominal run. Ties keep the
-    cover, then the detectors alone."""
+    """The monitor of the invariants ``cover`` chooses, of the learnt ``detectors``, of
+    both, of the inferred monitor as calibrated (``whole``: every invariant under the file's
+    alarm rule), or of that and the detectors: whichever held-out failed runs show worth the
+    most (failed runs detected, less those alarmed on before their onset, less the false
+    alarms expected on ``runs`` new nominal runs). The cover is chosen without each fold of
+    failed runs in turn and judged on it (:func:`imrosc.selection.held_out_cover`); the
+    detectors' detections are cross-fitted already, their thresholds above every held-out
+    nominal run; nothing of the whole monitor was chosen on the failed runs. Ties keep the
+    cover, then the detectors alone, then both."""
     invariants = {i: n for i, n in nominal.items() if i not in detectors}
     plain = {run: ids - detectors for run, ids in fail.items()}
     found = cover(invariants, plain, before, runs, order=order)
@@ -594,30 +602,95 @@ def monitor_choice(
     p_cover = union_false_alarm(nominal, found.chosen)
     p_detector = union_false_alarm(nominal, sorted(detectors))
     p_both = 1.0 - (1.0 - p_cover) * (1.0 - p_detector)
+    candidates: list[tuple[Worth, tuple[str, ...], tuple[int, float]]] = []
     covered, spoiled = held_out_cover(invariants, plain, before, runs, folds, order)
-    both, both_spoiled = held_out_cover(invariants, plain, before, runs, folds, order, by_detector)
-    candidates = [
-        (Worth("cover", covered, spoiled, runs * p_cover), found.chosen),
-        (
-            Worth("detector", sum(by_detector.values()), 0, runs * p_detector),
-            tuple(sorted(detectors)),
-        ),
-        (
-            Worth("both", both, both_spoiled, runs * p_both),
-            found.chosen + tuple(sorted(detectors)),
-        ),
-    ]
-    worth, chosen = max(candidates, key=lambda c: c[0].value)  # the first of equals
-    detected = detected_by(set(chosen), fail, before)
-    value = detected - runs * union_false_alarm(nominal, chosen)
+    candidates.append((Worth("cover", covered, spoiled, runs * p_cover), found.chosen, (-1, 0)))
+    if detectors:
+        both, both_spoiled = held_out_cover(
+            invariants, plain, before, runs, folds, order, by_detector
+        )
+        candidates += [
+            (
+                Worth("detector", sum(by_detector.values()), 0, runs * p_detector),
+                tuple(sorted(detectors)),
+                (sum(by_detector.values()), p_detector),
+            ),
+            (
+                Worth("both", both, both_spoiled, runs * p_both),
+                found.chosen + tuple(sorted(detectors)),
+                (-1, 0),
+            ),
+        ]
+    if whole is not None:
+        alone = len(whole.detected)
+        candidates.append(
+            (
+                Worth("inferred", alone, len(whole.early), runs * whole.false_alarm),
+                whole.chosen,
+                (alone, whole.false_alarm),
+            )
+        )
+        if detectors:
+            joint = sum(
+                1
+                for run in fail
+                if run not in whole.early and (run in whole.detected or by_detector[run])
+            )
+            p_joint = 1.0 - (1.0 - whole.false_alarm) * (1.0 - p_detector)
+            candidates.append(
+                (
+                    Worth("inferred+detector", joint, len(whole.early), runs * p_joint),
+                    whole.chosen + tuple(sorted(detectors)),
+                    (joint, p_joint),
+                )
+            )
+    worth, chosen, counted = max(candidates, key=lambda c: c[0].value)  # the first of equals
+    detected, p_chosen = counted
+    if detected < 0:  # a cover's: counted over its invariants' breaks
+        detected = detected_by(set(chosen), fail, before)
+        p_chosen = union_false_alarm(nominal, chosen)
     return Cover(
         chosen,
         detected,
-        union_false_alarm(nominal, chosen),
-        value,
+        p_chosen,
+        detected - runs * p_chosen,
         worth,
         tuple(c[0] for c in candidates),
     )
+
+
+WHOLE = ("inferred", "inferred+detector")
+"""The candidate monitors that keep every inferred invariant (:func:`monitor_choice`)."""
+
+
+def whole_monitor(
+    document: Mapping[str, Any],
+    fail: Mapping[Path, RunOutcome],
+    nominal: Sequence[RunOutcome],
+) -> Whole | None:
+    """The inferred monitor as a candidate (:class:`imrosc.selection.Whole`): its failed
+    runs' alarms, and its false alarms over calibration's held-out units and the
+    ``nominal`` runs that did not train it (``None``: the file is not calibrated and no such
+    run saw it, so nothing says what it costs)."""
+    rule = AlarmRule.from_json(document.get("alarms"))
+    ids = tuple(inv["id"] for inv in document["invariants"])
+    kept = set(ids)
+    units = [u for u in (document.get("calibration") or {}).get("held_out", ()) if "trace" in u]
+    alarmed = sum(alarms_under(covered(u["trace"], kept), rule) for u in units)
+    alarmed += sum(bool(o.alarms) for o in nominal)
+    tested = len(units) + len(nominal)
+    if not tested:
+        return None
+    detected, early = set(), set()
+    for bag, outcome in fail.items():
+        times = [a["time"] for a in outcome.alarms]
+        if not times:
+            continue
+        if outcome.onset is not None and min(times) < outcome.onset:
+            early.add(bag)
+        else:
+            detected.add(bag)
+    return Whole(ids, frozenset(detected), frozenset(early), tested, alarmed)
 
 
 def compare(
@@ -979,6 +1052,12 @@ def run_check(
             for ident, at in outcome.after.items():
                 delays.setdefault(ident, []).append(at - outcome.onset)
         detecting = {b: set(o.detected) for b, o in runs["fail"].items()}
+        untrained = [
+            o for b, o in success_runs.items() if b not in overlap or cross_validate is not None
+        ]
+        whole = (
+            whole_monitor(document, runs["fail"], untrained) if check.select == "cover" else None
+        )
         learnt: list[Learnt] = []
         if logistic:
             learnt = learn_detectors(document, runs["success"], onset_runs)
@@ -1003,6 +1082,7 @@ def run_check(
             select=check.select,
             detectors={d.invariant["id"]: detector_nominal(d) for d in learnt},
             folds=blocked_runs(runs["fail"]),
+            whole=whole,
         )
         report["scores"], report["families"] = scores, families
         if chosen is not None:
@@ -1025,7 +1105,9 @@ def run_check(
                     for w in chosen.candidates
                 ]
         out.refined = refined(document, scores, report)
-        if "alarms" in document and runs["success"]:
+        whole_kept = chosen is not None and chosen.worth is not None and chosen.worth.name in WHOLE
+        if "alarms" in document and runs["success"] and not whole_kept:
+            # (every invariant kept: the file's own rule, calibrated for all of them)
             out.refined["alarms"] = refined_rule(
                 out.refined, list(runs["success"]), workers, cluster
             )

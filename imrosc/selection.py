@@ -24,6 +24,11 @@ its invariants' detections, and so are its false alarms. Two selections:
   trained the invariants is evidence only about the invariants it was replayed against
   when calibration held it out (``absent`` in the file's held-out units).
 
+  The cover is one candidate monitor among others (:func:`imrosc.classify.monitor_choice`):
+  the inferred monitor as calibrated (:class:`Whole`: every invariant under the file's own
+  alarm rule) is another, and learnt detectors make more; the one worth the most on failed
+  runs the choice did not see is kept.
+
 * ``fscore``: the thesis' filter (section 4.2): each invariant is scored alone as a
   classifier of failed runs and kept when its F-beta score reaches ``threshold``. It keeps
   the invariants that detect most kinds of failure at once and drops the specialists (an
@@ -34,7 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 Run = TypeVar("Run", bound=Hashable)
 """A failed run, however the caller names it (a bag's path)."""
@@ -79,6 +84,39 @@ class Cover:
     """With learnt detectors, the candidate monitor kept and its held-out worth."""
     candidates: tuple[Worth, ...] = ()
     """With learnt detectors, every candidate monitor's held-out worth."""
+
+
+@dataclass(frozen=True)
+class Whole:
+    """The inferred monitor as calibration left it: every invariant of the file, under the
+    file's own alarm rule (persistence, agreement, events). What it is worth is read from
+    its alarms, not from its invariants' breaks: a break the rule holds back is no alarm.
+
+    Its false alarms are estimated as an invariant's are, by the rule of succession over the
+    nominal runs that saw the whole monitor: calibration's held-out units (each replayed
+    against invariants learnt without it) and successful runs that did not train it; ``k``
+    of ``n`` alarming, a new nominal run alarms with probability ``(k + 1) / (n + 2)``. The
+    failed runs' detections need no holding out: nothing about the monitor was chosen on
+    them.
+
+    >>> Whole(("a", "b"), frozenset({1}), frozenset(), 6, 0).false_alarm
+    0.125
+    """
+
+    chosen: tuple[str, ...]
+    """Its invariants, in the file's order."""
+    detected: frozenset[Any]
+    """Failed runs whose first alarm is at or after the onset (anywhere, without one)."""
+    early: frozenset[Any]
+    """Failed runs with an alarm before their onset."""
+    tested: int
+    """Nominal runs (or calibration's held-out units) it was replayed on."""
+    alarmed: int
+    """Those of them on which it raised an alarm."""
+
+    @property
+    def false_alarm(self) -> float:
+        return (self.alarmed + 1) / (self.tested + 2)
 
 
 def detected_by(

@@ -466,11 +466,18 @@ def test_a_learnt_detector_joins_the_monitor_when_held_out_runs_say_it_is_worth_
     assert len(detector["detected"]) == 3
     assert all(0.0 <= delay < 1.0 for delay in detector["delays"].values())
     cover = result.report["cover"]
-    assert [w["monitor"] for w in cover["held_out"]] == ["cover", "detector", "both"]
+    assert [w["monitor"] for w in cover["held_out"]] == [
+        "cover",
+        "detector",
+        "both",
+        "inferred",
+        "inferred+detector",
+    ]
     best = max(w["value"] for w in cover["held_out"])
     assert next(w for w in cover["held_out"] if w["monitor"] == cover["monitor"])["value"] == best
     kept = {inv["family"] for inv in result.refined["invariants"]}
-    assert ("detector" in kept) == (cover["monitor"] in ("detector", "both"))
+    with_detector = ("detector", "both", "inferred+detector")
+    assert ("detector" in kept) == (cover["monitor"] in with_detector)
     if "detector" in kept:
         replayed = Replayer(result.refined).run(folder / "bags" / "bad" / "late.bag")
         first = min(a.time for a in replayed.alarms) - replayed.start
@@ -495,3 +502,32 @@ def test_each_run_says_how_many_samples_each_point_checked(prepared: Path, tmp_p
     assert report["runs"] and all(run["checked"]["a"] > 0 for run in report["runs"])
     text = render(report, "text")
     assert "samples checked" in text and f"a {report['runs'][0]['checked']['a']:,}" in text
+
+
+def test_the_refined_file_of_the_inferred_monitor_keeps_every_invariant_and_its_rule(
+    prepared: Path, tmp_path: Path
+) -> None:
+    """The inferred monitor is judged by its alarms, with its own rule; kept, the refined
+    file is that monitor: every invariant, and the alarm rule calibration set for all of
+    them (a subset's rule is recomputed; this one is not)."""
+    folder = onsets.copy(prepared, tmp_path / "p")
+    config = onsets.project(folder, '<fail onset="12">bags/bad</fail><fail>bags/other</fail>')
+    config.write_text(config.read_text().replace("<check ", '<check detector="none" '))
+    document = load(folder / "p.inv")
+    result = run_check(config, workers=1)
+    assert result.refined is not None
+    cover = result.report["cover"]
+    by_name = {w["monitor"]: w for w in cover["held_out"]}
+    # its alarms: late.bag and other.bag from the jump on; glitch.bag's glitch at 3 s comes
+    # before the onset; 1 alarm-free of 6 held-out units and 1 untrained run: 1/9
+    assert (by_name["inferred"]["detected"], by_name["inferred"]["early"]) == (2, 1)
+    assert len(document["calibration"]["held_out"]) == 6
+    runs = len(result.report["runs"])
+    assert by_name["inferred"]["expected_false_alarms"] == pytest.approx(runs / 9, abs=1e-6)
+    # the cover, chosen without each held-out failed run, detects none of them
+    assert by_name["cover"]["value"] < by_name["inferred"]["value"]
+    assert cover["monitor"] == "inferred"
+    assert [i["id"] for i in result.refined["invariants"]] == [
+        i["id"] for i in document["invariants"]
+    ]
+    assert result.refined["alarms"] == document["alarms"]

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import random
+from pathlib import Path
 
 import pytest
 
-from imrosc.selection import Cover, Nominal, cover, detected_by
+from imrosc.classify import RunOutcome, monitor_choice, whole_monitor
+from imrosc.selection import Cover, Nominal, Whole, cover, detected_by
 
 
 def _value(
@@ -84,3 +86,68 @@ def test_the_greedy_value_is_the_sets_value_and_each_step_adds_worth(seed: int) 
     prefix = [set(found.chosen[:k]) for k in range(len(found.chosen) + 1)]
     values = [_value(c, nominal, detects, early, runs) for c in prefix]
     assert values == sorted(values) and len(set(values)) == len(values)  # each step adds worth
+
+
+def test_the_calibrated_inferred_monitor_wins_when_the_cover_costs_more_than_it_detects() -> None:
+    """Three invariants each unbroken on 6 nominal runs (1/8 each) detect one fault each; the
+    whole monitor, whose alarm rule held on the same 6 runs, detects two of them at 1/8."""
+    nominal = {name: Nominal(6, 0) for name in "abc"}
+    fail = {Path(f"f{k}"): {name} for k, name in enumerate("abc")}
+    whole = Whole(("a", "b", "c", "d"), frozenset({Path("f0"), Path("f1")}), frozenset(), 6, 0)
+    folds = [[run] for run in fail]
+    chosen = monitor_choice(nominal, fail, {}, 9, folds, (), set(), whole)
+    assert chosen.worth is not None and chosen.worth.name == "inferred"
+    assert chosen.chosen == ("a", "b", "c", "d")
+    assert chosen.detected == 2 and chosen.false_alarm == pytest.approx(1 / 8)
+    assert chosen.value == pytest.approx(2 - 9 / 8)
+    assert [w.name for w in chosen.candidates] == ["cover", "inferred"]
+
+
+def test_an_alarm_before_the_onset_spoils_the_whole_monitor_too() -> None:
+    nominal = {"a": Nominal(40, 0)}
+    fail = {Path("f0"): {"a"}, Path("f1"): {"a"}}
+    early = frozenset(fail)  # it alarms on both failed runs before their onsets
+    whole = Whole(("a", "b"), frozenset(), early, 40, 0)
+    chosen = monitor_choice(nominal, fail, {}, 4, [[r] for r in fail], (), set(), whole)
+    assert chosen.worth is not None and chosen.worth.name == "cover"
+    inferred = next(w for w in chosen.candidates if w.name == "inferred")
+    assert inferred.detected == 0 and inferred.early == 2
+
+
+def test_the_whole_monitor_and_detectors_detect_together() -> None:
+    nominal = {"a": Nominal(30, 0), "d": Nominal(30, 0, ceiling=0.01)}
+    fail = {Path("f0"): {"d"}, Path("f1"): set(), Path("f2"): {"a"}}
+    whole = Whole(("a",), frozenset({Path("f1")}), frozenset(), 30, 0)
+    chosen = monitor_choice(nominal, fail, {}, 33, [[r] for r in fail], (), {"d"}, whole)
+    joint = next(w for w in chosen.candidates if w.name == "inferred+detector")
+    assert joint.detected == 2  # f0 by the detector, f1 by the whole monitor's alarm
+    assert joint.expected == pytest.approx(33 * (1 - (1 - 1 / 32) * (1 - 0.01)))
+
+
+def test_the_whole_monitor_counts_alarms_of_held_out_units_and_untrained_runs() -> None:
+    document = {
+        "invariants": [{"id": "i1"}, {"id": "i2"}],
+        "alarms": {"persist": 5, "seconds": None, "distinct": 0, "window": 1.0},
+        "calibration": {
+            "held_out": [
+                {"trace": {"i1": {"point": "p", "persist": 4, "evidence": []}}},
+                {"trace": {"i2": {"point": "p", "persist": 7, "evidence": []}}},
+                {"trace": {}},
+            ]
+        },
+    }
+    fail = {
+        Path("early"): RunOutcome(Path("early"), None, 0.0, 30.0, onset=10.0),
+        Path("late"): RunOutcome(Path("late"), None, 0.0, 30.0, onset=10.0),
+        Path("quiet"): RunOutcome(Path("quiet"), None, 0.0, 30.0, onset=10.0),
+    }
+    fail[Path("early")].alarms = [{"time": 3.0}, {"time": 12.0}]
+    fail[Path("late")].alarms = [{"time": 11.0}]
+    nominal = [RunOutcome(Path("ok"), None, 0.0, 30.0), RunOutcome(Path("bad"), None, 0.0, 30.0)]
+    nominal[1].alarms = [{"time": 4.0}]
+    whole = whole_monitor(document, fail, nominal)
+    assert whole is not None and whole.chosen == ("i1", "i2")
+    assert whole.detected == {Path("late")} and whole.early == {Path("early")}
+    # units: i2 persisted 7 >= 5 (an alarm), i1 4 < 5; runs: one alarmed
+    assert (whole.tested, whole.alarmed) == (5, 2)
+    assert whole_monitor({"invariants": []}, fail, []) is None
