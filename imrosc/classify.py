@@ -667,18 +667,20 @@ def whole_monitor(
     document: Mapping[str, Any],
     fail: Mapping[Path, RunOutcome],
     nominal: Sequence[RunOutcome],
+    units: bool = True,
 ) -> Whole | None:
     """The inferred monitor as a candidate (:class:`imrosc.selection.Whole`): its failed
-    runs' alarms, and its false alarms over calibration's held-out units and the
-    ``nominal`` runs that did not train it (``None``: the file is not calibrated and no such
-    run saw it, so nothing says what it costs)."""
+    runs' alarms, and its false alarms over calibration's held-out units (with ``units``)
+    and the ``nominal`` runs that did not train it (``None``: the file is not calibrated and
+    no such run saw it, so nothing says what it costs)."""
     rule = AlarmRule.from_json(document.get("alarms"))
     ids = tuple(inv["id"] for inv in document["invariants"])
     kept = set(ids)
-    units = [u for u in (document.get("calibration") or {}).get("held_out", ()) if "trace" in u]
-    alarmed = sum(alarms_under(covered(u["trace"], kept), rule) for u in units)
+    held = [u for u in (document.get("calibration") or {}).get("held_out", ()) if "trace" in u]
+    held = held if units else []
+    alarmed = sum(alarms_under(covered(u["trace"], kept), rule) for u in held)
     alarmed += sum(bool(o.alarms) for o in nominal)
-    tested = len(units) + len(nominal)
+    tested = len(held) + len(nominal)
     if not tested:
         return None
     detected, early = set(), set()
@@ -1055,8 +1057,12 @@ def run_check(
         untrained = [
             o for b, o in success_runs.items() if b not in overlap or cross_validate is not None
         ]
+        # cross-validated, the <detect> runs are scored by their folds' replays, not again
+        # by calibration's held-out units
         whole = (
-            whole_monitor(document, runs["fail"], untrained) if check.select == "cover" else None
+            whole_monitor(document, runs["fail"], untrained, units=cross_validate is None)
+            if check.select == "cover"
+            else None
         )
         learnt: list[Learnt] = []
         if logistic:

@@ -151,3 +151,14 @@ def test_the_whole_monitor_counts_alarms_of_held_out_units_and_untrained_runs() 
     # units: i2 persisted 7 >= 5 (an alarm), i1 4 < 5; runs: one alarmed
     assert (whole.tested, whole.alarmed) == (5, 2)
     assert whole_monitor({"invariants": []}, fail, []) is None
+
+
+def test_cross_validated_runs_are_not_counted_twice_with_calibration_s_units() -> None:
+    document = {
+        "invariants": [{"id": "i1"}],
+        "alarms": {"persist": 5},
+        "calibration": {"held_out": [{"trace": {}}, {"trace": {}}]},
+    }
+    replayed = [RunOutcome(Path("cv"), None, 0.0, 10.0)]
+    assert whole_monitor(document, {}, replayed).tested == 3  # type: ignore[union-attr]
+    assert whole_monitor(document, {}, replayed, units=False).tested == 1  # type: ignore[union-attr]
