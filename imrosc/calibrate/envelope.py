@@ -250,7 +250,8 @@ class Envelopes:
                 base = max(known)
             if base is None:
                 continue
-            tol = tolerance(known, base, self.budget / len(limits))
+            counted = limit.slot.quantum if limit.slot.scale == "count" else 0.0
+            tol = tolerance(known, base, self.budget / len(limits), counted)
             if tol is None:  # one unit alone reaches this limit: what it did, no more
                 tol = 0.0
             if tol == 0 and final and limit.slot.scale != "count":

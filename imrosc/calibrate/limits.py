@@ -9,8 +9,9 @@ alone went. It compares them in the limit's scale:
 * ``log``: the logarithm (variance: a tolerance is a factor, so a frozen sensor, whose
   variance falls to zero, still breaks a lower bound however wide);
 * ``count``: whole counts of ``quantum`` (messages per window for a frequency, events for an
-  ordered pair): a widened count limit moves by whole counts, at least one, since a
-  window's phase alone can move one message in or out of it.
+  ordered pair): the units' counts are rounded values, whose spread the prediction bound
+  corrects for their rounding (:mod:`.tolerance`); a widened count limit moves by whole
+  counts, at least one, since a window's phase alone can move one message in or out of it.
 
 Polygons are limits too: the hull's half-planes ``a_k . (x, y) <= b_k``, whose support in
 a unit is the largest ``a_k . v`` over the vertices of that unit's own hull (the unit's

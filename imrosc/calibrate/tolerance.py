@@ -9,6 +9,12 @@ with probability ``1 - alpha`` when the extremes are normal (the classical predi
 interval for one new observation with unknown mean and variance). The tolerance is how
 far that bound lies beyond the envelope; it is 0 when the envelope already reaches it.
 
+Supports known only to a resolution ``q`` (whole messages in a window for a frequency,
+whole events for an ordered pair) are rounded values: their spread is estimated with
+Sheppard's correction, ``sd^2 + q^2 / 12``, the variance a value rounded to ``q`` carries.
+Without it a handful of units that all counted 50 messages would say a new run counts 50
+for certain, and one message less would break the limit.
+
 Counts that decide an alarm rule use the distribution-free conformal rank instead: with
 ``n`` held-out units, the ``ceil((1 - alpha) (n + 1))``-th smallest value is exceeded by a
 new exchangeable unit with probability at most ``alpha``. With too few units for the
@@ -25,20 +31,26 @@ from collections.abc import Sequence
 from scipy import stats
 
 
-def prediction_bound(values: Sequence[float], alpha: float) -> float | None:
+def prediction_bound(
+    values: Sequence[float], alpha: float, resolution: float = 0.0
+) -> float | None:
     """The one-sided ``1 - alpha`` normal prediction bound of one more value (``None``
-    with fewer than two values).
+    with fewer than two values); ``resolution``: the values are rounded to it (Sheppard's
+    correction, see the module's docstring).
 
     >>> round(prediction_bound([1.0, 2.0, 3.0], 0.05), 3)
     5.372
     >>> prediction_bound([4.0, 4.0], 0.05)
     4.0
+    >>> round(prediction_bound([4.0, 4.0, 4.0], 0.05, resolution=1.0), 3)
+    4.973
     """
     n = len(values)
     if n < 2:
         return None
     mean = math.fsum(values) / n
-    sd = math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (n - 1))
+    variance = math.fsum((v - mean) ** 2 for v in values) / (n - 1)
+    sd = math.sqrt(variance + resolution * resolution / 12.0)
     if sd == 0:
         return mean
     return mean + _t_quantile(1 - alpha, n - 1) * sd * math.sqrt(1 + 1 / n)
@@ -49,19 +61,24 @@ def _t_quantile(level: float, freedom: int) -> float:
     return float(stats.t.ppf(level, freedom))
 
 
-def tolerance(supports: Sequence[float], base: float, alpha: float) -> float | None:
+def tolerance(
+    supports: Sequence[float], base: float, alpha: float, resolution: float = 0.0
+) -> float | None:
     """How far to move a limit at ``base`` so that a new run's extreme stays inside with
-    probability ``1 - alpha`` (``None``: too few supports to tell).
+    probability ``1 - alpha`` (``None``: too few supports to tell); ``resolution``: the
+    supports are whole multiples of it (counts).
 
     >>> tolerance([1.0, 2.0, 3.0], 3.0, 0.05) > 2
     True
     >>> tolerance([1.0, 1.0, 1.0], 1.0, 0.05)
     0.0
+    >>> tolerance([1.0, 1.0, 1.0], 1.0, 0.05, resolution=1.0) > 0.5
+    True
     """
     finite = [v for v in supports if math.isfinite(v)]
     if not math.isfinite(base) or len(finite) < len(supports):
         return 0.0  # the envelope already reaches its end (a zero variance, say)
-    bound = prediction_bound(finite, alpha)
+    bound = prediction_bound(finite, alpha, resolution)
     if bound is None:
         return None
     return max(0.0, bound - max(base, *finite))
