@@ -25,6 +25,7 @@ from rosbags.serde import SerdeError
 from rosbags.typesys import Stores, TypesysError, get_typestore
 from rosbags.typesys.store import Typestore
 
+from imrosc import progress
 from imrosc.bagrecover import RecoveringReader
 from imrosc.bagrecover_ros2 import RecoveringReader2, storage_files
 from imrosc.diagnostics import Diagnostic, make
@@ -154,8 +155,13 @@ class _SafeReader(AnyReader):
         start: int | None = None,
         stop: int | None = None,
     ) -> Generator[tuple[Connection, int, bytes], None, None]:
-        """The messages of :meth:`AnyReader.messages`; a broken chunk raises BagError."""
+        """The messages of :meth:`AnyReader.messages`; a broken chunk raises BagError. The
+        progress bar hears of them every :data:`imrosc.progress.EVERY` messages."""
         stream = super().messages(connections, start, stop)
+        selected = connections or self.connections
+        total = sum(int(getattr(c, "msgcount", 0) or 0) for c in selected)
+        every = progress.EVERY
+        read = 0
         while True:
             try:
                 item = next(stream)
@@ -164,6 +170,10 @@ class _SafeReader(AnyReader):
             except Exception as error:  # corrupt data raises anything from rosbags
                 message = f"cannot read messages (bag damaged or truncated?): {_one_line(error)}"
                 raise BagError(self.bag_path, message) from error
+            read += 1
+            if read == every:
+                progress.reading(read, total)
+                read = 0
             yield item
 
     def deserialize(self, rawdata: bytes, typ: str) -> object:

@@ -5,10 +5,16 @@ rate, the bags that failed and the time left (from the bags' pace); a bag that f
 with its error above the bar as it fails (the command reports it again at the end, as without a
 bar). It is drawn only when stderr is a terminal and ``-q`` was not given, so that pipes, logs
 and CI output never get it.
+
+Within a bag read by the command's own process (one bag, or ``-j 1``), the bag's reader tells
+the bar every :data:`EVERY` messages (:func:`reading`), so a long bag shows its messages read
+out of those it holds and the time left while it is read; bags read by worker processes move
+the bar when they are done.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -22,6 +28,25 @@ Progress = Callable[[Path, int], None]
 """Called once per bag done, with the messages read from it."""
 ProgressFactory = Callable[[int], Progress]
 """Makes the progress of a number of bags to read (known once the bags are found)."""
+Reading = Callable[[int, int], None]
+"""Hears of ``read`` more messages of a bag whose read selects ``total`` messages."""
+
+EVERY = 4096
+"""A bag's reader tells the bar every this many messages."""
+REDRAW = 0.25
+"""Seconds between two redraws of the bar within a bag."""
+
+_LISTENERS: list[tuple[int, Reading]] = []
+"""The drawn bars that hear of messages within a bag (the last one does), each with the
+process that draws it."""
+
+
+def reading(read: int, total: int) -> None:
+    """From a bag's reader (:mod:`imrosc.bags`): ``read`` more messages of the ``total`` the
+    read selects. Heard by the bar drawn by this very process, if any (a worker process,
+    forked from the one that draws it, does not draw)."""
+    if _LISTENERS and _LISTENERS[-1][0] == os.getpid():
+        _LISTENERS[-1][1](read, total)
 
 
 def wanted(quiet: bool, stream: TextIO | None = None) -> bool:
@@ -41,25 +66,47 @@ class BagProgress:
         self.failures = 0
         self.label = label
         self.bar: Any = None
+        self.within = 0
+        """Messages read of the bag being read (by this process)."""
+        self.drawn = self.started
         if enabled and total:
             self.bar = click.progressbar(
                 length=total, label=label, file=sys.stderr, show_pos=True, show_eta=True
             )
             self.bar.__enter__()
+            _LISTENERS.append((os.getpid(), self.reading))
 
     def __call__(self, bag: Path, messages: int) -> None:
         """One more bag done, ``messages`` read from it."""
         self.messages += messages
+        self.within = 0
         if self.bar is not None:
             if self.messages or self.failures:
-                rate = self.messages / max(self.clock() - self.started, 1e-9)
-                failed = f", {self.failures} failed" if self.failures else ""
-                self.bar.label = (
-                    f"{self.label}: {self.messages:,} messages ({rate:,.0f} msg/s){failed}"
-                )
+                self.bar.label = f"{self.label}: {self._read(self.messages)}"
             self.bar.update(1)
             if self.bar.pos >= self.bar.length:  # done: the next stage's output starts below
                 self.close()
+
+    def reading(self, read: int, total: int) -> None:
+        """``read`` more messages of the bag being read, which holds ``total`` for the read
+        (see :func:`reading`): the label says how far the bag is and its time left."""
+        self.within += read
+        now = self.clock()
+        if self.bar is None or now - self.drawn < REDRAW:
+            return
+        self.drawn = now
+        done = self.messages + self.within
+        rate = done / max(now - self.started, 1e-9)
+        this = f"{self.within:,} of {total:,} of this bag" if total else f"{self.within:,}"
+        left = f", {(total - self.within) / rate:.0f} s left" if total and rate > 0 else ""
+        self.bar.label = f"{self.label}: {self._read(done)}; {this}{left}"
+        self.bar.render_progress()
+
+    def _read(self, messages: int) -> str:
+        """Messages read so far, their rate, and the bags that failed, in words."""
+        rate = messages / max(self.clock() - self.started, 1e-9)
+        failed = f", {self.failures} failed" if self.failures else ""
+        return f"{messages:,} messages ({rate:,.0f} msg/s){failed}"
 
     def failed(self, bag: Path, error: str) -> None:
         """A bag that could not be read: named with its error above the bar."""
@@ -69,6 +116,7 @@ class BagProgress:
             click.echo(f"\r\x1b[Kfailed: {bag}: {error}", err=True)
 
     def close(self) -> None:
+        _LISTENERS[:] = [entry for entry in _LISTENERS if entry[1] != self.reading]
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
             self.bar = None

@@ -7,13 +7,16 @@ import os
 import pty
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
+from imrosc import progress as progress_module
+from imrosc.bags import open_bag
 from imrosc.cli import main
-from imrosc.progress import BagProgress, bag_done, wanted
+from imrosc.progress import BagProgress, bag_done, reading, wanted
 from tests.bad_input.support import project, template
 
 __all__ = ["project", "template"]
@@ -125,3 +128,51 @@ def test_the_demo_shows_progress_on_a_terminal_and_not_with_q(tmp_path: Path) ->
     assert "reading: " in drawn and " messages (" in drawn and "2/2" in drawn, drawn
     status, quiet = on_a_terminal([*args, "-q"], tmp_path)
     assert status == 0 and "reading" not in quiet and "msg/s" not in quiet, quiet
+
+
+def test_a_long_bag_moves_the_bar_while_it_is_read(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Within a bag the reader tells the drawn bar every EVERY messages: the label says the
+    messages read of the bag's and the time left; redrawn at most every REDRAW seconds."""
+    now = [100.0]
+    monkeypatch.setattr(time, "monotonic", lambda: now[0])
+    bar = BagProgress(1, "replaying", enabled=True)
+    try:
+        assert bar.bar is not None
+        now[0] += 2.0
+        reading(4000, 10_000)
+        assert (
+            bar.bar.label == "replaying: 4,000 messages (2,000 msg/s); 4,000 of 10,000 "
+            "of this bag, 3 s left"
+        )
+        now[0] += 0.1  # too soon to draw again
+        reading(1000, 10_000)
+        assert "4,000 of 10,000" in bar.bar.label and bar.within == 5000
+        now[0] += 0.5
+        bar(Path("a.bag"), 10_000)
+        assert bar.within == 0 and bar.bar is None  # the last bag: done and closed
+        reading(10, 10)  # no bar listens any more
+    finally:
+        bar.close()
+
+
+def test_only_the_process_that_draws_the_bar_hears_of_messages() -> None:
+    heard: list[tuple[int, int]] = []
+    progress_module._LISTENERS.append((os.getpid() + 1, lambda r, t: heard.append((r, t))))
+    try:
+        reading(5, 9)  # a forked worker's pid is not the drawing process's
+        assert heard == []
+    finally:
+        progress_module._LISTENERS.pop()
+
+
+def test_the_bag_reader_tells_the_bar_every_so_many_messages(
+    project: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    heard: list[tuple[int, int]] = []
+    monkeypatch.setattr(progress_module, "EVERY", 30)
+    monkeypatch.setattr(
+        progress_module, "_LISTENERS", [(os.getpid(), lambda r, t: heard.append((r, t)))]
+    )
+    with open_bag(project / "bags" / "train" / "r1.bag") as reader:
+        read = sum(1 for _ in reader.messages())
+    assert read == 80 and heard == [(30, 80), (30, 80)]
