@@ -125,7 +125,28 @@ def _bad_variables(document: dict[str, Any]) -> None:
     document["points"]["a"]["variables"] = "out.data"
 
 
+def _text_bound(document: dict[str, Any]) -> None:
+    _bound(document)["params"]["min"] = "abc"
+
+
 # -- what the system does: simulated failures ------------------------------------------------
+
+
+def _denied_in(folder: str) -> Callable[[pytest.MonkeyPatch], None]:
+    """Writing is denied in ``folder`` alone (the others stay writable): ``os.access``
+    says so, as it would to a user without the right."""
+
+    def system(monkeypatch: pytest.MonkeyPatch) -> None:
+        real = os.access
+
+        def access(path: Any, mode: int, *args: Any, **kwargs: Any) -> bool:
+            if mode & os.W_OK and os.path.basename(os.fspath(path)) == folder:
+                return False
+            return real(path, mode, *args, **kwargs)
+
+        monkeypatch.setattr(os, "access", access)
+
+    return system
 
 
 def _no_space(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -319,6 +340,14 @@ CASES: dict[str, Case] = {
     "classify where writing is denied": Case(
         CLASSIFY, ENVIRONMENT, ": Permission denied", None, _denied
     ),
+    "classify -o where writing is denied writes no refined file": Case(
+        (*CLASSIFY, "-o", "{d}/reports/r.txt"),
+        ENVIRONMENT,
+        "reports: Permission denied",
+        user_file("reports/notes.txt"),
+        _denied_in("reports"),
+        ("p.refined.inv", "reports/r.txt"),
+    ),
     "stability where writing is denied": Case(
         (*STABILITY, "-o", "{d}/s.txt"), ENVIRONMENT, ": Permission denied", None, _denied
     ),
@@ -342,6 +371,12 @@ CASES: dict[str, Case] = {
     "classify --refined under a file": Case(
         (*CLASSIFY, "--refined", "{d}/p.xml/r.inv"), ENVIRONMENT, "p.xml: Not a directory"
     ),
+    "classify -o under a file writes no refined file": Case(
+        (*CLASSIFY, "-o", "{d}/p.xml/r.txt"),
+        ENVIRONMENT,
+        "p.xml: Not a directory",
+        absent=("p.refined.inv",),
+    ),
     "stability -o under a file": Case(
         (*STABILITY, "-o", "{d}/p.xml/s.txt"), ENVIRONMENT, "p.xml: Not a directory"
     ),
@@ -361,6 +396,10 @@ MALFORMED: dict[str, tuple[Callable[[Path], None], str]] = {
     "an unknown point": (edited_inv("bad.inv", _unknown_point), "no point 'zz' in 'points'"),
     "an unknown family": (edited_inv("bad.inv", _unknown_family), "unknown family 'boundz'"),
     "a huge number": (edited_inv("bad.inv", _huge_bound), ".params.min: number too large"),
+    "a parameter of a wrong type": (
+        edited_inv("bad.inv", _text_bound),
+        "]: ValueError: could not convert string to float: 'abc'",
+    ),
     "a huge integer literal": (raw_inv("bad.inv", _huge_int), "not JSON: Exceeds the limit"),
     "deeply nested JSON": (raw_inv("bad.inv", _nested), "nested too deeply"),
 }
@@ -452,6 +491,20 @@ def test_a_failed_write_leaves_no_temporary_file(tmp_path: Path) -> None:
     with pytest.raises(OSError, match=r"x\.inv"):
         outputs.write_atomic(target, broken)
     assert target.read_bytes() == b"old" and os.listdir(tmp_path) == ["x.inv"]
+
+
+def test_a_folder_refusing_the_temporary_file_names_the_target(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def mkstemp(*args: Any, dir: str, prefix: str, suffix: str, **kwargs: Any) -> Any:
+        temporary = os.path.join(dir, f"{prefix}abc{suffix}")
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), temporary)
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    with pytest.raises(OSError) as raised:
+        outputs.write_atomic(tmp_path / "x.inv", b"new")
+    assert raised.value.filename == str(tmp_path / "x.inv")
+    assert raised.value.errno == errno.EROFS
 
 
 @pytest.mark.parametrize(
