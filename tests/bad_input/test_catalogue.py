@@ -306,6 +306,9 @@ CASES: dict[str, Case] = {
     "stability -o onto its configuration": Case(
         (*STABILITY, "-o", XML), USAGE, "p.xml: is an input of this command"
     ),
+    "stability -o onto a <detect> bag, forced": Case(
+        (*STABILITY, "-o", BAG, "--force"), USAGE, "r1.bag: is an input of this command"
+    ),
     "export-daikon onto the user's .decls": Case(
         ("export-daikon", XML, "-o", "{d}/daikon"),
         USAGE,
