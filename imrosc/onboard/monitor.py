@@ -462,9 +462,10 @@ def _frozen(found: Mapping[str, Set[str]]) -> Dict[str, FrozenSet[str]]:
     return {name: frozenset(nodes) for name, nodes in sorted(found.items()) if nodes}
 
 
-PLAYBACK = re.compile(r"^/play_\d{10,}$")
-"""The node ``rosbag play`` registers (``/play_<time>``, an anonymous name): it publishes
-what a bag recorded, on behalf of the nodes that published it then."""
+PLAYBACK = re.compile(r"^(/play_\d{10,}|/rosbag2_player)$")
+"""The node ``rosbag play`` registers (``/play_<time>``, an anonymous name), and ROS 2's
+``ros2 bag play`` (``/rosbag2_player``): it publishes what a bag recorded, on behalf of the
+nodes that published it then."""
 
 RECORDING = re.compile(
     r"^/(record_\d{10,}|imrosc_rosbag_\d+|imrosc_recorder_\d+|rosbag2_recorder)$"
@@ -511,6 +512,9 @@ def logical_graph(
     >>> played = [[["/t", ["/play_1553088502272947227"]]], [], []]
     >>> logical_graph(played, set(), {}, {}, {"/t": frozenset({"/a"})})["pub"]
     {'/t': frozenset({'/a'})}
+    >>> played2 = [[["/t", ["/rosbag2_player"]], ["/u", ["/rosbag2_player"]]], [], []]
+    >>> logical_graph(played2, set(), {}, {}, {"/t": frozenset({"/a"})})["pub"]
+    {'/t': frozenset({'/a'}), '/u': frozenset({'/rosbag2_player'})}
     >>> recorded = [[], [["/t", ["/b", "/record_1553088502272947227"]]], []]
     >>> logical_graph(recorded, set(), {}, {})["sub"]
     {'/t': frozenset({'/b'})}
