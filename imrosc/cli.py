@@ -790,6 +790,13 @@ def stability(
     from imrosc.stability import run_stability
 
     _report_target("stability", report_path, force, (config, *bags))
+    inputs: list[Path] = [config, *bags]
+
+    def before_work(found: Sequence[Path]) -> None:
+        """Refuse the report path once the bags are known (a <detect> bag is an input)."""
+        inputs.extend(found)
+        _report_target("stability", report_path, force, inputs)
+
     try:
         with (
             cluster("stability", scheduler) as fleet,
@@ -802,13 +809,14 @@ def stability(
                 bags=list(bags) or None,
                 progress_factory=factory,
                 cluster=fleet,
+                before_work=before_work,
             )
     except CheckStageError as error:
         fail("stability", str(error), EXIT_USAGE)
     _report(problems, "text")
     if report is None:
         sys.exit(_stopped(problems))
-    _emit("stability", report, output_format, report_path, force, (config, *bags))
+    _emit("stability", report, output_format, report_path, force, inputs)
     sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)
 
 

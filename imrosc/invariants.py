@@ -188,7 +188,8 @@ def load(path: Path) -> dict[str, Any]:
     except RecursionError:
         raise InvariantsFileError(f"{path}: not an invariants file: nested too deeply") from None
     except ValueError as error:  # an integer of more than 4300 digits
-        raise InvariantsFileError(f"{path}: not JSON: {error}") from None
+        first = str(error).split(";")[0]  # not Python's advice on raising its limit
+        raise InvariantsFileError(f"{path}: not JSON: {first}") from None
     validate(data, path)
     return data  # type: ignore[no-any-return]
 
@@ -288,8 +289,41 @@ def validate(data: Any, path: Path) -> None:
 
     try:
         Engine(data)
-    except (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError) as error:
+    except _ENGINE_ERRORS as error:
         what = f"missing {error}" if isinstance(error, KeyError) else str(error)
+        culprit = _first_unbuildable(data)
+        where = "" if culprit is None else f"$.invariants[{culprit}]: "
         raise InvariantsFileError(
-            f"{path}: malformed: {type(error).__name__}: {what}".splitlines()[0]
+            f"{path}: malformed: {where}{type(error).__name__}: {what}".splitlines()[0]
         ) from None
+
+
+_ENGINE_ERRORS = (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError)
+"""What building the engine from a document of the right shape but wrong contents raises."""
+
+
+def _first_unbuildable(data: Mapping[str, Any]) -> int | None:
+    """The index of the first invariant the engine cannot be built from (halving the list:
+    about two builds of the whole engine), or ``None`` when each half builds alone."""
+    from imrosc.runtime import Engine
+
+    def builds(invariants: list[Any]) -> bool:
+        try:
+            Engine({**data, "invariants": invariants})
+        except _ENGINE_ERRORS:
+            return False
+        return True
+
+    invariants = list(data["invariants"])
+    low, high = 0, len(invariants)
+    if builds(invariants[low:high]):
+        return None
+    while high - low > 1:
+        middle = (low + high) // 2
+        if not builds(invariants[low:middle]):
+            high = middle
+        elif not builds(invariants[middle:high]):
+            low = middle
+        else:  # only together: no single one to name
+            return None
+    return low

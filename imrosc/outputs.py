@@ -106,6 +106,7 @@ def target(
     if resolved.is_dir():
         raise OutputRefusedError(path, "is a directory")
     if not resolved.exists() and not resolved.is_symlink():
+        _check_folder(resolved)
         return resolved
     found = file_kind(resolved)
     if force:
@@ -117,6 +118,22 @@ def target(
             path, f"is an imrosc {found} file, not {_article(kind)} {kind} file; use --force"
         )
     return resolved
+
+
+def _check_folder(path: Path) -> None:
+    """Raise the ``OSError`` writing a new file at ``path`` would meet in its folder (or the
+    nearest one that exists): a regular file where a folder should be, a folder this process
+    may not write, a read-only file system. So a command refuses before its work and its
+    other outputs, not after (``classify -o notes.txt/r.txt`` wrote its refined file first)."""
+    folder = path.parent
+    while not os.path.lexists(folder) and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(folder))
+    if not os.access(folder, os.W_OK | os.X_OK):
+        read_only = bool(os.statvfs(folder).f_flag & os.ST_RDONLY)
+        code = errno.EROFS if read_only else errno.EACCES
+        raise OSError(code, os.strerror(code), str(folder))
 
 
 def _article(word: str) -> str:
@@ -143,7 +160,10 @@ def write_atomic(
         mode = 0o666 & ~umask
     if executable:
         mode |= (mode & (stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)) >> 2
-    handle, temporary = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        handle, temporary = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as error:  # named by the file the user asked for, not the temporary one
+        raise OSError(error.errno, error.strerror or str(error), str(path)) from error
     try:
         with os.fdopen(handle, "wb") as stream:
             if isinstance(content, bytes):
@@ -157,6 +177,6 @@ def write_atomic(
     except BaseException as error:
         with contextlib.suppress(OSError):
             os.unlink(temporary)
-        if isinstance(error, OSError) and error.filename is None:  # name the file
+        if isinstance(error, OSError) and error.filename in (None, temporary):  # name the file
             raise OSError(error.errno, error.strerror or str(error), str(path)) from error
         raise

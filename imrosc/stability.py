@@ -9,7 +9,7 @@ run of the same system they were not learnt from.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -46,11 +46,13 @@ def run_stability(
     bags: Sequence[Path] | None = None,
     progress_factory: ProgressFactory | None = None,
     cluster: Fleet | None = None,
+    before_work: Callable[[Sequence[Path]], None] | None = None,
 ) -> tuple[dict[str, Any] | None, list[Diagnostic]]:
     """The stability report of ``config_path``'s detect bags, or of ``bags`` (``folds``
     None: leave-one-out); one progress over every round's training and held-out bags.
     ``cluster``: each round's bags are inferred and replayed as tasks on a Dask cluster
-    (:mod:`imrosc.fleet`) instead of ``workers`` local processes."""
+    (:mod:`imrosc.fleet`) instead of ``workers`` local processes. ``before_work`` is called
+    with the bags found, before any is read (the command refuses its report path there)."""
     project, problems = load_project(config_path)
     if project is None:
         return None, problems
@@ -71,6 +73,8 @@ def run_stability(
             f"{config_path}: {found_text}; stability needs at least 2 bags and "
             f"2 <= folds <= bags (folds: {count})"
         )
+    if before_work is not None:
+        before_work(bags)
     progress = progress_factory(count * len(bags)) if progress_factory is not None else None
     rounds: list[dict[str, Any]] = []
     totals: dict[str, list[int]] = {}

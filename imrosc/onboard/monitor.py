@@ -462,9 +462,18 @@ def _frozen(found: Mapping[str, Set[str]]) -> Dict[str, FrozenSet[str]]:
     return {name: frozenset(nodes) for name, nodes in sorted(found.items()) if nodes}
 
 
-PLAYBACK = re.compile(r"^/play_\d{10,}$")
-"""The node ``rosbag play`` registers (``/play_<time>``, an anonymous name): it publishes
-what a bag recorded, on behalf of the nodes that published it then."""
+PLAYBACK = re.compile(r"^(/play_\d{10,}|/rosbag2_player)$")
+"""The node ``rosbag play`` registers (``/play_<time>``, an anonymous name), and ROS 2's
+``ros2 bag play`` (``/rosbag2_player``): it publishes what a bag recorded, on behalf of the
+nodes that published it then."""
+
+RECORDING = re.compile(
+    r"^/(record_\d{10,}|imrosc_rosbag_\d+|imrosc_recorder_\d+|rosbag2_recorder)$"
+)
+"""The nodes of recording tools: ``rosbag record`` (``/record_<time>``), ``imrosc record``'s
+rosbag and recording node (``/imrosc_rosbag_<pid>``, ``/imrosc_recorder_<pid>``) and ROS 2's
+``ros2 bag record``. They subscribe to what they record (and imrosc's recorder serves the
+services it relays): recording machinery, not the robot, so not intruders."""
 
 
 def learnt_publishers(invariants: Iterable[Mapping[str, Any]]) -> Dict[str, FrozenSet[str]]:
@@ -494,6 +503,7 @@ def logical_graph(
     service's ``/m/<s>`` other than the monitor. ``rosbag play`` (:data:`PLAYBACK`)
     publishing a topic stands for the publishers ``stand_ins`` learnt for it (a recording
     replayed into the monitor is not an intruder); on a topic nobody learnt it stays itself.
+    Recording tools (:data:`RECORDING`) are left out, as the monitor's own nodes are.
 
     >>> state = [[["/t", ["/a", "/mon"]], ["/m/t", ["/mon"]]],
     ...          [["/t", ["/mon"]], ["/m/t", ["/b"]]], []]
@@ -502,6 +512,12 @@ def logical_graph(
     >>> played = [[["/t", ["/play_1553088502272947227"]]], [], []]
     >>> logical_graph(played, set(), {}, {}, {"/t": frozenset({"/a"})})["pub"]
     {'/t': frozenset({'/a'})}
+    >>> played2 = [[["/t", ["/rosbag2_player"]], ["/u", ["/rosbag2_player"]]], [], []]
+    >>> logical_graph(played2, set(), {}, {}, {"/t": frozenset({"/a"})})["pub"]
+    {'/t': frozenset({'/a'}), '/u': frozenset({'/rosbag2_player'})}
+    >>> recorded = [[], [["/t", ["/b", "/record_1553088502272947227"]]], []]
+    >>> logical_graph(recorded, set(), {}, {})["sub"]
+    {'/t': frozenset({'/b'})}
     """
     mine = set(own)
     topics = {relay: name for name, relay in topic_relays.items()}
@@ -512,7 +528,7 @@ def logical_graph(
         for entry in entries:
             name: str = entry[0]
             nodes = entry[1]
-            kept = {node for node in nodes if node not in mine}
+            kept = {node for node in nodes if node not in mine and not RECORDING.match(node)}
             logical = renames.get(name, name)
             if kind == "pub" and stand_ins is not None and logical in stand_ins:
                 played = {node for node in kept if PLAYBACK.match(node)}

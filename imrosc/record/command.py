@@ -222,10 +222,13 @@ def _write_launch(
     graph: Graph | None,
     prefix: str,
     force: bool,
+    inputs: tuple[Path, ...],
 ) -> None:
-    from imrosc import __version__
-    from imrosc.backends.registry import GENERATED_MARK
+    """Write the copy of ``launch`` whose servers serve under ``prefix``: never over one of
+    the command's ``inputs`` (the launch file itself, the configuration, graph files) nor
+    an imrosc file of another kind, nor a file imrosc did not write unless ``force``."""
     from imrosc.build import OverwriteRefusedError, write_files
+    from imrosc.outputs import LAUNCH, mark
     from imrosc.record.launch import record_launch_name, rewrite_for_recording
 
     if not services:
@@ -239,7 +242,7 @@ def _write_launch(
         )
     target = launch_out or record_launch_name(launch)
     banner = (
-        f"{GENERATED_MARK} {__version__} (imrosc record) from {launch.name}: the servers of "
+        f"{mark(LAUNCH)} (imrosc record) from {launch.name}: the servers of "
         f"the recorded services serve them under {prefix}/ for the recording node to relay"
     )
     rewritten = rewrite_for_recording(launch, found, prefix=prefix, banner=banner)
@@ -249,7 +252,13 @@ def _write_launch(
     for service, node in rewritten.missing:
         _warn(f"{launch}: no <node> {node} (the server of {service}) to remap; remap it by hand")
     try:
-        write_files(target.parent, {target.name: rewritten.content}, force=force)
+        write_files(
+            target.parent,
+            {target.name: rewritten.content},
+            force=force,
+            kind=LAUNCH,
+            inputs=(launch, *inputs),
+        )
     except OverwriteRefusedError as refused:
         _fail(str(refused), EXIT_USAGE)
     except OSError as error:
@@ -434,7 +443,9 @@ def _record_ros1(
             EXIT_USAGE,
         )
     if launch is not None:
-        _write_launch(launch, launch_out, scope.services, given, graph, "/rec", force)
+        _write_launch(
+            launch, launch_out, scope.services, given, graph, "/rec", force, (config, *graph_files)
+        )
     if master_problem is not None:
         _fail(master_problem)
     if not all_topics:

@@ -1009,6 +1009,27 @@ def test_the_graph_from_rclpy_folds_relays_back_and_leaves_the_monitor_out() -> 
     assert logic.node_name("/", "x") == "/x" and logic.resolve_node("/a", "w") == "/a/w"
 
 
+def test_ros2_bag_play_stands_for_the_publishers_learnt_and_ros2_bag_record_is_left_out() -> None:
+    view = logic.GraphView(
+        topics={
+            "/t": (["/rosbag2_player"], ["/mon", "/rosbag2_recorder", "/b"]),
+            "/u": (["/rosbag2_player"], []),
+        },
+        types={},
+        publisher_qos={},
+        services={},
+        service_types={},
+        nodes=["/b", "/mon", "/rosbag2_player", "/rosbag2_recorder"],
+    )
+    learnt = {"/t": frozenset({"/a"})}
+    graph = logic.snapshot(view, {"/mon"}, {}, {}, learnt)
+    # a recording played into the monitor is its publishers; on a topic nobody learnt the
+    # player stays itself; the recorder is no subscriber of the robot's
+    assert graph["pub"] == {"/t": frozenset({"/a"}), "/u": frozenset({"/rosbag2_player"})}
+    assert graph["sub"] == {"/t": frozenset({"/b"})}
+    assert logic.snapshot(view, {"/mon"}, {}, {})["pub"]["/t"] == frozenset({"/rosbag2_player"})
+
+
 def test_parameters_are_asked_of_their_node_and_answered_by_type() -> None:
     names = ["/a/car_ctrl/landing_radius", "/a/car_ctrl/gains/p", "/a/car_ctrl/missing", "/z/k"]
     requests = logic.parameter_requests(names, ["/a", "/a/car_ctrl"])

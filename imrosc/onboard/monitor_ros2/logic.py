@@ -39,6 +39,7 @@ from typing import (
     Any,
     Callable,
     Dict,
+    FrozenSet,
     Iterable,
     List,
     Mapping,
@@ -220,10 +221,13 @@ def snapshot(
     own: Iterable[str],
     topic_relays: Mapping[str, str],
     service_relays: Mapping[str, str],
+    stand_ins: Optional[Mapping[str, FrozenSet[str]]] = None,
 ) -> Dict[str, Dict[str, Any]]:
     """The graph the invariants were learnt on: the monitor's own nodes left out, nodes on
-    the relays ``/m/<name>`` counted on ``<name>`` (``common.logical_graph``)."""
-    return common.logical_graph(system_state(view), own, topic_relays, service_relays)
+    the relays ``/m/<name>`` counted on ``<name>``, ``ros2 bag play`` standing for the
+    publishers ``stand_ins`` learnt for a topic (``common.logical_graph``)."""
+    state = system_state(view)
+    return common.logical_graph(state, own, topic_relays, service_relays, stand_ins)
 
 
 def publisher_qos(view: GraphView, topic: str, own: Iterable[str]) -> List[Optional[Qos]]:

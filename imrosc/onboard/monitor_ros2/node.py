@@ -157,6 +157,8 @@ class Monitor(common.Checking):
         self.name = logic.node_name(node.get_namespace(), node.get_name())
         watchdog = str(plumbing.get_param(node, "watchdog", spec["watchdog"]))
         self.own: Set[str] = {self.name, logic.resolve_node(node.get_namespace(), watchdog)}
+        self.stand_ins = common.learnt_publishers(document.get("invariants", ()))
+        """Per topic, the publishers ``ros2 bag play`` stands for (``common.PLAYBACK``)."""
         ns = self.namespace
         self.flatteners = flatteners
         self.layouts: Mapping[str, Sequence[Mapping[str, Any]]] = {
@@ -479,7 +481,9 @@ class Monitor(common.Checking):
         self.wall_clock = not getattr(self.clock, "ros_time_is_active", True)
         graph = None
         if view is not None and view.complete:  # else a node is half discovered: wait
-            graph = logic.snapshot(view, self.own, self.topic_relays, self.service_relays)
+            graph = logic.snapshot(
+                view, self.own, self.topic_relays, self.service_relays, self.stand_ins
+            )
         with self.lock:
             answers = self.parameters.answers
             params = logic.param_values(answers, self.spec["params"]) if answers else None
