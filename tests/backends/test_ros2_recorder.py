@@ -26,20 +26,17 @@ from imrosc import records
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.backends.vendor import NOT_COPIED
 from imrosc.onboard.record_ros2 import logic
-from tests.backends.ros2_support import require_ros2, ros2_environment
-from tests.backends.support import assert_carried_unchanged, vendored_sources
-from tests.backends.test_monitor_spec import ROOT, write_package
-from tests.backends.test_ros1 import python38
-from tests.backends.test_ros2 import (
+from tests.backends.monitor_support import ROOT, write_package
+from tests.backends.ros1_support import python38
+from tests.backends.ros2_build import (
     PACKAGE,
     VENDOR,
     build_ros2,
-    landing_ros2,
     python_files,
     setup_arguments,
 )
-
-__all__ = ["landing_ros2"]  # the fixture, shared with test_ros2
+from tests.backends.ros2_support import require_ros2, ros2_environment
+from tests.backends.support import assert_carried_unchanged, vendored_sources
 
 RECORDER = ROOT / "imrosc" / "onboard" / "record_ros2"
 
