@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from imrosc.infer.builders import point_states
+from imrosc.infer.builders import load, point_states
 from imrosc.infer.core import FamilyState
 from imrosc.ir import Tunables
 from imrosc.runtime.families import GROUPS, group_of, in_group
@@ -15,6 +15,7 @@ FAMILY_GROUPS = {group: frozenset(in_group(group)) for group in GROUPS}
 """How summaries group families (:data:`imrosc.runtime.families.GROUPS`)."""
 DAIKON_FAMILIES = FAMILY_GROUPS["default"]
 TIME_FAMILIES = FAMILY_GROUPS["time-related"]
+load()  # every family package registers its builders now, not within the first inference
 
 
 def make_point_states(spec: PointSpec, tunables: Tunables) -> list[FamilyState]:
