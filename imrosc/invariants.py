@@ -7,6 +7,11 @@ and -inf values of each variable that inference left out: ``nonfinite``); and pe
 its message type and variable layout (the monitor backends generate their flatteners from
 it). Ids are stable: the same invariant (point, family, kind,
 variables) gets the same id in every run, so ``/m/clear_inv`` and reports can name it.
+
+The format in three forms kept in step by ``tests/test_invariants_format.py``: the typed
+dictionaries below (:class:`InvariantsDocument`), the JSON schema beside this module
+(``invariants.schema.json``: :func:`schema`) and the reader's own check (:func:`validate`,
+which also builds the engine); ``docs/invariants.md`` describes every key.
 """
 
 from __future__ import annotations
@@ -16,8 +21,9 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from imrosc.infer.core import Invariant, Variable
 from imrosc.outputs import INVARIANTS, mark
@@ -26,6 +32,78 @@ from imrosc.runtime.families import NAMES
 FORMAT = "imrosc-invariants"
 VERSION = 1
 MAX_BYTES = 512 << 20
+
+
+SCHEMA = "invariants.schema.json"
+"""The JSON schema of the format, shipped beside this module."""
+
+
+class Support(TypedDict):
+    """How much an invariant or a point was learnt from."""
+
+    samples: int
+    runs: int
+
+
+class VariableEntry(TypedDict):
+    """One variable of a point or a topic."""
+
+    name: str
+    type: str
+    topic: str
+    path: str
+    derived: str | None
+    trigger: bool
+
+
+class InvariantEntry(TypedDict):
+    """One invariant (``invariants[]``)."""
+
+    id: str
+    family: str
+    kind: str
+    point: str
+    condition: str | None
+    variables: list[str]
+    params: dict[str, Any]
+    text: str
+    support: Support
+    confidence: float
+
+
+_RequiredDocument = TypedDict(
+    "_RequiredDocument",
+    {
+        "$comment": str,
+        "format": str,
+        "version": int,
+        "topics": dict[str, dict[str, Any]],
+        # by point key: kind, trigger, condition, support, variables (VariableEntry) and how
+        # the engine pairs its samples (inputs, params, events, filter)
+        "points": dict[str, dict[str, Any]],
+        "invariants": list[InvariantEntry],
+    },
+)
+
+
+class InvariantsDocument(_RequiredDocument, total=False):
+    """An invariants file: what :func:`document` makes; calibration adds ``alarms`` and
+    ``calibration``, ``imrosc classify`` ``classified``."""
+
+    project: str
+    source: str
+    bags: list[str]
+    tunables: dict[str, Any]
+    alarms: dict[str, Any]
+    calibration: dict[str, Any]
+    classified: dict[str, Any]
+
+
+def schema() -> dict[str, Any]:
+    """The JSON schema of the format (draft 2020-12)."""
+    text = resources.files("imrosc").joinpath(SCHEMA).read_text(encoding="utf-8")
+    found: dict[str, Any] = json.loads(text)
+    return found
 
 
 class InvariantsFileError(ValueError):
@@ -49,7 +127,7 @@ def hashed_id(parts: Sequence[str]) -> str:
     return "i" + hashlib.sha1(subject.encode(), usedforsecurity=False).hexdigest()[:11]
 
 
-def _variable(variable: Variable) -> dict[str, Any]:
+def _variable(variable: Variable) -> VariableEntry:
     return {
         "name": variable.name,
         "type": variable.type,
@@ -117,9 +195,10 @@ def document(
     points: Sequence[PointInfo],
     invariants: Sequence[Invariant],
 ) -> dict[str, Any]:
-    """The JSON document of an invariants file."""
+    """The JSON document of an invariants file (an :class:`InvariantsDocument`, which the
+    type checker holds it to; calibration and classification then edit it as JSON data)."""
     ordered = sorted(invariants, key=lambda i: (i.point, i.family, i.kind, i.variables))
-    return {
+    typed: InvariantsDocument = {
         "$comment": f"{mark(INVARIANTS)} (imrosc infer) from {source}",
         "format": FORMAT,
         "version": VERSION,
@@ -155,6 +234,7 @@ def document(
             for i in ordered
         ],
     }
+    return typed  # type: ignore[return-value]
 
 
 def dumps(doc: Mapping[str, Any]) -> str:

@@ -28,6 +28,7 @@ from imrosc.outputs import REPORT, mark
 from imrosc.progress import Progress, bag_done
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, alarms_json
+from imrosc.runtime.families import FREQUENCY, POLYGON
 from imrosc.runtime.flatten import make_flattener
 from imrosc.runtime.violation import json_safe
 
@@ -338,7 +339,7 @@ class PlotTrace:
         """Plots of the violated polygons and frequencies of one run."""
         broken: dict[str, list[Violation]] = {}
         for v in found:
-            if v.family in ("polygon", "frequency"):
+            if v.family in (POLYGON, FREQUENCY):
                 broken.setdefault(v.invariant, []).append(v)
         polygons, frequencies = [], []
         matrices: dict[str, Any] = {}

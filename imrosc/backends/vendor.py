@@ -28,13 +28,23 @@ def copy_banner(package: str, name: str, backend: str) -> str:
     return f"{GENERATED_MARK} {__version__} (backend {backend}): a copy of {module}; do not edit"
 
 
+NOT_COPIED = frozenset(
+    {"onboard/record_ros2/__main__.py", "onboard/record_ros2/tap.py", "onboard/record_ros2/wire.py"}
+)
+"""Modules of an adapter that only ``imrosc record`` runs, under the robot's Python beside
+imrosc (the ROS 2 recorder's ``python -m`` entry and the bag tap): never copied."""
+
+
 def copied_modules(
     package: str, folder: str, backend: str, only: tuple[str, ...] = ()
 ) -> dict[str, bytes]:
     """The ``.py`` files of an imrosc package (or ``only`` those), each under ``folder``
     with its banner first."""
     files: dict[str, bytes] = {}
+    path = "/".join(package.split(".")[1:])
     for item in sorted(resources.files(package).iterdir(), key=lambda i: i.name):
+        if f"{path}/{item.name}" in NOT_COPIED:
+            continue
         if item.is_file() and item.name.endswith(".py") and (not only or item.name in only):
             text = item.read_text(encoding="utf-8")
             banner = hash_comment(copy_banner(package, item.name, backend))

@@ -2,9 +2,10 @@
 
 Both monitor backends copy this package, unchanged and under this name, into every package
 they render, beside ``imrosc/runtime`` (the engine) and their middleware adapters, which
-are its subpackages (``monitor_ros1``: rospy; ``monitor_ros2``: rclpy; ``record_ros2``: the
-ROS 2 recorder), so relative imports (``from ..runtime import families``, in an adapter
-``from .. import monitor``) work alike in imrosc and in a generated package.
+are its subpackages (``monitor_ros1``: rospy; ``monitor_ros2``: rclpy; ``record_ros1`` and
+``record_ros2``: the recorders ``imrosc record`` runs, the ROS 2 one with its bag tap), so
+relative imports (``from ..runtime import families``, in an adapter ``from .. import
+monitor``) work alike in imrosc and in a generated package.
 
 * :mod:`.monitor`: what a monitor node decides (alarms, actions, warnings, the graph with
   the relays folded back, filling an action's message) and the package's files;

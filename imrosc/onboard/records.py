@@ -4,7 +4,7 @@ A record is a ``std_msgs/String`` message on one of :data:`RECORD_TOPICS` whose 
 one JSON object with ``"version": 1``: the node graph (:func:`arch_text`), the parameters
 (:func:`params_text`) or one service call (:func:`call_text`). The text is canonical (keys
 and name lists sorted, no spaces), so one snapshot is one string and a recorder publishes a
-snapshot only when its text changed. The ROS 1 recorder (``imrosc/record/node``), the ROS 2
+snapshot only when its text changed. The ROS 1 recorder (``imrosc/onboard/record_ros1``), the ROS 2
 recorder (``imrosc/onboard/record_ros2``) and :func:`imrosc.records.encode` all write through this
 module; :mod:`imrosc.records` reads the records back.
 

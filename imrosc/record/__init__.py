@@ -1,8 +1,8 @@
 """``imrosc record``: trace generation on ROS 1 and ROS 2 (thesis section 3.2).
 
 rosbag records topics only. ``imrosc record`` runs ``rosbag record`` on the topics of a
-configuration's scope together with imrosc's recording node (``node/imrosc_recorder.py``, a
-rospy script run under the robot's Python), which adds what rosbag misses, as the records of
+configuration's scope together with imrosc's recording node (:mod:`imrosc.onboard.record_ros1`,
+a rospy node run under the robot's Python), which adds what rosbag misses, as the records of
 ``docs/record-format.md``: the node graph (``/imrosc/arch``), the parameters
 (``/imrosc/params``) and every call of the scope's services (``/imrosc/srvs``), relayed
 through the recorder from servers remapped to ``/rec/<srv>`` (Figure 3.4).
@@ -13,8 +13,8 @@ through the recorder from servers remapped to ``/rec/<srv>`` (Figure 3.4).
 * :mod:`imrosc.record.session`: starting and stopping rosbag and the node in order;
 * :mod:`imrosc.record.command`: the command line.
 
-On ROS 2 (``--ros2``) rosbag2 is not needed: the bag tap (:mod:`imrosc.record.ros2`, an
-rclpy node under the ROS 2 Python) sends every message of the scope's topics to imrosc,
+On ROS 2 (``--ros2``) rosbag2 is not needed: the bag tap (:mod:`imrosc.onboard.record_ros2.tap`,
+an rclpy node under the ROS 2 Python) sends every message of the scope's topics to imrosc,
 which writes the MCAP bag as they come (:mod:`imrosc.record.mcap`), while the ROS 2
 recorder node (:mod:`imrosc.onboard.record_ros2`) publishes the records, service calls from service
 introspection:

@@ -1,6 +1,6 @@
 """The ROS 2 bag of ``imrosc record``: an MCAP bag written with rosbags as messages arrive.
 
-rosbag2 is not needed: the bag tap (:mod:`imrosc.record.ros2.tap`) announces each topic
+rosbag2 is not needed: the bag tap (:mod:`imrosc.onboard.record_ros2.tap`) announces each topic
 with its type and the ``.msg`` definitions of the running system, and :class:`BagSink`
 adds the connection (message definition and RIHS01 type hash from those definitions, types
 the tap could not find taken from rosbags' Jazzy types), then writes every message, CDR

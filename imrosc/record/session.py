@@ -1,10 +1,11 @@
 """One recording: ``rosbag record`` and the recording node, started and stopped in order.
 
 Start: ``rosbag record`` first (as the node ``/imrosc_rosbag_<pid>``), and once the master
-lists its subscriptions, the recording node (``/imrosc_recorder_<pid>``, the script
-``node/imrosc_recorder.py`` under the ROS Python). The node publishes nothing before rosbag
-is connected to its three record topics, then publishes the first snapshots, starts its
-relays and says ``ready``: from then on nothing it records can be lost.
+lists its subscriptions, the recording node (``/imrosc_recorder_<pid>``,
+:mod:`imrosc.onboard.record_ros1.node` under the ROS Python, with only ``imrosc`` on its
+module path: :func:`link_package`). The node publishes nothing before rosbag is connected
+to its three record topics, then publishes the first snapshots, starts its relays and says
+``ready``: from then on nothing it records can be lost.
 
 Stop (Ctrl-C, SIGTERM, the duration, or a process that died): the node first (its relays are
 withdrawn, calls in flight answered and recorded, every record published), then, after a
@@ -38,7 +39,7 @@ from imrosc.record.scope import Scope
 
 __all__ = [
     "LOG_FOLDER",
-    "RECORDER_SCRIPT",
+    "RECORDER",
     "ROS_PYTHON",
     "Outcome",
     "RecordError",
@@ -47,7 +48,10 @@ __all__ = [
     "find_rosbag_record",
 ]
 
-RECORDER_SCRIPT = Path(__file__).resolve().parent / "node" / "imrosc_recorder.py"
+PACKAGE = Path(__file__).resolve().parent.parent
+"""The ``imrosc`` package folder (linked into the recorders' module path)."""
+RECORDER = "imrosc.onboard.record_ros1.node"
+"""The ROS 1 recording node, run with ``python -m`` under the ROS Python."""
 ROS_PYTHON = "/usr/bin/python3"
 LOG_FOLDER = ".imrosc"
 STOP_GRACE = 0.5
@@ -150,6 +154,30 @@ def probe(python: str, env: Mapping[str, str], code: str, what: str, module: str
         last = (done.stderr.strip().splitlines() or ["it failed"])[-1]
         raise RecordError(f"{what} {python} cannot import {module}: {last}")
     return done.stdout
+
+
+def with_module_path(environment: Mapping[str, str], folder: Path) -> dict[str, str]:
+    """``environment`` with ``folder`` first on the Python path.
+
+    >>> with_module_path({"PYTHONPATH": "/r", "A": "1"}, Path("/l"))
+    {'PYTHONPATH': '/l:/r', 'A': '1'}
+    """
+    env = dict(environment)
+    paths = [str(folder), *(p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)]
+    env["PYTHONPATH"] = os.pathsep.join(paths)
+    return env
+
+
+def link_package(folder: Path) -> Path:
+    """``folder/imrosc`` pointing at the ``imrosc`` package; ``folder`` is returned."""
+    folder.mkdir(parents=True, exist_ok=True)
+    link = folder / "imrosc"
+    if link.is_symlink():
+        if link.resolve() == PACKAGE:
+            return folder
+        link.unlink()  # imrosc's own link, to another checkout
+    link.symlink_to(PACKAGE, target_is_directory=True)
+    return folder
 
 
 def find_rosbag_record(python: str, env: Mapping[str, str]) -> str:
@@ -300,11 +328,12 @@ class Recording:
             "prefix": settings.prefix,
             "ready_timeout": settings.ready_timeout,
         }
-        command = [settings.python, str(RECORDER_SCRIPT), json.dumps(spec)]
+        command = [settings.python, "-m", RECORDER, json.dumps(spec)]
+        env = with_module_path(self.env, link_package(settings.logs / "path"))
         self.node = _Child(
             "the recording node",
             command,
-            self.env,
+            env,
             settings.logs / "recorder.log",
             stdout=subprocess.PIPE,
         )

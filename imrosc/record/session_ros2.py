@@ -1,16 +1,16 @@
 """One ROS 2 recording: the bag tap and the recorder node, started and stopped in order, and
 the MCAP bag imrosc writes from what the tap sends.
 
-Start: the bag tap first (``/_imrosc_bag_<pid>``, hidden; :mod:`imrosc.record.ros2.tap`
+Start: the bag tap first (``/_imrosc_bag_<pid>``, hidden; :mod:`imrosc.onboard.record_ros2.tap`
 under the ROS 2 Python). It subscribes to the record topics, describes the graph once
 discovery settled, and imrosc answers with the topics of the scope (computed with that
 graph: relative inputs); the tap describes the graph again when it changes, and imrosc
 answers again when that changes the scope's topics. Once it says ``ready``, the recorder node
-(``/imrosc_recorder_<pid>``, :mod:`imrosc.record.ros2.recorder`), which waits until the tap
+(``/imrosc_recorder_<pid>``, :mod:`imrosc.onboard.record_ros2`), which waits until the tap
 subscribes to its record topics before it publishes its first snapshots, and says
 ``ready``.
 
-While recording, a thread reads the tap's frames (:mod:`imrosc.record.ros2.wire`) and
+While recording, a thread reads the tap's frames (:mod:`imrosc.onboard.record_ros2.wire`) and
 writes each message into the bag at once (:class:`imrosc.record.mcap.BagSink`).
 
 Stop (Ctrl-C, SIGTERM, the duration, or a process that died): the recorder first (the calls
@@ -42,10 +42,19 @@ from typing import IO, Any
 
 from rosbags.rosbag2 import WriterError
 
+from imrosc.onboard.record_ros2 import wire
 from imrosc.record.mcap import BagSink, SinkError
-from imrosc.record.ros2 import wire
 from imrosc.record.scope import Scope
-from imrosc.record.session import STOP_GRACE, Outcome, RecordError, _Child, probe, run_until
+from imrosc.record.session import (
+    STOP_GRACE,
+    Outcome,
+    RecordError,
+    _Child,
+    link_package,
+    probe,
+    run_until,
+    with_module_path,
+)
 
 __all__ = [
     "PYTHON_VARIABLE",
@@ -56,11 +65,10 @@ __all__ = [
 ]
 
 PYTHON_VARIABLE = "IMROSC_ROS2_PYTHON"
-PACKAGE = Path(__file__).resolve().parent.parent
-"""The ``imrosc`` package folder (linked into the children's path)."""
 _PROBE = "import rclpy, std_msgs.msg\n"
-TAP = "imrosc.record.ros2.tap"
-RECORDER = "imrosc.record.ros2.recorder"
+TAP = "imrosc.onboard.record_ros2.tap"
+RECORDER = "imrosc.onboard.record_ros2"
+"""The recorder node as ``imrosc record`` runs it (its ``__main__``)."""
 
 
 @dataclass(frozen=True)
@@ -119,23 +127,10 @@ def ros2_environment(environment: Mapping[str, str], path_folder: Path) -> dict[
     >>> sorted(env.items())
     [('PYTHONPATH', '/l:/r'), ('PYTHONUNBUFFERED', '1')]
     """
-    env = {k: v for k, v in environment.items() if k not in ("ROS_NAMESPACE", "PYTHONHOME")}
-    paths = [str(path_folder), *(p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p)]
-    env["PYTHONPATH"] = os.pathsep.join(paths)
+    kept = {k: v for k, v in environment.items() if k not in ("ROS_NAMESPACE", "PYTHONHOME")}
+    env = with_module_path(kept, path_folder)
     env["PYTHONUNBUFFERED"] = "1"
     return env
-
-
-def link_package(folder: Path) -> Path:
-    """``folder/imrosc`` pointing at the ``imrosc`` package; ``folder`` is returned."""
-    folder.mkdir(parents=True, exist_ok=True)
-    link = folder / "imrosc"
-    if link.is_symlink():
-        if link.resolve() == PACKAGE:
-            return folder
-        link.unlink()  # imrosc's own link, to another checkout
-    link.symlink_to(PACKAGE, target_is_directory=True)
-    return folder
 
 
 class TapRecording:

@@ -33,6 +33,7 @@ from .families import (
     BOUNDS,
     COMPILED,
     EQUALITY,
+    FAMILIES,
     FREQUENCY,
     FUNCTION,
     LINEAR,
@@ -69,6 +70,145 @@ def _number(value: Any) -> float:
     return float(value)
 
 
+class _Held:
+    """The invariants of one point by how :class:`Checks` checks them (what the collectors
+    put where)."""
+
+    def __init__(
+        self, index: Mapping[str, int], strings: Mapping[str, int], stats: FrozenSet[str]
+    ) -> None:
+        self.index = index
+        self.strings = strings
+        self.stats = stats
+        """Variables that are array statistics (their bounds get a relative allowance)."""
+        self.bounds: List[Tuple[int, float, float, Mapping[str, Any]]] = []
+        self.finite: List[Tuple[int, Mapping[str, Any]]] = []
+        self.one_of: List[Tuple[int, List[float], Mapping[str, Any]]] = []
+        self.nonzero: List[Tuple[int, Mapping[str, Any]]] = []
+        self.pairs: Dict[str, List[Tuple[int, int, Mapping[str, Any]]]] = {
+            "==": [],
+            "<": [],
+            "<=": [],
+        }
+        self.linear: List[Tuple[Tuple[int, ...], Tuple[float, ...], float, Mapping[str, Any]]] = []
+        self.edges: List[Tuple[int, int, float, float, float, int]] = []
+        self.polygons: List[Mapping[str, Any]] = []
+        self.string_sets: List[Tuple[int, FrozenSet[str], Mapping[str, Any]]] = []
+        self.functions: List[Tuple[str, Tuple[int, ...], Mapping[str, Any]]] = []
+
+    def numeric(self, names: Sequence[str]) -> bool:
+        """Whether every variable of ``names`` is in the sample vector."""
+        return all(n in self.index for n in names)
+
+
+Collector = Callable[[_Held, Mapping[str, Any]], None]
+COLLECTORS: Dict[str, Collector] = {}
+"""The collector of each value family: puts one invariant where its check reads it
+(registered with :func:`collects`; a test holds them to the catalog's value families)."""
+
+
+def collects(*names: str) -> Callable[[Collector], Collector]:
+    """Register the decorated function as the collector of the catalog's value families
+    ``names``."""
+    for name in names:
+        family = FAMILIES.get(name)
+        if family is None or family.check != "value":
+            raise ValueError(f"{name!r} is no value family of the catalog")
+
+    def register(function: Collector) -> Collector:
+        for name in names:
+            COLLECTORS[name] = function
+        return function
+
+    return register
+
+
+@collects(BOUNDS, ARRAY)
+def _bounds(held: _Held, inv: Mapping[str, Any]) -> None:
+    name, params = inv["variables"][0], inv["params"]
+    if name not in held.index:
+        return
+    lo = _number(params.get("min", "-inf"))
+    hi = _number(params.get("max", "inf"))
+    if name in held.stats:
+        lo -= abs(lo) * _STAT_SLACK
+        hi += abs(hi) * _STAT_SLACK
+    held.bounds.append((held.index[name], lo, hi, inv))
+    if params.get("finite") and inv["family"] == BOUNDS:
+        held.finite.append((held.index[name], inv))
+
+
+@collects(ONE_OF)
+def _one_of(held: _Held, inv: Mapping[str, Any]) -> None:
+    name = inv["variables"][0]
+    if name in held.index:
+        values = [_number(v) for v in inv["params"]["values"]]
+        held.one_of.append((held.index[name], values, inv))
+
+
+@collects(NON_ZERO)
+def _non_zero(held: _Held, inv: Mapping[str, Any]) -> None:
+    name = inv["variables"][0]
+    if name in held.index:
+        held.nonzero.append((held.index[name], inv))
+
+
+@collects(EQUALITY, ORDER)
+def _pairs(held: _Held, inv: Mapping[str, Any]) -> None:
+    names = inv["variables"]
+    if held.numeric(names):
+        for other in names[1:]:
+            held.pairs[inv["kind"]].append((held.index[names[0]], held.index[other], inv))
+
+
+@collects(LINEAR, TERNARY)
+def _linear(held: _Held, inv: Mapping[str, Any]) -> None:
+    names, params = inv["variables"], inv["params"]
+    if not held.numeric(names):
+        return
+    coefficients = (
+        (params["a"], params["b"])
+        if inv["family"] == LINEAR
+        else (params["a"], params["b"], params["c"])
+    )
+    # the tolerance covers inference's data (its rounding term is 1e-14 of the
+    # magnitudes); a quarter more covers the float64 rounding of this check
+    held.linear.append(
+        (
+            tuple(held.index[n] for n in names),
+            tuple(float(c) for c in coefficients),
+            1.25 * float(params["tolerance"]) + 1e-300,
+            inv,
+        )
+    )
+
+
+@collects(POLYGON)
+def _polygon(held: _Held, inv: Mapping[str, Any]) -> None:
+    names, params = inv["variables"], inv["params"]
+    if not held.numeric(names):
+        return
+    owner = len(held.polygons)
+    held.polygons.append(inv)
+    for (a, b), c in zip(params["A"], params["b"]):
+        held.edges.append((held.index[names[0]], held.index[names[1]], a, b, c, owner))
+
+
+@collects(STRING_ONE_OF)
+def _string_one_of(held: _Held, inv: Mapping[str, Any]) -> None:
+    name = inv["variables"][0]
+    if name in held.strings:
+        values = frozenset(inv["params"]["values"])
+        held.string_sets.append((held.strings[name], values, inv))
+
+
+@collects(FUNCTION)
+def _function_of(held: _Held, inv: Mapping[str, Any]) -> None:
+    names = inv["variables"]
+    if held.numeric(names):
+        held.functions.append((inv["kind"], tuple(held.index[n] for n in names), inv))
+
+
 class Checks:
     """The compiled value checks of one point.
 
@@ -90,70 +230,21 @@ class Checks:
         self.index = index
         self.string_index = strings
         self.cleared: Set[str] = set()
-        bounds: List[Tuple[int, float, float, Mapping[str, Any]]] = []
-        finite: List[Tuple[int, Mapping[str, Any]]] = []
-        one_of: List[Tuple[int, List[float], Mapping[str, Any]]] = []
-        nonzero: List[Tuple[int, Mapping[str, Any]]] = []
-        pairs: Dict[str, List[Tuple[int, int, Mapping[str, Any]]]] = {"==": [], "<": [], "<=": []}
-        linear: List[Tuple[Tuple[int, ...], Tuple[float, ...], float, Mapping[str, Any]]] = []
-        edges: List[Tuple[int, int, float, float, float, int]] = []
-        self.polygons: List[Mapping[str, Any]] = []
-        self.string_sets: List[Tuple[int, FrozenSet[str], Mapping[str, Any]]] = []
-        self.functions: List[Tuple[str, Tuple[int, ...], Mapping[str, Any]]] = []
-        """``z == max(x, y)``, ``z == min(x, y)``, ``y == |x|``: kind, variables' places."""
-        slack = set(stats)
+        held = _Held(index, strings, frozenset(stats))
         for inv in invariants:
-            family, kind, names, params = (
-                inv["family"],
-                inv["kind"],
-                inv["variables"],
-                inv["params"],
-            )
-            if family in (BOUNDS, ARRAY) and names[0] in index:
-                lo = _number(params.get("min", "-inf"))
-                hi = _number(params.get("max", "inf"))
-                if names[0] in slack:
-                    lo -= abs(lo) * _STAT_SLACK
-                    hi += abs(hi) * _STAT_SLACK
-                bounds.append((index[names[0]], lo, hi, inv))
-                if params.get("finite") and family == BOUNDS:
-                    finite.append((index[names[0]], inv))
-            elif family == ONE_OF and names[0] in index:
-                one_of.append((index[names[0]], [_number(v) for v in params["values"]], inv))
-            elif family == NON_ZERO and names[0] in index:
-                nonzero.append((index[names[0]], inv))
-            elif family in (EQUALITY, ORDER) and all(n in index for n in names):
-                for other in names[1:]:
-                    pairs[kind].append((index[names[0]], index[other], inv))
-            elif family in (LINEAR, TERNARY) and all(n in index for n in names):
-                coefficients = (
-                    (params["a"], params["b"])
-                    if family == LINEAR
-                    else (params["a"], params["b"], params["c"])
-                )
-                # the tolerance covers inference's data (its rounding term is 1e-14 of the
-                # magnitudes); a quarter more covers the float64 rounding of this check
-                linear.append(
-                    (
-                        tuple(index[n] for n in names),
-                        tuple(float(c) for c in coefficients),
-                        1.25 * float(params["tolerance"]) + 1e-300,
-                        inv,
-                    )
-                )
-            elif family == POLYGON and all(n in index for n in names):
-                owner = len(self.polygons)
-                self.polygons.append(inv)
-                for (a, b), c in zip(params["A"], params["b"]):
-                    edges.append((index[names[0]], index[names[1]], a, b, c, owner))
-            elif family == STRING_ONE_OF and names[0] in strings:
-                self.string_sets.append((strings[names[0]], frozenset(params["values"]), inv))
-            elif family == FUNCTION and all(n in index for n in names):
-                self.functions.append((kind, tuple(index[n] for n in names), inv))
-        self.finite_at = _ints([f[0] for f in finite])
+            collect = COLLECTORS.get(inv["family"])
+            if collect is not None:
+                collect(held, inv)
+        self.polygons = held.polygons
+        self.string_sets = held.string_sets
+        self.functions = held.functions
+        """``z == max(x, y)``, ``z == min(x, y)``, ``y == |x|``: kind, variables' places."""
+        self.finite_at = _ints([f[0] for f in held.finite])
         """Variables whose bounds say they are never NaN nor infinite."""
-        self.finite_inv = [f[1] for f in finite]
-        self._compile(bounds, one_of, nonzero, pairs, linear, edges, lazy)
+        self.finite_inv = [f[1] for f in held.finite]
+        self._compile(
+            held.bounds, held.one_of, held.nonzero, held.pairs, held.linear, held.edges, lazy
+        )
         if compile:
             self.compile()
 

@@ -19,6 +19,8 @@ import threading
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
 
 import pytest
 
@@ -196,3 +198,21 @@ class Reader:
             if int(fields[2]) == self.popen.pid and fields[0] != "Z":
                 found.append(int(entry.name))
         return found
+
+
+PARAMETER_TYPES = ((bool, 1, "bool_value"), (int, 2, "integer_value"), (float, 3, "double_value"))
+
+
+def parameter_value(value: Any) -> SimpleNamespace:
+    """An ``rcl_interfaces/ParameterValue`` as a ROS 2 parameter service answers it."""
+    answer = SimpleNamespace(type=0)
+    for kind, code, field in PARAMETER_TYPES:
+        if isinstance(value, kind):
+            answer.type = code
+            setattr(answer, field, value)
+            return answer
+    if isinstance(value, str):
+        answer.type, answer.string_value = 4, value
+    elif isinstance(value, list) and all(isinstance(v, float) for v in value):
+        answer.type, answer.double_array_value = 8, value
+    return answer

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from imrosc import __version__
+from imrosc.backends.vendor import NOT_COPIED
 from imrosc.outputs import GENERATED_MARK
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,11 +43,13 @@ def assert_every_file_names_its_source(
 def vendored_sources(root: str, packages: Sequence[str]) -> dict[str, Path]:
     """The copies of imrosc's modules that a package's Python package at ``root`` carries,
     in imrosc's own layout under ``root/imrosc/``, each to the module it copies:
-    ``imrosc/__init__.py`` and every module of ``packages`` (``runtime``, ``onboard``, ...)."""
+    ``imrosc/__init__.py`` and every module of ``packages`` (``runtime``, ``onboard``, ...)
+    but those only ``imrosc record`` runs (:data:`imrosc.backends.vendor.NOT_COPIED`)."""
     found = {f"{root}/imrosc/__init__.py": ROOT / "imrosc" / "__init__.py"}
     for name in packages:
         for path in sorted((ROOT / "imrosc" / name).glob("*.py")):
-            found[f"{root}/imrosc/{name}/{path.name}"] = path
+            if f"{name}/{path.name}" not in NOT_COPIED:
+                found[f"{root}/imrosc/{name}/{path.name}"] = path
     return found
 
 

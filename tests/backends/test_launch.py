@@ -19,14 +19,9 @@ from imrosc.backends.launch import (
     rewrite_ros1,
 )
 from imrosc.backends.registry import GENERATED_MARK
-from imrosc.graph.file import load_graph_file
 from imrosc.graph.model import Graph, Node
-from tests.backends.test_monitor_spec import (
-    EXAMPLES,
-    build_ros1,
-    landing_sim,  # noqa: F401 - a session fixture
-    write_package,
-)
+from tests.backends.launch_support import BLOCKED, landing_graph
+from tests.backends.monitor_support import EXAMPLES, build_ros1, write_package  # noqa: F401
 
 SYSTEM = """<?xml version="1.0"?>
 <!-- the landing system -->
@@ -49,18 +44,8 @@ SYSTEM = """<?xml version="1.0"?>
   <include file="$(find landing)/launch/extra.launch"/>
 </launch>
 """
-BLOCKED = {
-    "/a/cmd_subject_ctrl_state": "/m/a/cmd_subject_ctrl_state",
-    "/a/task_waypose": "/m/a/task_waypose",
-}
 MONITOR = MonitorLaunch("landing_sim_monitor", "landing_sim_monitor.launch")
 ROS_PYTHON = Path("/usr/bin/python3")
-
-
-def landing_graph() -> Graph:
-    graph, problems = load_graph_file(EXAMPLES / "landing_sim.graph.yaml")
-    assert graph is not None, problems
-    return graph
 
 
 def rewrite(
@@ -214,7 +199,7 @@ def _roslaunch_available() -> bool:
 
 
 def test_the_backend_writes_the_rewritten_launch_into_the_package(
-    landing_sim: Path,  # noqa: F811
+    landing_sim: Path,
     tmp_path: Path,
 ) -> None:
     folder = tmp_path / "system"
@@ -257,7 +242,7 @@ def test_the_backend_writes_the_rewritten_launch_into_the_package(
 
 
 def test_without_a_graph_the_launch_file_is_not_rewritten(
-    landing_sim: Path,  # noqa: F811
+    landing_sim: Path,
     tmp_path: Path,
 ) -> None:
     folder = tmp_path / "system"

@@ -19,8 +19,8 @@ from imrosc.backends.launch import (
 )
 from imrosc.backends.registry import GENERATED_MARK
 from imrosc.graph.model import Graph, Node
-from tests.backends.test_launch import BLOCKED, landing_graph
-from tests.backends.test_ros2 import build_ros2, landing_ros2, setup_arguments  # noqa: F401
+from tests.backends.launch_support import BLOCKED, landing_graph
+from tests.backends.ros2_build import build_ros2, setup_arguments
 
 SYSTEM = """<?xml version="1.0"?>
 <!-- the landing system -->
@@ -247,7 +247,7 @@ def test_a_launch_file_that_cannot_be_read_safely_is_a_launch_error(
 
 
 def test_the_backend_writes_and_installs_the_rewritten_launch(
-    landing_ros2: Path,  # noqa: F811
+    landing_ros2: Path,
     tmp_path: Path,
 ) -> None:
     folder = tmp_path / "system"
@@ -285,7 +285,7 @@ def test_the_backend_writes_and_installs_the_rewritten_launch(
 
 
 def test_without_a_graph_the_launch_file_is_not_rewritten(
-    landing_ros2: Path,  # noqa: F811
+    landing_ros2: Path,
     tmp_path: Path,
 ) -> None:
     folder = tmp_path / "system"

@@ -3,17 +3,14 @@ and the guarantee that nothing from a configuration or an invariants file become
 
 from __future__ import annotations
 
-import io
 import json
 import math
 import os
 import py_compile
-import shutil
 import stat
 import subprocess
 import sys
-import tokenize
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -30,22 +27,28 @@ from imrosc.onboard import monitor
 from imrosc.replay import Replayer
 from imrosc.runtime.flatten import make_flattener
 from imrosc.sim import Scenario, write_runs
-from tests.backends.support import (
-    HOSTILE,
-    assert_carried_unchanged,
-    assert_every_file_names_its_source,
-    vendored_sources,
-)
-from tests.backends.test_monitor_spec import (
+from tests.backends.monitor_support import (
     ROOT,
     STORE,
     build_ros1,
     config_text,
     import_adapter,
     invariants_document,
-    landing_sim,  # noqa: F401 - a session fixture
     write_case,
     write_package,
+)
+from tests.backends.ros1_support import (
+    _xml,
+    assert_markers_only_quoted,
+    assert_same_values,
+    hostile_case,
+    python38,
+)
+from tests.backends.support import (
+    HOSTILE,
+    assert_carried_unchanged,
+    assert_every_file_names_its_source,
+    vendored_sources,
 )
 
 PACKAGE = "landing_sim_monitor"
@@ -63,7 +66,7 @@ def landing_files(folder: Path) -> dict[str, bytes]:
 
 
 @pytest.fixture(scope="module")
-def landing_package(landing_sim: Path) -> dict[str, bytes]:  # noqa: F811
+def landing_package(landing_sim: Path) -> dict[str, bytes]:
     return landing_files(landing_sim)
 
 
@@ -107,7 +110,7 @@ def test_the_runtime_the_onboard_logic_and_the_adapter_are_carried_unchanged(
 
 def test_every_file_names_generator_version_and_its_source(
     landing_package: dict[str, bytes],
-    landing_sim: Path,  # noqa: F811
+    landing_sim: Path,
 ) -> None:
     assert_every_file_names_its_source(landing_package, landing_sim / "landing_sim.xml", "ros1")
 
@@ -171,21 +174,6 @@ def test_python_compiles_and_passes_ruff_for_python_38(
     assert done.returncode == 0, done.stdout + done.stderr
 
 
-def python38() -> str | None:
-    """A Python 3.8 interpreter that runs (a pyenv shim may name one that is not enabled)."""
-    candidates = [
-        shutil.which("python3.8"),
-        *map(str, Path.home().glob(".pyenv/versions/3.8*/bin/python3.8")),
-    ]
-    for candidate in candidates:
-        if candidate is None:
-            continue
-        probe = subprocess.run([candidate, "-c", "pass"], capture_output=True, check=False)
-        if probe.returncode == 0:
-            return candidate
-    return None
-
-
 def test_python_3_8_compiles_every_generated_file(
     landing_package: dict[str, bytes], tmp_path: Path
 ) -> None:
@@ -210,13 +198,13 @@ def test_python_3_8_compiles_every_generated_file(
     assert done.returncode == 0, done.stderr
 
 
-def test_two_builds_give_identical_bytes(landing_sim: Path) -> None:  # noqa: F811
+def test_two_builds_give_identical_bytes(landing_sim: Path) -> None:
     assert landing_files(landing_sim) == landing_files(landing_sim)
 
 
 def test_the_invariants_copy_is_the_same_document(
     landing_package: dict[str, bytes],
-    landing_sim: Path,  # noqa: F811
+    landing_sim: Path,
 ) -> None:
     original = json.loads((landing_sim / "landing_sim.inv").read_text())
     copy = json.loads(landing_package[f"{PACKAGE}/config/invariants.json"])
@@ -226,7 +214,7 @@ def test_the_invariants_copy_is_the_same_document(
 
 
 def test_build_writes_an_executable_package_and_keeps_foreign_files(
-    landing_sim: Path,  # noqa: F811
+    landing_sim: Path,
     tmp_path: Path,
 ) -> None:
     out = tmp_path / "out"
@@ -308,16 +296,6 @@ def make_message(msgtype: str, rng: np.random.Generator) -> Any:
     return STORE.types[msgtype](**values)
 
 
-def assert_same_values(got: Sequence[Any], expected: Sequence[Any]) -> None:
-    assert len(got) == len(expected)
-    for mine, theirs in zip(got, expected, strict=True):
-        assert type(mine) is type(theirs), (mine, theirs)
-        if isinstance(mine, float) and math.isnan(mine):
-            assert math.isnan(theirs)
-        else:
-            assert mine == theirs
-
-
 FLAT_TYPES = {
     "/pose": "geometry_msgs/msg/PoseStamped",
     "/imu": "sensor_msgs/msg/Imu",
@@ -393,7 +371,7 @@ def test_generated_flatteners_read_broken_messages_like_make_flattener(
 
 def test_replaying_with_generated_flatteners_finds_the_same_violations(
     landing_package: dict[str, bytes],
-    landing_sim: Path,  # noqa: F811
+    landing_sim: Path,
     tmp_path: Path,
 ) -> None:
     package = write_package(landing_package, tmp_path)
@@ -593,89 +571,6 @@ def test_blocked_topics_read_from_the_bytes_give_the_flatteners_values(
 
 
 # -- nothing from the inputs becomes code ---------------------------------------------------
-
-MARKERS = ("zqsrc", "zqproj", "zqtopic", "zqvalue", "zqtext", "zqvar", "zqpoint", "zqframe")
-
-
-def _offsets(text: str) -> list[int]:
-    starts = [0]
-    for line in text.splitlines(keepends=True):
-        starts.append(starts[-1] + len(line))
-    return starts
-
-
-def _quoted_spans(text: str) -> list[tuple[int, int]]:
-    """Character spans of the string literals and comments of Python source."""
-    starts = _offsets(text)
-    spans = []
-    for token in tokenize.generate_tokens(io.StringIO(text).readline):
-        if token.type in (tokenize.STRING, tokenize.COMMENT) or (
-            sys.version_info >= (3, 12) and token.type == tokenize.FSTRING_MIDDLE
-        ):
-            (row, col), (end_row, end_col) = token.start, token.end
-            spans.append((starts[row - 1] + col, starts[end_row - 1] + end_col))
-    return spans
-
-
-def assert_markers_only_quoted(name: str, text: str) -> None:
-    spans = _quoted_spans(text)
-    for marker in MARKERS:
-        at = text.find(marker)
-        while at >= 0:
-            inside = any(start <= at and at + len(marker) <= end for start, end in spans)
-            assert inside, f"{marker} reaches code unquoted in {name}: {text[at - 60 : at + 40]!r}"
-            at = text.find(marker, at + 1)
-
-
-def hostile_case(folder: Path) -> Path:
-    document = invariants_document({"/zqtopic/cmd": "std_msgs/msg/UInt8"})
-    document["source"] = HOSTILE
-    variable = document["topics"]["/zqtopic/cmd"]["variables"][0]
-    variable["name"] = "zqvar" + HOSTILE
-    point = document["points"].pop("a")
-    point["variables"][0]["name"] = "zqvar" + HOSTILE
-    document["points"]["a?zqpoint" + HOSTILE] = {**point, "condition": "zqpoint" + HOSTILE}
-    document["points"]["a"] = point
-    document["invariants"] = [
-        {
-            "id": "zqtext" + HOSTILE,
-            "family": "one-of",
-            "kind": "one-of",
-            "point": "a",
-            "condition": None,
-            "variables": ["zqvar" + HOSTILE],
-            "params": {"values": [1], "zqframe": HOSTILE},
-            "text": "zqtext" + HOSTILE,
-            "support": {"samples": 1, "runs": 1},
-            "confidence": 1.0,
-        }
-    ]
-    value = json.dumps(HOSTILE)  # a double-quoted YAML scalar, escaped as JSON escapes it
-    monitor = (
-        '<monitor inv="demo.inv" launch="system.launch"><block>/zqtopic/cmd</block>'
-        f'<action id="f"><topic>/zqtopic/cmd</topic><value>{{data: {_xml(value)}, '
-        f"frame: zqframe}}</value></action><violation>a -> f</violation></monitor>"
-    )
-    config = write_case(
-        folder,
-        config_text(
-            project="zqproj", scope='<publish id="a">/zqtopic/cmd</publish>', monitor=monitor
-        ),
-        document,
-        name="zqsrc'\"--> x.xml",
-    )
-    (folder / "graph.yaml").write_text(
-        "version: 1\nnodes:\n  /zqtopic/driver:\n    publishes: [/zqtopic/cmd]\n"
-        "  /zqtopic/motor:\n    subscribes: [/zqtopic/cmd]\n"
-    )
-    (folder / "system.launch").write_text(
-        '<launch>\n  <node pkg="zqproj" type="motor" name="motor" ns="zqtopic"/>\n</launch>\n'
-    )
-    return config
-
-
-def _xml(text: str) -> str:
-    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 
 def test_no_string_from_the_inputs_reaches_generated_code_unquoted(tmp_path: Path) -> None:

@@ -11,20 +11,17 @@ from __future__ import annotations
 
 import ast
 import configparser
-import importlib.util
-import itertools
 import json
 import math
 import os
 import py_compile
-import shutil
 import subprocess
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType, SimpleNamespace
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 import pytest
@@ -32,32 +29,18 @@ from click.testing import CliRunner
 from lxml import etree
 from rosbags.highlevel import AnyReader
 from rosbags.interfaces import Nodetype
-from rosbags.typesys import Stores, get_typestore
 
 from imrosc import __version__, records
 from imrosc.backends.registry import GENERATED_MARK
-from imrosc.build import BuildResult, build
 from imrosc.cli import main
-from imrosc.detect import run_detect
-from imrosc.invariants import dumps
-from imrosc.msgtypes import flatten
 from imrosc.onboard import monitor as common
-from imrosc.onboard.fill import FillError
 from imrosc.onboard.monitor_ros1 import messages as ros1_messages
 from imrosc.onboard.monitor_ros2 import logic
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.flatten import make_flattener
-from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run, write_runs
+from imrosc.sim import FAMILIES, Scenario, ScenarioKind, write_run
 from imrosc.sim.recording import START_NS
-from imrosc.translate.layout import short_names, topic_layout
-from tests.backends.support import (
-    HOSTILE,
-    assert_carried_unchanged,
-    assert_every_file_names_its_source,
-    vendored_sources,
-)
-from tests.backends.test_monitor_spec import (
-    EXAMPLES,
+from tests.backends.monitor_support import (
     ROOT,
     build_ros1,
     config_text,
@@ -65,48 +48,36 @@ from tests.backends.test_monitor_spec import (
     write_case,
     write_package,
 )
-from tests.backends.test_ros1 import (
+from tests.backends.ros1_support import (
     _xml,
     assert_markers_only_quoted,
     assert_same_values,
     hostile_case,
     python38,
 )
+from tests.backends.ros2_build import (
+    PACKAGE,
+    STORE2,
+    build_ros2,
+    import_package,
+    python_files,
+    ros2_document,
+    setup_arguments,
+)
+from tests.backends.ros2_support import parameter_value
+from tests.backends.support import (
+    HOSTILE,
+    assert_carried_unchanged,
+    assert_every_file_names_its_source,
+    vendored_sources,
+)
 
-PACKAGE = "landing_sim_monitor"
 RUNTIME = ROOT / "imrosc" / "runtime"
 ADAPTER = ROOT / "imrosc" / "onboard" / "monitor_ros2"
 CARRIED = ("runtime", "onboard", "onboard/monitor_ros2", "onboard/record_ros2")
 """The imrosc packages a ROS 2 monitor package with its recorder carries (under
 ``<package>/imrosc``)."""
-VENDOR = f"{PACKAGE}/imrosc"
-STORE2 = get_typestore(Stores.ROS2_HUMBLE)
 OWN = frozenset({f"/{PACKAGE}", f"/{PACKAGE}_watchdog"})
-_COUNTER = itertools.count()
-
-
-def build_ros2(config: Path, graph: Sequence[Path] = (), bags: Sequence[Path] = ()) -> BuildResult:
-    """``imrosc build --backend ros2`` without writing."""
-    return build(config, "ros2", graph_files=graph, bags=bags)
-
-
-@pytest.fixture(scope="module")
-def landing_ros2(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """examples/landing_sim.xml with its graph and invariants inferred from two short
-    simulated nominal runs written as ROS 2 (sqlite3) bags."""
-    folder = tmp_path_factory.mktemp("landing_ros2")
-    for name in ("landing_sim.xml", "landing_sim.graph.yaml"):
-        shutil.copy(EXAMPLES / name, folder / name)
-    write_runs(folder / "bags" / "nominal", runs=2, seed=0, fmt="sqlite3", duration=8.0)
-    result = run_detect(
-        folder / "landing_sim.xml",
-        workers=1,
-        graph_files=[folder / "landing_sim.graph.yaml"],
-        budget=0,  # the exact invariants: these tests compare ROS 1 and ROS 2, not calibration
-    )
-    assert result.document is not None, [d.as_text() for d in result.diagnostics]
-    (folder / "landing_sim.inv").write_text(dumps(result.document), encoding="utf-8")
-    return folder
 
 
 def landing_files(folder: Path) -> dict[str, bytes]:
@@ -118,25 +89,6 @@ def landing_files(folder: Path) -> dict[str, bytes]:
 @pytest.fixture(scope="module")
 def landing_package(landing_ros2: Path) -> dict[str, bytes]:
     return landing_files(landing_ros2)
-
-
-def python_files(files: Mapping[str, bytes]) -> dict[str, bytes]:
-    return {name: content for name, content in files.items() if name.endswith(".py")}
-
-
-def import_package(package: Path) -> ModuleType:
-    """Import a written package's Python package under a fresh name; its ``main``."""
-    name = f"ros2_monitor_test_{next(_COUNTER)}"
-    copy = package.parent / f"{name}_src" / name
-    shutil.copytree(package / package.name, copy)
-    spec = importlib.util.spec_from_file_location(
-        name, copy / "__init__.py", submodule_search_locations=[str(copy)]
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return importlib.import_module(f"{name}.main")
 
 
 # -- the package ----------------------------------------------------------------------------
@@ -204,17 +156,6 @@ def test_package_xml_is_format_3_for_ament_python(landing_package: dict[str, byt
     tags = [child.tag for child in root if isinstance(child.tag, str)]
     assert tags[:5] == ["name", "version", "description", "maintainer", "license"]
     assert tags[-1] == "export"
-
-
-def setup_arguments(package: Path) -> dict[str, Any]:
-    """What ``setup.py`` passes to ``setuptools.setup`` (run with setup replaced)."""
-    captured: dict[str, Any] = {}
-    source = (package / "setup.py").read_text()
-    namespace: dict[str, Any] = {"__name__": "__main__", "__file__": str(package / "setup.py")}
-    code = compile(source.replace("from setuptools import setup", ""), "setup.py", "exec")
-    namespace["setup"] = lambda **kwargs: captured.update(kwargs)
-    exec(code, namespace)
-    return captured
 
 
 def test_setup_py_and_setup_cfg_describe_an_ament_python_package(
@@ -450,64 +391,6 @@ FLAT_TYPES = {
 }
 
 
-def ros2_document(topics: Mapping[str, str]) -> dict[str, Any]:
-    """A small invariants document laid out from ROS 2 message definitions (no
-    ``header.seq``), a publish point per topic."""
-    shorts = short_names(topics)
-    layouts = {}
-    for topic, msgtype in sorted(topics.items()):
-        layout = topic_layout(topic, msgtype, flatten(STORE2, msgtype), shorts[topic], trigger=True)
-        layouts[topic] = [
-            {
-                "name": v.name,
-                "type": v.type,
-                "topic": v.topic,
-                "path": v.path,
-                "derived": v.derived,
-                "trigger": v.trigger,
-            }
-            for v in layout.variables
-        ]
-    battery = layouts.get("/battery", [])
-    for index in (0, 1, 7):  # elements of a short array, as inference lays them out
-        battery.append(
-            {
-                "name": f"battery.cell_voltage[{index}]",
-                "type": "float",
-                "topic": "/battery",
-                "path": f"cell_voltage[{index}]",
-                "derived": None,
-                "trigger": True,
-            }
-        )
-    points = {
-        ident: {
-            "kind": "publish",
-            "trigger": topic,
-            "condition": None,
-            "support": {"samples": 10, "runs": 1},
-            "variables": layouts[topic],
-            "inputs": [],
-            "params": [],
-            "events": [],
-            "filter": [],
-        }
-        for ident, topic in zip("abcdefghijklmnop", sorted(topics), strict=False)
-    }
-    return {
-        "$comment": "generated by imrosc (tests)",
-        "format": "imrosc-invariants",
-        "version": 1,
-        "project": "demo",
-        "source": "demo.xml",
-        "bags": [],
-        "tunables": {},
-        "topics": {t: {"type": m, "variables": layouts[t]} for t, m in sorted(topics.items())},
-        "points": points,
-        "invariants": [],
-    }
-
-
 def _scalar(kind: str, rng: np.random.Generator) -> Any:
     if kind == "string":
         return f"frame{int(rng.integers(3))}"
@@ -611,24 +494,6 @@ def ros2_message(value: Any) -> Any:
     message = SimpleNamespace(**{key: ros2_message(item) for key, item in value.items()})
     message.get_fields_and_field_types = lambda: fields
     return message
-
-
-PARAMETER_TYPES = ((bool, 1, "bool_value"), (int, 2, "integer_value"), (float, 3, "double_value"))
-
-
-def parameter_value(value: Any) -> SimpleNamespace:
-    """An ``rcl_interfaces/ParameterValue`` as a ROS 2 parameter service answers it."""
-    answer = SimpleNamespace(type=0)
-    for kind, code, field in PARAMETER_TYPES:
-        if isinstance(value, kind):
-            answer.type = code
-            setattr(answer, field, value)
-            return answer
-    if isinstance(value, str):
-        answer.type, answer.string_value = 4, value
-    elif isinstance(value, list) and all(isinstance(v, float) for v in value):
-        answer.type, answer.double_array_value = 8, value
-    return answer
 
 
 @dataclass
@@ -929,300 +794,6 @@ def test_the_backend_is_registered_with_its_own_launch_dialect() -> None:
     ros1, ros2 = backends["ros1"], backends["ros2"]
     assert isinstance(ros1, MonitorBackend) and isinstance(ros2, MonitorBackend)
     assert ros1.launch_dialect is ROSLAUNCH and ros2.launch_dialect is ROS2_LAUNCH
-
-
-# -- the adapter's decisions, without ROS ---------------------------------------------------
-
-RELIABLE = logic.Qos(logic.RELIABLE, logic.VOLATILE)
-BEST_EFFORT = logic.Qos(logic.BEST_EFFORT, logic.VOLATILE)
-LATCHED = logic.Qos(logic.RELIABLE, logic.TRANSIENT_LOCAL)
-
-
-@pytest.mark.parametrize(
-    ("publishers", "msgtype", "subscription", "relay"),
-    [
-        ([], "sensor_msgs/msg/Imu", BEST_EFFORT, BEST_EFFORT),  # qos_profile_sensor_data
-        ([], "std_msgs/msg/UInt8", RELIABLE, RELIABLE),
-        ([None], "std_msgs/msg/UInt8", RELIABLE, RELIABLE),  # a QoS it does not report
-        ([RELIABLE], "sensor_msgs/msg/Imu", RELIABLE, RELIABLE),
-        ([BEST_EFFORT], "std_msgs/msg/UInt8", BEST_EFFORT, BEST_EFFORT),
-        ([RELIABLE, BEST_EFFORT], "std_msgs/msg/UInt8", BEST_EFFORT, RELIABLE),
-        ([LATCHED], "std_msgs/msg/String", LATCHED, LATCHED),
-        ([LATCHED, RELIABLE], "std_msgs/msg/String", RELIABLE, LATCHED),
-    ],
-)
-def test_subscriptions_match_every_publisher_and_relays_offer_the_source_qos(
-    publishers: list[logic.Qos | None],
-    msgtype: str,
-    subscription: logic.Qos,
-    relay: logic.Qos,
-) -> None:
-    assert logic.subscription_qos(publishers, msgtype) == subscription
-    assert logic.relay_qos(publishers, msgtype) == relay
-
-
-def test_qos_changes_when_publishers_ask_for_it_and_stays_when_they_leave() -> None:
-    battery = "sensor_msgs/msg/BatteryState"
-    first = logic.qos_update(None, [], battery)
-    assert first == logic.SENSOR_DATA
-    assert logic.qos_update(first, [], battery) is None
-    changed = logic.qos_update(first, [RELIABLE], battery)
-    assert changed == RELIABLE
-    assert logic.qos_update(changed, [RELIABLE], battery) is None
-    assert logic.qos_update(changed, [None], battery) is None
-    offer = logic.qos_update(None, [LATCHED], battery, logic.relay_qos)
-    assert offer == LATCHED
-
-
-def test_endpoint_qos_reads_rmw_values_of_enums_and_integers() -> None:
-    class Reliability(int):
-        pass
-
-    rclpy_like = SimpleNamespace(reliability=Reliability(2), durability=Reliability(1))
-    assert logic.endpoint_qos(rclpy_like) == logic.Qos(logic.BEST_EFFORT, logic.TRANSIENT_LOCAL)
-    assert logic.endpoint_qos(SimpleNamespace(reliability=0, durability=2)) is None  # default
-    assert logic.endpoint_qos(SimpleNamespace(reliability=3, durability=2)) is None  # unknown
-    assert logic.endpoint_qos(None) is None
-
-
-def graph_view() -> logic.GraphView:
-    return logic.GraphView(
-        topics={
-            "/t": (["/a", "/mon", "/rogue"], ["/mon"]),
-            "/m/t": (["/mon"], ["/b"]),
-            "/rosout": (["/a", "/mon"], []),
-        },
-        types={"/t": ["std_msgs/msg/UInt8"]},
-        publisher_qos={"/t": [("/a", RELIABLE), ("/mon", LATCHED), ("/rogue", BEST_EFFORT)]},
-        services={"/s": ["/server"], "/m/s": ["/mon"], "/a/get_parameters": ["/a"]},
-        service_types={"/s": ["std_srvs/srv/Trigger"]},
-        nodes=["/a", "/b", "/mon", "/rogue", "/server"],
-    )
-
-
-def test_the_graph_from_rclpy_folds_relays_back_and_leaves_the_monitor_out() -> None:
-    graph = logic.snapshot(graph_view(), {"/mon", "/mon_watchdog"}, {"/t": "/m/t"}, {"/s": "/m/s"})
-    assert graph["pub"] == {"/t": frozenset({"/a", "/rogue"}), "/rosout": frozenset({"/a"})}
-    assert graph["sub"] == {"/t": frozenset({"/b"})}
-    assert graph["srv"] == {"/s": frozenset({"/server"}), "/a/get_parameters": frozenset({"/a"})}
-    assert logic.publisher_qos(graph_view(), "/t", {"/mon"}) == [RELIABLE, BEST_EFFORT]
-    assert logic.node_name("/", "x") == "/x" and logic.resolve_node("/a", "w") == "/a/w"
-
-
-def test_ros2_bag_play_stands_for_the_publishers_learnt_and_ros2_bag_record_is_left_out() -> None:
-    view = logic.GraphView(
-        topics={
-            "/t": (["/rosbag2_player"], ["/mon", "/rosbag2_recorder", "/b"]),
-            "/u": (["/rosbag2_player"], []),
-        },
-        types={},
-        publisher_qos={},
-        services={},
-        service_types={},
-        nodes=["/b", "/mon", "/rosbag2_player", "/rosbag2_recorder"],
-    )
-    learnt = {"/t": frozenset({"/a"})}
-    graph = logic.snapshot(view, {"/mon"}, {}, {}, learnt)
-    # a recording played into the monitor is its publishers; on a topic nobody learnt the
-    # player stays itself; the recorder is no subscriber of the robot's
-    assert graph["pub"] == {"/t": frozenset({"/a"}), "/u": frozenset({"/rosbag2_player"})}
-    assert graph["sub"] == {"/t": frozenset({"/b"})}
-    assert logic.snapshot(view, {"/mon"}, {}, {})["pub"]["/t"] == frozenset({"/rosbag2_player"})
-
-
-def test_parameters_are_asked_of_their_node_and_answered_by_type() -> None:
-    names = ["/a/car_ctrl/landing_radius", "/a/car_ctrl/gains/p", "/a/car_ctrl/missing", "/z/k"]
-    requests = logic.parameter_requests(names, ["/a", "/a/car_ctrl"])
-    assert requests == {
-        "/a/car_ctrl": [
-            ("/a/car_ctrl/gains/p", "gains.p"),
-            ("/a/car_ctrl/landing_radius", "landing_radius"),
-            ("/a/car_ctrl/missing", "missing"),
-        ],
-        "/z": [("/z/k", "k")],
-    }
-    values = [parameter_value(0.5), parameter_value(2.5), SimpleNamespace(type=0)]
-    answered, missing = logic.parameter_answers(requests["/a/car_ctrl"], values)
-    assert answered == {"/a/car_ctrl/gains/p": 0.5, "/a/car_ctrl/landing_radius": 2.5}
-    assert missing == ["/a/car_ctrl/missing"]
-    assert logic.parameter_answers([("/x", "x")], []) == ({}, ["/x"])  # no answer: not set
-    typed = [
-        (SimpleNamespace(type=1, bool_value=True), True),
-        (SimpleNamespace(type=2, integer_value=3), 3),
-        (SimpleNamespace(type=4, string_value="fast"), "fast"),
-        (SimpleNamespace(type=7, integer_array_value=np.array([1, 2])), [1, 2]),
-        (SimpleNamespace(type=9, string_array_value=["a"]), ["a"]),
-    ]
-    for value, expected in typed:
-        assert logic.parameter_value(value) == expected
-    with pytest.raises(KeyError):
-        logic.parameter_value(SimpleNamespace(type=0))
-    flat = logic.param_values({"/a/k": [1.0, 2.0], "/a/m": "x"}, ["/a/k", "/a/m", "/a/none"])
-    assert flat == {"len(/a/k)": 2, "/a/m": "x"}
-
-
-class FakeRos2Message:
-    """A stand-in for an rclpy message: ``get_fields_and_field_types`` and attributes."""
-
-    FIELDS: ClassVar[dict[str, str]] = {}
-
-    def __init__(self) -> None:
-        for name, kind in self.FIELDS.items():
-            setattr(self, name, _default(kind))
-
-    @classmethod
-    def get_fields_and_field_types(cls) -> dict[str, str]:
-        return dict(cls.FIELDS)
-
-
-class Vector3(FakeRos2Message):
-    FIELDS: ClassVar[dict[str, str]] = {"x": "double", "y": "double", "z": "double"}
-
-
-class Twist(FakeRos2Message):
-    FIELDS: ClassVar[dict[str, str]] = {
-        "linear": "geometry_msgs/Vector3",
-        "angular": "geometry_msgs/Vector3",
-    }
-
-
-class Time(FakeRos2Message):
-    FIELDS: ClassVar[dict[str, str]] = {"sec": "int32", "nanosec": "uint32"}
-
-
-class Header(FakeRos2Message):
-    FIELDS: ClassVar[dict[str, str]] = {"stamp": "builtin_interfaces/Time", "frame_id": "string"}
-
-
-class Everything(FakeRos2Message):
-    FIELDS: ClassVar[dict[str, str]] = {
-        "header": "std_msgs/Header",
-        "level": "uint8",
-        "flag": "boolean",
-        "name": "string",
-        "short": "string<=4",
-        "points": "sequence<geometry_msgs/Vector3>",
-        "raw": "sequence<uint8>",
-        "octets": "sequence<octet, 2>",
-        "gains": "double[3]",
-        "twist": "geometry_msgs/Twist",
-    }
-
-
-CLASSES: dict[str, type[FakeRos2Message]] = {
-    "geometry_msgs/Vector3": Vector3,
-    "geometry_msgs/Twist": Twist,
-    "builtin_interfaces/Time": Time,
-    "std_msgs/Header": Header,
-}
-
-
-def _default(kind: str) -> Any:
-    if kind in CLASSES:
-        return CLASSES[kind]()
-    if kind.startswith("sequence") or kind.endswith("]"):
-        return []
-    return {"boolean": False, "double": 0.0, "string": ""}.get(kind.split("<", 1)[0], 0)
-
-
-def test_fill_sets_fields_of_a_ros2_message_from_an_action_value() -> None:
-    value = {
-        "header": {"stamp": 3.25, "frame_id": "map"},
-        "level": 3,
-        "flag": True,
-        "name": HOSTILE,
-        "short": "abcd",
-        "points": [{"x": 1.5}, {"y": 2}],
-        "raw": [1, 2, 255],
-        "octets": [7, 255],
-        "gains": [0.5, 1, 2.0],
-        "twist": {"linear": {"x": 0.5}, "angular": {"z": -0.2}},
-    }
-    message: Any = logic.fill(Everything(), value, CLASSES.__getitem__)
-    assert (message.level, message.flag, message.name, message.short) == (3, True, HOSTILE, "abcd")
-    assert (message.header.stamp.sec, message.header.stamp.nanosec) == (3, 250_000_000)
-    assert message.header.frame_id == "map"
-    assert [(p.x, p.y) for p in message.points] == [(1.5, 0.0), (0.0, 2.0)]
-    assert message.raw == [1, 2, 255]
-    assert message.octets == [b"\x07", b"\xff"]
-    assert message.gains == [0.5, 1.0, 2.0]
-    assert (message.twist.linear.x, message.twist.angular.z) == (0.5, -0.2)
-    assert logic.message_data(message)["header"] == {"stamp": 3.25, "frame_id": "map"}
-
-
-@pytest.mark.parametrize(
-    ("value", "problem"),
-    [
-        ({"levle": 3}, "no such field"),
-        ({"level": 256}, "out of range"),
-        ({"level": -1}, "out of range"),
-        ({"level": 2.5}, "not an integer"),
-        ({"level": "3"}, "not an integer"),
-        ({"flag": "yes"}, "not a bool"),
-        ({"short": "abcde"}, "longer than 4"),
-        ({"twist": {"linear": 3}}, "not a mapping"),
-        ({"twist": {"linear": {"w": 1}}}, "no such field"),
-        ({"points": {"x": 1}}, "not a list"),
-        ({"gains": [1.0]}, "1 values for an array of 3"),
-        ({"octets": [1, 2, 3]}, "more than 2"),
-        ({"name": {"a": 1}}, "mapping"),
-        ({"header": {"stamp": "now"}}, "not a number of seconds"),
-    ],
-)
-def test_fill_refuses_values_that_do_not_fit(value: dict[str, Any], problem: str) -> None:
-    with pytest.raises(FillError, match=problem):
-        logic.fill(Everything(), value, CLASSES.__getitem__)
-
-
-def test_a_ros2_service_call_becomes_request_response_and_delay_values() -> None:
-    class Request(FakeRos2Message):
-        FIELDS: ClassVar[dict[str, str]] = {
-            "task_id": "int32",
-            "names": "sequence<string>",
-            "gains": "double[2]",
-        }
-
-    class Response(FakeRos2Message):
-        FIELDS: ClassVar[dict[str, str]] = {"status": "string", "stamp": "builtin_interfaces/Time"}
-
-    request: Any = Request()
-    response: Any = Response()
-    request.task_id, request.names, request.gains = 4, ["a", "b"], np.array([0.5, 1.5])
-    response.status = "ok"
-    response.stamp.sec, response.stamp.nanosec = 3, 500_000_000
-    assert common.call_values(logic.message_data, request, response, 0.25) == {
-        "request.task_id": 4,
-        "len(request.names)": 2,
-        "len(request.gains)": 2,
-        "response.status": "ok",
-        "response.stamp": 3.5,
-        "delay": 0.25,
-    }
-    assert common.request_values(logic.message_data, request) == {
-        "request.task_id": 4,
-        "len(request.names)": 2,
-        "len(request.gains)": 2,
-    }
-
-
-def test_interface_names_are_checked_before_they_are_imported() -> None:
-    assert logic.interface_name("std_msgs/msg/UInt8") == ("std_msgs.msg", "UInt8")
-    assert logic.interface_name("std_srvs/srv/Trigger", "srv") == ("std_srvs.srv", "Trigger")
-    for bad in ("std_msgs/srv/UInt8", "a.b/msg/C", "x/msg/Y; import os", "../x/msg/Y", "x/msg/"):
-        with pytest.raises(ValueError, match="type name"):
-            logic.interface_name(bad, "msg")
-
-
-def test_only_an_unknown_publisher_gets_a_note() -> None:
-    arch = Violation(1.0, "d", "i1", "architecture", "max_pubs", "t", ["/x"], "only {/a}")
-    bounds = Violation(1.0, "a", "i2", "bounds", "range", "t", 3.0, "[0, 1]")
-    assert json.loads(logic.warning(arch))["note"] == logic.NO_MASTER
-    assert logic.warning(bounds, ["f"]) == common.violation_json(bounds, ["f"])
-    alone = common.Report(arch, False, None, [])
-    warning = json.loads(logic.report_warning(alone))
-    assert (warning["alarm"], warning["rule"], warning["note"]) == (False, None, logic.NO_MASTER)
-    raised = common.Report(bounds, True, "persist", ["f"])
-    assert logic.report_warning(raised) == common.report_json(raised)
 
 
 def test_the_adapter_keeps_python_3_8_syntax() -> None:

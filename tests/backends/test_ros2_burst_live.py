@@ -23,9 +23,9 @@ from pathlib import Path
 
 import pytest
 
+from tests.backends.monitor_support import config_text, write_case, write_package
+from tests.backends.ros2_build import build_ros2, ros2_document
 from tests.backends.ros2_support import Reader, require_ros2, ros2_environment
-from tests.backends.test_monitor_spec import config_text, write_case, write_package
-from tests.backends.test_ros2 import build_ros2, ros2_document
 from tests.backends.test_ros2_live import _invariant, drive, start_monitor
 
 pytestmark = pytest.mark.live

@@ -37,13 +37,8 @@ import pytest
 from click.testing import CliRunner
 
 from imrosc.cli import main
+from tests.backends.example_ros2_support import CONFIG, GRAPH, PACKAGE
 from tests.backends.ros2_support import Reader, require_launch, ros2_environment
-from tests.backends.test_example_ros2 import (  # noqa: F401
-    CONFIG,
-    GRAPH,
-    PACKAGE,
-    landing_example,
-)
 
 pytestmark = pytest.mark.live
 
@@ -286,7 +281,7 @@ def keep_command_invariants(path: Path) -> int:
 
 @pytest.fixture(scope="module")
 def example(
-    landing_example: Path,  # noqa: F811
+    landing_example: Path,
     tmp_path_factory: pytest.TempPathFactory,
 ) -> Example:
     """The README's commands: ``imrosc build`` the example with ``--backend ros2``, then

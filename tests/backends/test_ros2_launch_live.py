@@ -34,8 +34,8 @@ from click.testing import CliRunner
 
 from imrosc import records
 from imrosc.cli import main
+from tests.backends.monitor_support import config_text, write_case
 from tests.backends.ros2_support import Reader, require_launch, ros2_environment
-from tests.backends.test_monitor_spec import config_text, write_case
 from tests.backends.test_ros2_live import DRIVER, MONITOR, SCOPE, assert_monitored, demo_document
 
 pytestmark = pytest.mark.live

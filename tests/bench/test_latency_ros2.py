@@ -14,8 +14,8 @@ import numpy as np
 from bench.latency_ros2 import CONFIG, MSGTYPE, TOPIC, ros2_document
 from imrosc.invariants import dumps
 from imrosc.runtime import Engine
-from tests.backends.test_monitor_spec import write_package
-from tests.backends.test_ros2 import build_ros2, import_package
+from tests.backends.monitor_support import write_package
+from tests.backends.ros2_build import build_ros2, import_package
 
 
 def small_document() -> tuple[dict[str, Any], list[list[float]]]:

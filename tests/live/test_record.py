@@ -184,7 +184,7 @@ def test_the_recording_stops_cleanly_on_ctrl_c(ros: Ros, run: Run) -> None:
             command = Path(f"/proc/{pid}/cmdline").read_bytes()
         except OSError:
             continue
-        if b"imrosc_recorder.py" in command or b"rosbag/record" in command:
+        if b"imrosc.onboard.record_ros1.node" in command or b"rosbag/record" in command:
             leftovers.append(command.replace(b"\0", b" ").decode())
     assert leftovers == []
     assert "not in the bag" not in run.stderr  # every record the node published was stored

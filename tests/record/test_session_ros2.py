@@ -15,17 +15,15 @@ import pytest
 
 from imrosc import records
 from imrosc.bags import open_bag
-from imrosc.record.ros2 import wire
+from imrosc.onboard.record_ros2 import wire
 from imrosc.record.scope import Scope
-from imrosc.record.session import RecordError
+from imrosc.record.session import PACKAGE, RecordError, link_package
 from imrosc.record.session_ros2 import (
-    PACKAGE,
     PYTHON_VARIABLE,
     Settings2,
     TapRecording,
     check_python,
     choose_python,
-    link_package,
     ros2_environment,
 )
 

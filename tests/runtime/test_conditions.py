@@ -26,9 +26,9 @@ from imrosc.schema.expression import (
     Unary,
     parse_expression,
     to_json,
-    to_text,
 )
 from imrosc.translate.condition import ConditionError, evaluate_mask, resolve_fields
+from tests.schema.expression_text import to_text
 
 
 def field(*path: Any) -> dict[str, Any]:

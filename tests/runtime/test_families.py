@@ -1,15 +1,19 @@
 """The family catalog is the one list of families: the job schema, the monitor's family
-sets and inference's groups follow it, and the compiled kernel never clears a sample of a
+sets and inference's groups follow it, inference's state builders and the runtime's check
+collectors are registered against it, and the compiled kernel never clears a sample of a
 family it does not know."""
 
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
+from imrosc.infer import builders
 from imrosc.infer.registry import FAMILY_GROUPS
 from imrosc.runtime import checks as checks_module
 from imrosc.runtime import families
@@ -18,25 +22,36 @@ from imrosc.runtime.checks import Checks
 SCHEMA = Path(checks_module.__file__).parents[1] / "backends" / "schemas" / "job.schema.json"
 
 
-def family_enum(schema: Any) -> list[str] | None:
-    """The enum of the job schema's ``families`` items."""
+def family_items(schema: Any) -> Any:
+    """The job schema's ``families`` items (None if it has none)."""
     if isinstance(schema, dict):
         if "families" in schema.get("properties", {}):
-            return list(schema["properties"]["families"]["items"]["enum"])
-        for value in schema.values():
-            found = family_enum(value)
-            if found is not None:
-                return found
+            return schema["properties"]["families"]["items"]
+        values = list(schema.values())
     elif isinstance(schema, list):
-        for value in schema:
-            found = family_enum(value)
-            if found is not None:
-                return found
+        values = schema
+    else:
+        return None
+    for value in values:
+        found = family_items(value)
+        if found is not None:
+            return found
     return None
 
 
+def family_enum(schema: Any) -> list[str] | None:
+    """The enum of the job schema's ``families`` items."""
+    items = family_items(schema)
+    return None if items is None else list(items["enum"])
+
+
 def test_the_job_schema_lists_the_catalog() -> None:
-    assert family_enum(json.loads(SCHEMA.read_text())) == list(families.NAMES)
+    """The schema's family list is the catalog's; ``IMROSC_UPDATE_GOLDEN=1`` writes it."""
+    schema = json.loads(SCHEMA.read_text(encoding="utf-8"))
+    if os.environ.get("IMROSC_UPDATE_GOLDEN") == "1":
+        family_items(schema)["enum"] = list(families.NAMES)
+        SCHEMA.write_text(json.dumps(schema, indent=2, ensure_ascii=False) + "\n", "utf-8")
+    assert family_enum(schema) == list(families.NAMES)
 
 
 def test_every_family_has_a_group_and_a_point_kind() -> None:
@@ -83,3 +98,40 @@ def test_the_kernel_is_used_only_for_families_it_knows(
     checks = Checks([BOUNDED], {"x": 0}, {})
     assert bool(compiled) is known
     assert checks.numeric_families() == {families.BOUNDS}
+
+
+def test_a_family_the_kernel_does_not_know_is_checked_by_numpy(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A kernel that clears every sample stands in for numba: with bounds unknown to it, a
+    sample out of bounds is still found (numpy checks it), never cleared unchecked."""
+    monkeypatch.setattr(checks_module, "numba_module", object)
+    monkeypatch.setattr(checks_module, "compile_checks", lambda tables, size: lambda *a: True)
+    row = np.array([2.0])
+    cleared = Checks([BOUNDED], {"x": 0}, {})
+    assert cleared.compiled and cleared.check(0.0, "p", row) == []  # the stand-in clears all
+    monkeypatch.setattr(checks_module, "COMPILED", families.COMPILED - {families.BOUNDS})
+    checked = Checks([BOUNDED], {"x": 0}, {})
+    assert not checked.compiled
+    (violation,) = checked.check(0.0, "p", row)
+    assert violation.invariant == "i1"
+
+
+def test_every_value_family_has_one_check_collector() -> None:
+    values = {f.name for f in families.CATALOG if f.check == "value"}
+    assert set(checks_module.COLLECTORS) == values
+    with pytest.raises(ValueError, match="no value family"):
+        checks_module.collects(families.FREQUENCY)
+    with pytest.raises(ValueError, match="no value family"):
+        checks_module.collects("cubic")
+
+
+def test_every_inferred_family_has_one_state_builder() -> None:
+    inferred = {f.name for f in families.CATALOG if f.points}
+    assert builders.registered() == inferred
+    with pytest.raises(ValueError, match="not in the family catalog"):
+        builders.builds("cubic")
+    with pytest.raises(ValueError, match="learnt by classification"):
+        builders.builds(families.DETECTOR)
+    with pytest.raises(ValueError, match="has a state builder already"):
+        builders.builds(families.BOUNDS)(lambda point, tunables, enabled: [])

@@ -25,8 +25,8 @@ from imrosc.schema.expression import (
     fields,
     parse_expression,
     to_json,
-    to_text,
 )
+from tests.schema.expression_text import to_text
 
 
 def f(*path: str | int) -> Field:

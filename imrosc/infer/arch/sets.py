@@ -34,6 +34,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import (
     FamilyState,
     FinalizeContext,
@@ -43,10 +44,12 @@ from imrosc.infer.core import (
     confidence,
 )
 from imrosc.ir import Tunables
+from imrosc.runtime.families import ARCHITECTURE
+from imrosc.translate.points import PointSpec
 
 __all__ = ["FAMILY", "RESOURCE_KINDS", "ArchitectureState", "make_states", "parse_variable"]
 
-FAMILY = "architecture"
+FAMILY = ARCHITECTURE
 RESOURCE_KINDS = ("pubs", "subs", "srvs")
 """Variable name prefixes: publishers and subscribers of a topic, servers of a service."""
 
@@ -232,3 +235,8 @@ def make_states(
         return []
     state = ArchitectureState(variables)
     return [state] if state.names else []
+
+
+@builds(FAMILY)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return make_states(point.variables, tunables, enabled)

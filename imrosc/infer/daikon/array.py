@@ -20,10 +20,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable
 from imrosc.infer.daikon.bounds import bound_invariant
 from imrosc.infer.daikon.chunk import view
 from imrosc.infer.daikon.common import Extremes
+from imrosc.ir import Tunables
+from imrosc.runtime.families import ARRAY
+from imrosc.translate.points import PointSpec
 
 
 def element_name(variable: Variable) -> str:
@@ -97,3 +101,8 @@ class ArrayState:
 
 def _array(variable: Variable) -> tuple[str, str]:
     return variable.topic, element_name(variable)
+
+
+@builds(ARRAY)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [ArrayState(point.variables)]

@@ -26,10 +26,14 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable, confidence
 from imrosc.infer.daikon.chunk import view
 from imrosc.infer.daikon.common import Distinct, Extremes, equality_classes, number_text
 from imrosc.infer.daikon.pairs import PairFlags
+from imrosc.ir import Tunables
+from imrosc.runtime.families import BOUNDS, EQUALITY, ONE_OF
+from imrosc.translate.points import PointSpec
 
 
 class BoundsState:
@@ -172,3 +176,8 @@ def _make(
         condition=context.condition,
         runs=context.runs,
     )
+
+
+@builds(BOUNDS)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [BoundsState(point.variables, one_of=ONE_OF in enabled, equality=EQUALITY in enabled)]

@@ -12,9 +12,13 @@ first variable leading, and the order, linear and ternary families only relate l
 
 from __future__ import annotations
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, confidence
 from imrosc.infer.daikon.common import pair_index
 from imrosc.infer.daikon.pairs import PairRelationState
+from imrosc.ir import Tunables
+from imrosc.runtime.families import EQUALITY
+from imrosc.translate.points import PointSpec
 
 
 class EqualityState(PairRelationState):
@@ -50,3 +54,8 @@ class EqualityState(PairRelationState):
                 )
             )
         return found
+
+
+@builds(EQUALITY)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [EqualityState(point.variables)]

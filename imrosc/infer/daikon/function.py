@@ -32,9 +32,12 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable, confidence
 from imrosc.infer.daikon.common import unary_variables
+from imrosc.ir import Tunables
 from imrosc.runtime.families import FUNCTION
+from imrosc.translate.points import PointSpec
 
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
@@ -207,3 +210,8 @@ class FunctionState:
                     )
                 )
         return found
+
+
+@builds(FUNCTION)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [FunctionState(point.variables)]

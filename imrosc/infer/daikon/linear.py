@@ -24,9 +24,13 @@ chunking except for the screen's documented margin (``screen``).
 
 from __future__ import annotations
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, confidence
 from imrosc.infer.daikon.exact import Fit, Moments, choose
 from imrosc.infer.daikon.relation import RelationState, relation_text
+from imrosc.ir import Tunables
+from imrosc.runtime.families import LINEAR
+from imrosc.translate.points import PointSpec
 
 
 class LinearState(RelationState):
@@ -88,3 +92,8 @@ def best_pair_fit(moments: Moments, spread: list[float], magnitude: list[float])
         if fit.accepted and fit.coefficients[0] != 0:
             fits.append(fit)
     return choose(fits)
+
+
+@builds(LINEAR)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [LinearState(point.variables)]

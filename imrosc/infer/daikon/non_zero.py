@@ -22,9 +22,13 @@ from typing import Any
 
 import numpy as np
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable
 from imrosc.infer.daikon.chunk import view
 from imrosc.infer.daikon.common import Distinct, Extremes
+from imrosc.ir import Tunables
+from imrosc.runtime.families import NON_ZERO, ONE_OF
+from imrosc.translate.points import PointSpec
 
 
 class NonZeroState:
@@ -96,3 +100,8 @@ class NonZeroState:
                 )
             )
         return found
+
+
+@builds(NON_ZERO)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [NonZeroState(point.variables, one_of=ONE_OF in enabled)]

@@ -14,9 +14,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable
 from imrosc.infer.daikon.chunk import view
 from imrosc.infer.daikon.common import Distinct, number_text, unary_variables
+from imrosc.ir import Tunables
+from imrosc.runtime.families import ONE_OF
+from imrosc.translate.points import PointSpec
 
 
 class OneOfState:
@@ -57,3 +61,8 @@ class OneOfState:
             shown = [number_text(v, variable.type) for v in values]
             found.append(self.distinct.invariant(i, variable, self.family, shown, context))
         return found
+
+
+@builds(ONE_OF)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [OneOfState(point.variables)]

@@ -18,8 +18,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Variable, confidence
 from imrosc.infer.daikon.pairs import PairRelationState
+from imrosc.ir import Tunables
+from imrosc.runtime.families import BOUNDS, ORDER
+from imrosc.translate.points import PointSpec
 
 
 class OrderState(PairRelationState):
@@ -70,3 +74,8 @@ class OrderState(PairRelationState):
                 )
             )
         return found
+
+
+@builds(ORDER)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [OrderState(point.variables, bounds=BOUNDS in enabled)]

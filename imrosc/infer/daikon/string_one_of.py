@@ -9,8 +9,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable
 from imrosc.infer.daikon.common import Distinct, string_text
+from imrosc.ir import Tunables
+from imrosc.runtime.families import STRING_ONE_OF
+from imrosc.translate.points import PointSpec
 
 
 class StringOneOfState:
@@ -47,3 +51,8 @@ class StringOneOfState:
             shown = [string_text(v) for v in values]
             found.append(self.distinct.invariant(i, variable, self.family, shown, context))
         return found
+
+
+@builds(STRING_ONE_OF)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [StringOneOfState(point.variables)]

@@ -35,12 +35,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, Variable, confidence
 from imrosc.infer.daikon.chunk import view
 from imrosc.infer.daikon.exact import Fit, Moments, choose
 from imrosc.infer.daikon.levels import LevelSupport
 from imrosc.infer.daikon.linear import LinearState, best_pair_fit
 from imrosc.infer.daikon.relation import RelationState, relation_text
+from imrosc.ir import Tunables
+from imrosc.runtime.families import TERNARY
+from imrosc.translate.points import PointSpec
 
 _ORIENTATIONS = ((2, (0, 1)), (1, (0, 2)), (0, (1, 2)))
 
@@ -144,3 +148,8 @@ def _best_fit(moments: Moments, spread: list[float], magnitude: list[float]) -> 
         if fit.accepted and 0 not in fit.coefficients[:2]:
             fits.append(fit)
     return choose(fits)
+
+
+@builds(TERNARY)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return [TernaryState(point.variables)]

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
 from imrosc.infer.polygon.candidates import Chunk, candidates, expanding, heads, seeds
 from imrosc.infer.polygon.guide import Guide
@@ -32,6 +33,8 @@ from imrosc.infer.polygon.hull import GroupSet, IntArray, hulls
 from imrosc.infer.polygon.locate import Locator
 from imrosc.infer.polygon.text import polygon_text
 from imrosc.ir import Tunables
+from imrosc.runtime.families import POLYGON
+from imrosc.translate.points import PointSpec
 
 _REFRESH_AT = 512
 """A guide letting more candidates than this through is rebuilt from the new hull."""
@@ -341,3 +344,8 @@ def make_states(
     if "polygon" not in set(families) or len(chosen) < 2:
         return []
     return [PolygonState(chosen)]
+
+
+@builds(POLYGON)
+def _states(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return list(make_states(point.variables, tunables, enabled))

@@ -9,10 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
+from imrosc.infer.builders import States, builds
 from imrosc.infer.core import FamilyState
 from imrosc.infer.temporal.dfa import Dfa, compile_pattern, dfa_from_json
 from imrosc.infer.temporal.interval import IntervalState, format_multiset
 from imrosc.infer.temporal.pattern import Machine, PatternState
+from imrosc.ir import Tunables
+from imrosc.runtime.families import INTERVAL, PATTERN
+from imrosc.translate.points import PointSpec
 
 __all__ = [
     "Dfa",
@@ -49,3 +53,21 @@ def make_temporal_states(
         if state.machines:
             states.append(state)
     return states
+
+
+def _point_states(point: PointSpec, enabled: frozenset[str]) -> States:
+    patterns = [
+        (p["text"], [(c["binding"], c["text"]) for c in p["concrete"]]) for p in point.patterns
+    ]
+    events = tuple(ident for ident, _, _ in point.events)
+    return make_temporal_states(events, patterns, point.max_interval, point.max_events, enabled)
+
+
+@builds(INTERVAL)
+def _intervals(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return _point_states(point, frozenset({INTERVAL}))
+
+
+@builds(PATTERN)
+def _patterns(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+    return _point_states(point, frozenset({PATTERN}))

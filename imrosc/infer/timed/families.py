@@ -25,9 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from imrosc.infer.builders import StateBuilder, States, builds
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
 from imrosc.infer.timed.windows import Extremes, WindowTracker, windowed_variances
 from imrosc.ir import Tunables
+from imrosc.runtime.families import FREQUENCY, RATE, VARIANCE
+from imrosc.translate.points import PointSpec
 
 _last: tuple[weakref.ref[Samples], tuple[str, ...], FloatArray] | None = None
 
@@ -208,3 +211,14 @@ def make_states(
     if "rate" in enabled and names:
         states.append(RateState(names, tunables.window))
     return states
+
+
+def _one(name: str) -> StateBuilder:
+    def build(point: PointSpec, tunables: Tunables, enabled: frozenset[str]) -> States:
+        return list(make_states(point.variables, tunables, {name}))
+
+    return build
+
+
+for _name in (FREQUENCY, VARIANCE, RATE):
+    builds(_name)(_one(_name))

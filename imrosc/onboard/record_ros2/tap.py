@@ -1,6 +1,6 @@
 """The bag tap: an rclpy node that hands every message of the recording to imrosc.
 
-``python -m imrosc.record.ros2.tap SPEC`` (``SPEC``: JSON with ``node``, the tap's hidden
+``python -m imrosc.onboard.record_ros2.tap SPEC`` (``SPEC``: JSON with ``node``, the tap's hidden
 node name; ``fd``, the pipe to write frames to; ``period``; ``settle``, seconds to wait at
 most for discovery before describing the graph; ``expect``, the topics the scope names).
 Under the ROS 2 Python, started by ``imrosc record``.
@@ -36,11 +36,11 @@ import threading
 import time
 from typing import IO, Any, Dict, List, Optional, Set
 
-from ...onboard import records
-from ...onboard.monitor_ros2 import logic as graph
-from ...onboard.monitor_ros2 import plumbing
-from ...onboard.record_ros2 import logic as recorder_logic
-from ...onboard.record_ros2 import node as recorder
+from .. import records
+from ..monitor_ros2 import logic as graph
+from ..monitor_ros2 import plumbing
+from . import logic as recorder_logic
+from . import node as recorder
 from . import wire
 
 try:  # only a ROS 2 system has these

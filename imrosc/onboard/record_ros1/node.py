@@ -1,9 +1,10 @@
-#!/usr/bin/env python3
 """imrosc's recording node (thesis section 3.2, Figures 3.4, 3.5 and 3.8), for ROS 1.
 
-``imrosc record`` starts this script under the robot's own Python (rospy lives there, imrosc
-does not) next to ``rosbag record``, with one argument: a JSON object saying what to record
-(see :func:`load_spec`). The node
+``imrosc record`` starts it under the robot's own Python (rospy lives there, imrosc is not
+installed there) next to ``rosbag record``: ``python -m imrosc.onboard.record_ros1.node
+SPEC``, with only ``imrosc`` on the module path (a link to imrosc's package folder, as for
+the ROS 2 recorder), ``SPEC`` a JSON object saying what to record (see :func:`load_spec`).
+The node
 
 * relays every service of the scope: the server was remapped to ``/rec/<srv>``; the node
   advertises ``<srv>`` itself once ``/rec/<srv>`` is served, forwards each request there,
@@ -13,8 +14,7 @@ does not) next to ``rosbag record``, with one argument: a JSON object saying wha
   it changed.
 
 Records are ``std_msgs/String`` messages holding the canonical JSON of
-``docs/record-format.md``, written by the one record encoder (``imrosc/onboard/records.py``,
-loaded from imrosc's tree by its path, since imrosc is not installed where this runs).
+``docs/record-format.md``, written by the one record encoder (``imrosc/onboard/records.py``).
 Nothing is published before ``rosbag record`` is connected to all three record topics, so
 no record is lost at start; on SIGINT or SIGTERM the relays are withdrawn, calls in flight
 are answered and recorded, every queued record is published, and the node exits.
@@ -35,10 +35,8 @@ rospy only. Importing it needs no rospy (what it decides is tested where imrosc 
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import json
 import math
-import os
 import queue
 import signal
 import sys
@@ -48,33 +46,16 @@ import warnings
 import xmlrpc.client
 from typing import Any, Callable, Dict, List, Optional, Set, Tuple
 
+from .. import records
+
 DEFAULT_PREFIX = "/rec"
 _SERVER_ERROR = "service cannot process request: "
 _RESPONDED = "responded with an error: "
 _TRANSPORT_ERROR = "transport error"
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-ONBOARD = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "onboard")
-"""``imrosc/onboard``, beside this script's package in imrosc's tree."""
 SWITCH_INTERVAL = 0.0005
 """Seconds a thread may hold the GIL while another waits (Python's default is 5 ms): a relay
 thread woken by the server's answer must not wait behind the thread publishing records."""
-
-
-def onboard_module(name: str) -> Any:
-    """A module of ``imrosc/onboard`` (standard library only), loaded from its file: the
-    robot's Python has no imrosc installed, and the folder imrosc is installed in (a
-    virtualenv's ``site-packages``) must not come first on that Python's module path."""
-    path = os.path.join(ONBOARD, name + ".py")
-    spec = importlib.util.spec_from_file_location("imrosc_onboard_" + name, path)
-    if spec is None or spec.loader is None:  # pragma: no cover - a broken installation
-        raise ImportError(f"cannot load {path}")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-records = onboard_module("records")
-"""The record format's encoder (``imrosc/onboard/records.py``), the one every recorder uses."""
 
 
 def plain(value: Any) -> Any:
@@ -652,12 +633,12 @@ class Relay:
 def run(argv: List[str]) -> int:
     """The node's main loop; returns the exit status."""
     if len(argv) != 2:
-        sys.stderr.write("usage: imrosc_recorder.py SPEC_JSON\n")
+        sys.stderr.write("usage: python -m imrosc.onboard.record_ros1.node SPEC_JSON\n")
         return 2
     try:
         spec = load_spec(argv[1])
     except ValueError as error:
-        sys.stderr.write(f"imrosc_recorder: bad specification: {error}\n")
+        sys.stderr.write(f"imrosc recorder: bad specification: {error}\n")
         return 2
     stop = threading.Event()
 

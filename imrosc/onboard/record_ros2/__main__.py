@@ -1,7 +1,8 @@
-"""The recorder node of ``imrosc record`` on ROS 2: ``python -m imrosc.record.ros2.recorder
-SPEC``, under the ROS 2 Python.
+"""The recorder node as ``imrosc record`` runs it on ROS 2: ``python -m
+imrosc.onboard.record_ros2 SPEC``, under the ROS 2 Python (generated packages start
+:mod:`.node` from their own ``recorder.py`` instead; this module is not copied).
 
-``SPEC`` is the recorder spec of :mod:`imrosc.onboard.record_ros2` (``services``, ``params``,
+``SPEC`` is the recorder spec of :mod:`.logic` (``services``, ``params``,
 ``period``) with the node's name (``node``), ``events`` (it says ``ready`` and its counts
 on standard output) and ``wait`` (it publishes its first snapshots once the bag tap
 subscribes to the record topics). Python 3.8 syntax.
@@ -14,7 +15,7 @@ import json
 import sys
 from typing import List, Optional
 
-from ...onboard.record_ros2 import logic, node
+from . import logic, node
 
 try:  # only a ROS 2 system has it
     import rclpy  # type: ignore[import-not-found, unused-ignore]

@@ -1,6 +1,6 @@
-"""The bag tap's plain parts (``imrosc/record/ros2/tap.py`` and ``recorder.py``) without ROS:
-where it finds ``.msg`` definitions, what it says without rclpy, Python 3.8 syntax (it runs
-under the robot's ROS 2 Python). The tap on a ROS 2 graph: tests/backends/
+"""The bag tap's plain parts (``imrosc/onboard/record_ros2/tap.py`` and ``__main__.py``)
+without ROS: where it finds ``.msg`` definitions, what it says without rclpy (Python 3.8
+syntax: tests/onboard/test_py38.py). The tap on a ROS 2 graph: tests/backends/
 test_ros2_record_live.py."""
 
 from __future__ import annotations
@@ -12,9 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from imrosc.record.ros2 import tap, wire
+from imrosc.onboard.record_ros2 import tap, wire
 
-ROS2_SIDE = Path(tap.__file__).resolve().parent
 NO_RCLPY = importlib.util.find_spec("rclpy") is None
 
 
@@ -41,7 +40,7 @@ def test_definitions_are_found_in_the_share_folder_of_each_prefix(
 
 
 @pytest.mark.skipif(not NO_RCLPY, reason="this Python has rclpy")
-@pytest.mark.parametrize("module", ["imrosc.record.ros2.tap", "imrosc.record.ros2.recorder"])
+@pytest.mark.parametrize("module", ["imrosc.onboard.record_ros2.tap", "imrosc.onboard.record_ros2"])
 def test_without_rclpy_each_says_so_in_one_line(module: str) -> None:
     done = subprocess.run(
         [sys.executable, "-m", module, "{}"], capture_output=True, text=True, check=False
@@ -49,24 +48,3 @@ def test_without_rclpy_each_says_so_in_one_line(module: str) -> None:
     assert done.returncode == 1
     assert done.stderr.strip().endswith("rclpy is not importable; run it under the ROS 2 Python")
     assert "Traceback" not in done.stderr
-
-
-def test_the_ros2_side_keeps_python_3_8_syntax() -> None:
-    pytest.importorskip("vermin")
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            "import sys, vermin; sys.argv[0] = 'vermin'; sys.exit(vermin.main())",
-            "-t=3.8-",
-            "--no-tips",
-            "--violations",
-            "--eval-annotations",
-            str(ROS2_SIDE),
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr

@@ -1,4 +1,5 @@
-"""The tap's frames and the message definitions it sends (``imrosc/record/ros2/wire.py``)."""
+"""The tap's frames and the message definitions it sends
+(``imrosc/onboard/record_ros2/wire.py``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from imrosc.record.ros2 import wire
+from imrosc.onboard.record_ros2 import wire
 
 ROS2_SIDE = Path(wire.__file__).resolve().parent
 

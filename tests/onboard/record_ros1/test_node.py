@@ -1,33 +1,29 @@
 """The recording node writes exactly the records ``imrosc.records`` reads.
 
-The node runs under the robot's Python without imrosc installed, so it loads the one record
-encoder (``imrosc/onboard/records.py``, tested in ``tests/onboard/test_records.py``) from
-its file; these tests load the script where imrosc is (it imports rospy only when it runs)
-and hold what it makes of messages, the graph and the parameters to ``imrosc.records``.
+The node (``imrosc/onboard/record_ros1/node.py``) writes with the one record encoder
+(``imrosc/onboard/records.py``, tested in ``tests/onboard/test_records.py``); it imports
+rospy only when it runs, so these tests import it where imrosc is and hold what it makes of
+messages, the graph and the parameters to ``imrosc.records``.
 """
 
 from __future__ import annotations
 
-import fnmatch
 import json
 import math
 import subprocess
 import sys
 import xmlrpc.client
-from pathlib import Path
 
 import pytest
 
 from imrosc import records
-from imrosc.record.session import RECORDER_SCRIPT
-from tests.record import recorder_node
-
-node = recorder_node()
-ROOT = Path(__file__).resolve().parent.parent.parent
+from imrosc.onboard import records as onboard_records
+from imrosc.onboard.record_ros1 import node
+from imrosc.record.session import PACKAGE, RECORDER
 
 
 def test_the_node_writes_with_the_one_record_encoder() -> None:
-    assert Path(node.records.__file__).resolve() == ROOT / "imrosc" / "onboard" / "records.py"
+    assert node.records is onboard_records  # type: ignore[attr-defined]
 
 
 class Time:
@@ -69,7 +65,7 @@ def test_messages_become_json_objects_of_their_fields() -> None:
     assert request["stamp"] == 12.5
     assert request["wait"] == -0.25
     assert request["points"][0] == {"x": 1.0, "y": 2.0}
-    text = node.records.call_text("/s", "/c", "/n", request, {"ok": True}, 1.0, 0.1)
+    text = onboard_records.call_text("/s", "/c", "/n", request, {"ok": True}, 1.0, 0.1)
     call = records.decode_call(text)
     assert call.request["points"][1]["y"] == -math.inf  # type: ignore[index]
     assert math.isnan(call.request["points"][1]["x"])  # type: ignore[index]
@@ -103,7 +99,7 @@ def test_snapshots_leave_out_the_recording_and_show_relayed_services_as_the_robo
 ):
     hidden = {"/imrosc_recorder_1", "/imrosc_rosbag_1", "/a/dead"}
     topics, services = node.snapshot(STATE, hidden, {"/rec/a/task": "/a/task"})
-    text = node.records.arch_text(topics, services)
+    text = onboard_records.arch_text(topics, services)
     snapshot = records.decode_arch(text)
     assert set(snapshot.topics) == {"/a/pose", "/rosout"}
     assert snapshot.topics["/a/pose"] == records.TopicEnds(
@@ -148,7 +144,7 @@ def test_parameters_are_those_of_the_scope_as_set() -> None:
         "/when",
     }
     for params in (found, every):
-        text = node.records.params_text(params)
+        text = onboard_records.params_text(params)
         assert records.decode_params(text).params == json.loads(text)["params"]
         assert text == records.encode(records.ParamSnapshot(params))
 
@@ -193,7 +189,8 @@ def test_the_specification_needs_the_node_names() -> None:
 def test_the_script_refuses_a_bad_specification_before_importing_rospy() -> None:
     for argv, status in ((["x"], 2), (["x", "not json"], 2), (["x", '{"node": "/a"}'], 2)):
         done = subprocess.run(
-            [sys.executable, str(RECORDER_SCRIPT), *argv[1:]],
+            [sys.executable, "-m", RECORDER, *argv[1:]],
+            cwd=PACKAGE.parent,
             capture_output=True,
             text=True,
             timeout=60,
@@ -202,32 +199,3 @@ def test_the_script_refuses_a_bad_specification_before_importing_rospy() -> None
         assert done.returncode == status, done.stderr
         assert "Traceback" not in done.stderr
         assert done.stderr.strip()
-
-
-def test_the_wheel_ships_the_node() -> None:
-    text = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
-    line = next(line for line in text.splitlines() if line.startswith('"imrosc.record" = '))
-    patterns = json.loads(line.partition("=")[2])
-    shipped = RECORDER_SCRIPT.relative_to(ROOT / "imrosc" / "record").as_posix()
-    assert any(fnmatch.fnmatch(shipped, pattern) for pattern in patterns)
-
-
-def test_the_node_is_python_3_8() -> None:
-    pytest.importorskip("vermin")
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            "import sys, vermin; sys.argv[0] = 'vermin'; sys.exit(vermin.main())",
-            "-t=3.8-",
-            "--no-tips",
-            "--violations",
-            "--eval-annotations",
-            str(RECORDER_SCRIPT),
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr

@@ -1,0 +1,147 @@
+"""Building, installing and importing the ROS 2 package of an example, for the ROS 2 backend's
+tests."""
+
+from __future__ import annotations
+
+import importlib.util
+import itertools
+import shutil
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+from rosbags.typesys import Stores, get_typestore
+
+from imrosc.build import BuildResult, build
+from imrosc.detect import run_detect
+from imrosc.invariants import dumps
+from imrosc.msgtypes import flatten
+from imrosc.sim import write_runs
+from imrosc.translate.layout import short_names, topic_layout
+from tests.backends.monitor_support import EXAMPLES
+
+PACKAGE = "landing_sim_monitor"
+
+
+VENDOR = f"{PACKAGE}/imrosc"
+
+
+STORE2 = get_typestore(Stores.ROS2_HUMBLE)
+
+
+_COUNTER = itertools.count()
+
+
+def build_ros2(config: Path, graph: Sequence[Path] = (), bags: Sequence[Path] = ()) -> BuildResult:
+    """``imrosc build --backend ros2`` without writing."""
+    return build(config, "ros2", graph_files=graph, bags=bags)
+
+
+@pytest.fixture(scope="module")
+def landing_ros2(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """examples/landing_sim.xml with its graph and invariants inferred from two short
+    simulated nominal runs written as ROS 2 (sqlite3) bags."""
+    folder = tmp_path_factory.mktemp("landing_ros2")
+    for name in ("landing_sim.xml", "landing_sim.graph.yaml"):
+        shutil.copy(EXAMPLES / name, folder / name)
+    write_runs(folder / "bags" / "nominal", runs=2, seed=0, fmt="sqlite3", duration=8.0)
+    result = run_detect(
+        folder / "landing_sim.xml",
+        workers=1,
+        graph_files=[folder / "landing_sim.graph.yaml"],
+        budget=0,  # the exact invariants: these tests compare ROS 1 and ROS 2, not calibration
+    )
+    assert result.document is not None, [d.as_text() for d in result.diagnostics]
+    (folder / "landing_sim.inv").write_text(dumps(result.document), encoding="utf-8")
+    return folder
+
+
+def python_files(files: Mapping[str, bytes]) -> dict[str, bytes]:
+    return {name: content for name, content in files.items() if name.endswith(".py")}
+
+
+def import_package(package: Path) -> ModuleType:
+    """Import a written package's Python package under a fresh name; its ``main``."""
+    name = f"ros2_monitor_test_{next(_COUNTER)}"
+    copy = package.parent / f"{name}_src" / name
+    shutil.copytree(package / package.name, copy)
+    spec = importlib.util.spec_from_file_location(
+        name, copy / "__init__.py", submodule_search_locations=[str(copy)]
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return importlib.import_module(f"{name}.main")
+
+
+def setup_arguments(package: Path) -> dict[str, Any]:
+    """What ``setup.py`` passes to ``setuptools.setup`` (run with setup replaced)."""
+    captured: dict[str, Any] = {}
+    source = (package / "setup.py").read_text()
+    namespace: dict[str, Any] = {"__name__": "__main__", "__file__": str(package / "setup.py")}
+    code = compile(source.replace("from setuptools import setup", ""), "setup.py", "exec")
+    namespace["setup"] = lambda **kwargs: captured.update(kwargs)
+    exec(code, namespace)
+    return captured
+
+
+def ros2_document(topics: Mapping[str, str]) -> dict[str, Any]:
+    """A small invariants document laid out from ROS 2 message definitions (no
+    ``header.seq``), a publish point per topic."""
+    shorts = short_names(topics)
+    layouts = {}
+    for topic, msgtype in sorted(topics.items()):
+        layout = topic_layout(topic, msgtype, flatten(STORE2, msgtype), shorts[topic], trigger=True)
+        layouts[topic] = [
+            {
+                "name": v.name,
+                "type": v.type,
+                "topic": v.topic,
+                "path": v.path,
+                "derived": v.derived,
+                "trigger": v.trigger,
+            }
+            for v in layout.variables
+        ]
+    battery = layouts.get("/battery", [])
+    for index in (0, 1, 7):  # elements of a short array, as inference lays them out
+        battery.append(
+            {
+                "name": f"battery.cell_voltage[{index}]",
+                "type": "float",
+                "topic": "/battery",
+                "path": f"cell_voltage[{index}]",
+                "derived": None,
+                "trigger": True,
+            }
+        )
+    points = {
+        ident: {
+            "kind": "publish",
+            "trigger": topic,
+            "condition": None,
+            "support": {"samples": 10, "runs": 1},
+            "variables": layouts[topic],
+            "inputs": [],
+            "params": [],
+            "events": [],
+            "filter": [],
+        }
+        for ident, topic in zip("abcdefghijklmnop", sorted(topics), strict=False)
+    }
+    return {
+        "$comment": "generated by imrosc (tests)",
+        "format": "imrosc-invariants",
+        "version": 1,
+        "project": "demo",
+        "source": "demo.xml",
+        "bags": [],
+        "tunables": {},
+        "topics": {t: {"type": m, "variables": layouts[t]} for t, m in sorted(topics.items())},
+        "points": points,
+        "invariants": [],
+    }
