@@ -166,7 +166,8 @@ class Reader:
         )
         self.lines: list[str] = []
         self.ended = False
-        threading.Thread(target=self._read, daemon=True).start()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
         assert self.popen.stdout is not None
@@ -214,13 +215,22 @@ class Reader:
                 self.popen.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
                 self.kill()
+        self.read_to_the_end()
         return self.popen.returncode
+
+    def read_to_the_end(self, timeout: float = 10.0) -> None:
+        """Wait (at most ``timeout`` seconds) until what the ended process wrote is in
+        :attr:`lines`: its last lines may still be in the pipe when it exits, on a loaded
+        machine for a while (a child that keeps the pipe open past ``timeout`` is not waited
+        for)."""
+        self._reader.join(timeout)
 
     def kill(self) -> None:
         """Kill the process group (what is left of it) at once."""
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.popen.pid, signal.SIGKILL)
         self.popen.wait()
+        self.read_to_the_end()
 
     def alive_in_group(self) -> list[int]:
         """The processes still in the process group (children a launch left behind)."""

@@ -326,6 +326,7 @@ def test_imrosc_info_and_infer_read_the_bag(run: Run) -> None:
 def test_the_duration_ends_the_recording(system: System) -> None:
     with recording(system, "timed", "--duration", "2", "--name", "short") as process:
         process.popen.wait(90)
+        process.read_to_the_end()
         status = process.popen.returncode
         assert status == 0, process.output
         assert "for 2 s" in process.output
@@ -343,6 +344,7 @@ def test_a_killed_tap_fails_the_recording_and_keeps_what_it_sent(system: System)
         assert len(taps) == 1
         os.kill(taps[0], signal.SIGKILL)
         process.popen.wait(60)
+        process.read_to_the_end()
         assert process.popen.returncode == 1, process.output
         last = process.lines[-1]
         assert last.startswith("imrosc record: the bag tap was killed (signal 9)"), process.output
