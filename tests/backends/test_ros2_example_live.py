@@ -155,6 +155,11 @@ try:
 except (KeyboardInterrupt, ExternalShutdownException):
     pass
 except Exception:  # rclpy may raise from a take the SIGINT shutdown interrupted
+    # (on a loaded machine the take failed a moment before the context said it was shut
+    # down: give the shutdown a second to show before calling the error the stand-in's)
+    deadline = time.monotonic() + 1.0
+    while rclpy.ok() and time.monotonic() < deadline:
+        time.sleep(0.05)
     if rclpy.ok():
         raise
 finally:
