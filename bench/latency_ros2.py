@@ -45,7 +45,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tests.backends.ros2_support import Reader, ros2_environment
+from tests.backends.ros2_support import Reader, private_domain, ros2_environment
 
 TOPIC = "/bench/wide"
 RELAYED = "/bench/relayed"
@@ -307,9 +307,9 @@ class Ros2Bench:
         sent_file = self.folder / f"sent-{tag}"
         started: list[Reader] = []
         # a DDS domain of its own: the endpoints of the previous run, which the others may
-        # still count until their lease ends, must not count as this run's matches
-        domain = (int(self.env["ROS_DOMAIN_ID"]) + self.runs) % 200 + 1
-        self.run_env = {**self.env, "ROS_DOMAIN_ID": str(domain)}
+        # still count until their lease ends, must not count as this run's matches, nor
+        # may a test's graph on this machine
+        self.run_env = {**self.env, "ROS_DOMAIN_ID": str(private_domain())}
         try:
             source = self.node(
                 "source",

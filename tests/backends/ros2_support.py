@@ -10,11 +10,13 @@ would be skipped for want of ROS 2 fails instead.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import os
 import random
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -83,12 +85,49 @@ def require_launch() -> Path:
     pytest.skip(reason)
 
 
+DOMAINS = range(1, 200)
+"""The DDS domains of the tests' graphs (0, ROS 2's default, is left to what runs by hand)."""
+DOMAIN_LOCKS = Path(tempfile.gettempdir()) / "imrosc-ros2-domains"
+_held: list[int] = []
+"""The lock files' descriptors (not inherited by the processes the tests start)."""
+
+
+def private_domain() -> int:
+    """A DDS domain that no other process on this machine holds through this function: a
+    random one whose lock file (under :data:`DOMAIN_LOCKS`) this process could lock, held
+    until it ends (the system releases the lock then).
+
+    Discovery stays on the machine, so two test runs at once (two checkouts, two CI jobs on
+    one host) whose random domains meet see each other's nodes: a second publisher on a
+    topic a monitor blocks breaks its alarm's episodes with good messages, and bad ones are
+    relayed past the alarm. Without a usable lock folder: a random domain."""
+    candidates = random.sample(DOMAINS, len(DOMAINS))
+    try:
+        DOMAIN_LOCKS.mkdir(exist_ok=True)
+    except OSError:
+        return candidates[0]
+    for domain in candidates:
+        try:
+            handle = os.open(DOMAIN_LOCKS / f"{domain}.lock", os.O_CREAT | os.O_RDWR, 0o666)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # another process's graph is on it
+            os.close(handle)
+            continue
+        _held.append(handle)
+        return domain
+    return candidates[0]
+
+
 def ros2_environment(folder: Path, **extra: str) -> dict[str, str]:
-    """The environment of a test's own ROS 2 graph: a random domain, discovery on this
-    machine only, logs under ``folder`` unless ``ROS_LOG_DIR`` is set already."""
+    """The environment of a test's own ROS 2 graph: a domain of its own on this machine
+    (:func:`private_domain`), discovery on this machine only, logs under ``folder`` unless
+    ``ROS_LOG_DIR`` is set already."""
     environment = {
         **os.environ,
-        "ROS_DOMAIN_ID": str(random.randrange(1, 200)),
+        "ROS_DOMAIN_ID": str(private_domain()),
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
         "PYTHONUNBUFFERED": "1",
         **extra,
@@ -129,7 +168,8 @@ class Reader:
         )
         self.lines: list[str] = []
         self.ended = False
-        threading.Thread(target=self._read, daemon=True).start()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
         assert self.popen.stdout is not None
@@ -177,13 +217,22 @@ class Reader:
                 self.popen.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
                 self.kill()
+        self.read_to_the_end()
         return self.popen.returncode
+
+    def read_to_the_end(self, timeout: float = 10.0) -> None:
+        """Wait (at most ``timeout`` seconds) until what the ended process wrote is in
+        :attr:`lines`: its last lines may still be in the pipe when it exits, on a loaded
+        machine for a while (a child that keeps the pipe open past ``timeout`` is not waited
+        for)."""
+        self._reader.join(timeout)
 
     def kill(self) -> None:
         """Kill the process group (what is left of it) at once."""
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.popen.pid, signal.SIGKILL)
         self.popen.wait()
+        self.read_to_the_end()
 
     def alive_in_group(self) -> list[int]:
         """The processes still in the process group (children a launch left behind)."""

@@ -3,7 +3,8 @@
 The system (one rclpy process, :data:`SYSTEM`): ``/sys/server`` publishes ``/sys/level``
 best effort at 20 Hz, serves ``/sys/switch`` (``std_srvs/srv/SetBool``) and declares the
 parameter ``gain``; ``/sys/client`` listens to ``/sys/level``, publishes a counter on
-``/sys/cmd`` (reliable) for each level it hears and calls ``/sys/switch`` twice a second.
+``/sys/cmd`` (reliable) for each level it hears and calls ``/sys/switch`` twice a second,
+asking off and on in turn.
 Both enable service introspection with contents. ``imrosc record`` runs as a user runs it
 (its own process, the graph's environment, the ROS 2 Python named by
 ``IMROSC_ROS2_PYTHON``) and is stopped with SIGINT in the middle of the traffic, as Ctrl-C
@@ -76,6 +77,7 @@ client.create_subscription(Float64, "/sys/level", on_level, BEST_EFFORT)
 caller = client.create_client(SetBool, "/sys/switch")
 caller.configure_introspection(client.get_clock(), qos_profile_system_default, CONTENTS)
 ticks = [0]
+calls = [0]
 
 
 def tick():
@@ -85,7 +87,14 @@ def tick():
 
 def call():
     if caller.service_is_ready():
-        caller.call_async(SetBool.Request(data=ticks[0] % 2 == 0))
+        # off and on in turn, whatever the timers' timing: both answers ("off", "on") are in
+        # the bag from its second call on, so inference justifies their string one-of with
+        # three calls. (Read from the 20 Hz tick count, the request depended on which of two
+        # timers due at the same instants the executor ran first: a bag could hold one
+        # answer until its last call, and a one-of whose set changed on the last sample is
+        # not justified.)
+        calls[0] += 1
+        caller.call_async(SetBool.Request(data=calls[0] % 2 == 0))
 
 
 server.create_timer(0.05, tick)
@@ -317,6 +326,7 @@ def test_imrosc_info_and_infer_read_the_bag(run: Run) -> None:
 def test_the_duration_ends_the_recording(system: System) -> None:
     with recording(system, "timed", "--duration", "2", "--name", "short") as process:
         process.popen.wait(90)
+        process.read_to_the_end()
         status = process.popen.returncode
         assert status == 0, process.output
         assert "for 2 s" in process.output
@@ -334,6 +344,7 @@ def test_a_killed_tap_fails_the_recording_and_keeps_what_it_sent(system: System)
         assert len(taps) == 1
         os.kill(taps[0], signal.SIGKILL)
         process.popen.wait(60)
+        process.read_to_the_end()
         assert process.popen.returncode == 1, process.output
         last = process.lines[-1]
         assert last.startswith("imrosc record: the bag tap was killed (signal 9)"), process.output

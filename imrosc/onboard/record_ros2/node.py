@@ -54,6 +54,11 @@ SNAPSHOT_DEPTH = 1
 CALL_DEPTH = 100
 """... and the last calls."""
 EVENT_DEPTH = 100
+ATTRIBUTE = 3.0
+"""Seconds a paired call whose client or server the graph does not know yet waits for
+discovery before it is recorded with ``/unknown``: DDS tells a node of the service's event
+topic and of its request endpoints at different times, and on a loaded machine the first
+calls came in a second before the endpoints that name their nodes."""
 LINGER = 0.3
 """Seconds the node lives on after its last records (their reliable delivery)."""
 
@@ -123,6 +128,9 @@ class Recorder:
         self.published = dict.fromkeys(records.RECORD_TOPICS, 0)
         self.counts: Dict[str, int] = {}
         """Calls published, by service."""
+        self.unattributed: List[Tuple[float, logic.Call]] = []
+        """Paired calls waiting for the graph to name their client or server, with the
+        monotonic time they were paired (:data:`ATTRIBUTE`)."""
         self.await_subscribers(float(spec.get("wait", 0.0)))
         self.tick()
         self.timer = node.create_timer(
@@ -301,11 +309,22 @@ class Recorder:
             server = logic.server_node(self.servers.get(call.service, []))
         return server
 
-    def flush(self, calls: List[logic.Call]) -> None:
-        """Publish paired calls."""
-        for call in calls:
+    def flush(self, calls: List[logic.Call], final: bool = False) -> None:
+        """Publish paired calls, first those that waited for their client or server. One
+        whose client or server the graph does not know yet waits for the next flush, for
+        :data:`ATTRIBUTE` seconds at most (``final``: not at all)."""
+        now = time.monotonic()
+        with self.lock:
+            waiting = self.unattributed + [(now, call) for call in calls]
+            self.unattributed = []
+        for since, call in waiting:
             client = self.client_of(call)
             server = self.server_of(call)
+            unknown = logic.UNKNOWN_NODE in (client, server)
+            if unknown and not final and now - since < ATTRIBUTE:
+                with self.lock:
+                    self.unattributed.append((since, call))
+                continue
             self.publish(records.SRVS_TOPIC, logic.call_record(call, client, server))
             self.counts[call.service] = self.counts.get(call.service, 0) + 1
 
@@ -313,7 +332,7 @@ class Recorder:
         """Publish the calls still waiting."""
         with self.lock:
             calls = self.pairing.drain(time.monotonic())
-        self.flush(calls)
+        self.flush(calls, final=True)
 
 
 def init(args: Optional[List[str]] = None) -> None:
