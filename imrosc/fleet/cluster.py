@@ -58,9 +58,6 @@ JOIN_PRIORITY = 1
 CONNECT_TIMEOUT = 10.0
 """Seconds to reach the scheduler."""
 INSTALL = "pip install 'imrosc[fleet]'"
-HELD_OUT_BAGS = 4
-"""Bags per calibration task at most: a task's answer (its bags' held-out units) stays
-small, whatever the number of bags in a fold."""
 KILLED = "its Dask workers died while reading it, on every try (a bag too big for their memory?)"
 
 
@@ -386,10 +383,8 @@ class Fleet:
 
     def replay_held_out(self, jobs: Sequence[Job]) -> list[list[HeldOut]]:
         """Calibration's held-out replays: per fold, its bags in as many consecutive groups
-        as it takes to give every worker one, of at most :data:`HELD_OUT_BAGS` bags (one
-        task each, the fold's document sent once); each group's answer fetched and released
-        as it completes, so that a worker holds a few groups' answers whatever the number of
-        bags; the answers in the order of the folds and their bags."""
+        as it takes to give every worker one (one task each, the fold's document sent
+        once); the answers in the order of the folds and their bags."""
         client = self.client
         token = uuid.uuid4().hex[:12]
         parts = max(1, math.ceil(self.workers / max(len(jobs), 1)))
@@ -404,7 +399,7 @@ class Fleet:
             client.replicate(learnt)
             for fold, (_, bags, number) in enumerate(jobs):
                 every = [(bag.absolute(), spans, bag) for bag, spans in bags.items()]
-                size = max(1, min(math.ceil(len(every) / parts), HELD_OUT_BAGS))
+                size = max(1, math.ceil(len(every) / parts))
                 tasks.append(
                     [
                         client.submit(
@@ -419,12 +414,7 @@ class Fleet:
                         for first in range(0, len(every), size)
                     ]
                 )
-            answers: list[list[list[HeldOut]]] = [[[] for _ in fold] for fold in tasks]
-            place = {task: (f, k) for f, fold in enumerate(tasks) for k, task in enumerate(fold)}
-            for done in _distributed().as_completed(list(place), loop=client.loop):
-                fold, k = place.pop(done)
-                answers[fold][k] = done.result()
-                done.release()
+            answers = client.gather(tasks)
         except _distributed().KilledWorker as killed:
             raise FleetError(
                 f"{self.address}: the Dask workers died replaying held-out bags ({killed})"
