@@ -14,9 +14,11 @@ detect stage on ``examples/landing_sim.xml``'s configuration over them:
     and after each case says whether other work shared the cores.
 (b) the peak RSS of each worker process (its ``ru_maxrss``) for half the bags and for all of
     them: a worker holds one bag's states at a time, so the peak does not grow with the bags.
-(c) what one bag's task sends back to the client (its pickled answer: the states of every
-    point and its calibration invariants) against the samples it was made from (the
-    translated columns) and the bag file, for three of the bags and one ten times as long.
+(c) per bag, for three of the bags and one ten times as long: the bag file, the samples made
+    of it (the translated columns, which never leave the worker), the bag's answer (the
+    states of every point and its calibration units; it stays on the cluster, where the
+    joins merge it), what the client fetches of it (its summary: messages and calibration
+    units), and the merged state of the bags so far, which the client fetches once per pass.
 
 Every case checks that the invariants are byte for byte those of ``-j 1``'s merge order
 (the cluster's and the pool's documents are compared).
@@ -40,10 +42,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from imrosc.calibrate.rule import HeldOut, Job  # noqa: E402
 from imrosc.demo import example_configs  # noqa: E402
 from imrosc.detect import DetectResult, prepare, run_detect  # noqa: E402
 from imrosc.fleet import Fleet  # noqa: E402
-from imrosc.infer.engine import BagJob, run_bag, segments_for  # noqa: E402
+from imrosc.fleet.cluster import _join as fleet_join  # noqa: E402
+from imrosc.fleet.cluster import _summary as fleet_summary  # noqa: E402
+from imrosc.infer.engine import BagJob, Merged, run_bag, segments_for  # noqa: E402
 from imrosc.invariants import dumps  # noqa: E402
 from imrosc.sim import write_run  # noqa: E402
 from imrosc.translate.stream import BagTranslator  # noqa: E402
@@ -79,10 +84,10 @@ def write_bags(folder: Path, count: int, duration: float, first_seed: int = 0) -
 
 def on_cluster(
     config: Path, bags: Sequence[Path], workers: int
-) -> tuple[DetectResult, list[float]]:
+) -> tuple[DetectResult, list[float], list[float]]:
     """The detect stage on a fresh LocalCluster of ``workers`` processes, calibration's
-    replays included, and the workers' RSS when they started (the least), then each
-    worker's peak RSS (MB)."""
+    replays included; the workers' RSS when they started (the least), then each worker's
+    peak RSS (MB) when inference was done (before calibration's replays), then at the end."""
     import distributed
 
     with (
@@ -99,9 +104,15 @@ def on_cluster(
     ):
         started = min(client.run(worker_peak_mb).values())
         fleet = Fleet(client, cluster.scheduler_address)
-        result = run_detect(config, bags=list(bags), reducer=fleet, replays=fleet.replay_held_out)
+        inferred: list[float] = []
+
+        def replays(jobs: Sequence[Job]) -> list[list[HeldOut]]:
+            inferred.extend(sorted(client.run(worker_peak_mb).values()))
+            return fleet.replay_held_out(jobs)
+
+        result = run_detect(config, bags=list(bags), reducer=fleet, replays=replays)
         peaks = [started, *sorted(client.run(worker_peak_mb).values())]
-    return result, peaks
+    return result, [started, *inferred], peaks
 
 
 def samples_bytes(job: BagJob) -> int:
@@ -119,7 +130,8 @@ def samples_bytes(job: BagJob) -> int:
 
 def sizes(config: Path, bags: Sequence[Path], longer: Path) -> None:
     """(c): per bag, what goes back to the client against the samples and the file; the
-    ``longer`` bag (ten times as long) shows what grows with the bag and what does not."""
+    ``longer`` bag (ten times as long) shows what grows with the bag and what does not; the
+    merged state, joined as the cluster's joins do, what the client fetches per pass."""
     prepared, _ = prepare(config, bags=list(bags))
     assert prepared is not None
     project, catalog = prepared.project, prepared.catalog
@@ -137,7 +149,18 @@ def sizes(config: Path, bags: Sequence[Path], longer: Path) -> None:
     )
     job_kib = len(pickle.dumps(template, 5)) / 1024
     print(f"(c) sent once per worker: the pass's job, {job_kib:,.0f} KiB")
-    print(f"    {'bag':<14}{'file':>10}{'samples':>11}{'answer':>10}{'states':>10}{'units':>9}")
+    print(
+        "    per bag: the file; the samples made of it (never sent); the bag's answer, kept on"
+        " the cluster: its states and its calibration units; what the client fetches of it"
+        " (its summary: messages and units); the merged state of the bags so far, which the"
+        " client fetches once per pass"
+    )
+    print(
+        f"    {'bag':<14}{'file':>10}{'samples':>11}{'answer':>10}{'states':>10}{'units':>9}"
+        f"{'to client':>12}{'merged':>10}"
+    )
+    merged: Merged | None = None
+    total_samples = 0
     for run, bag in enumerate([*bags[:3], longer]):
         job = BagJob(
             bag, run, template.specs, template.layouts, frozen, template.tunables, units=units
@@ -147,10 +170,20 @@ def sizes(config: Path, bags: Sequence[Path], longer: Path) -> None:
         states = len(pickle.dumps(result.states, 5))
         unit_bytes = len(pickle.dumps(result.units, 5))
         made = samples_bytes(job)
+        total_samples += made
+        own = Merged.of(result)
+        fetched = len(pickle.dumps(fleet_summary(own), 5))
+        merged = own if merged is None else fleet_join(merged, own)
+        root = len(pickle.dumps(Merged(merged.states, merged.failed, merged.messages), 5))
         print(
             f"    {bag.name:<14}{bag.stat().st_size / 1024:>8,.0f} K{made / 1024:>9,.0f} K"
             f"{answer / 1024:>8,.0f} K{states / 1024:>8,.0f} K{unit_bytes / 1024:>7,.0f} K"
+            f"{fetched / 1024:>10,.0f} K{root / 1024:>8,.0f} K"
         )
+    print(
+        f"    the {run + 1} bags' samples: {total_samples / 1024:,.0f} K; their merged state:"
+        f" {root / 1024:,.0f} K (the client fetches that once per pass, and each bag's summary)"
+    )
 
 
 def main() -> None:
@@ -176,6 +209,7 @@ def main() -> None:
     timings: dict[str, float] = {}
     reference: str | None = None
     peaks: dict[int, list[float]] = {}
+    after_inference: dict[int, list[float]] = {}
 
     def report(label: str, result: DetectResult) -> None:
         nonlocal reference
@@ -196,10 +230,11 @@ def main() -> None:
     result = run_detect(config, bags=bags, workers=2)
     report("-j 2 (local pool)", result)
     for workers in (1, 2):
-        result, peak = on_cluster(config, bags, workers)
+        result, inferred, peak = on_cluster(config, bags, workers)
         report(f"LocalCluster {workers} worker{'s' * (workers > 1)}", result)
         if workers == 2:
             peaks[len(bags)] = peak
+            after_inference[len(bags)] = inferred
     ratio = timings["LocalCluster 1 worker"] / timings["LocalCluster 2 workers"]
     pool = timings["-j 2 (local pool)"] / timings["LocalCluster 2 workers"]
     whole = timings["LocalCluster 1 worker total"] / timings["LocalCluster 2 workers total"]
@@ -209,12 +244,14 @@ def main() -> None:
     )
 
     half = bags[: len(bags) // 2]
-    _, peaks[len(half)] = on_cluster(config, half, 2)
-    print("(b) peak RSS of each of 2 workers:")
+    _, after_inference[len(half)], peaks[len(half)] = on_cluster(config, half, 2)
+    print("(b) peak RSS of each of 2 workers, after inference and at the end (calibration):")
     for count in sorted(peaks):
         started, *peak = peaks[count]
-        shown = ", ".join(f"{mb:,.0f} MB" for mb in peak)
-        print(f"    {count:>3} bags: {shown} (started at {started:,.0f} MB)")
+        _, *inferred = after_inference[count]
+        shown = ", ".join(f"{mb:,.0f} MB" for mb in inferred)
+        final = ", ".join(f"{mb:,.0f} MB" for mb in peak)
+        print(f"    {count:>3} bags: {shown}; {final} (started at {started:,.0f} MB)")
     longer = folder / "longer" / "run_longer.bag"
     if not longer.exists():
         write_run(longer, seed=len(bags), fmt="ros1", duration=10 * args.duration)

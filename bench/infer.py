@@ -24,6 +24,11 @@ run. ``--before CHECKOUT`` runs every case on the ``imrosc`` of another checkout
 archive <commit> imrosc | tar -x -C CHECKOUT``) and prints after/before ratios.
 (b) ``imrosc infer examples/crazyflie.xml`` on sine_1 and sine_2 with one worker.
 
+On the planted point, a line compares all families with Daikon 5.8 as issue 22 measured it
+on the same values (59 s, 341 MB, on its author's machine: Daikon is not installed here).
+Every case prints a digest of its invariants: equal digests mean the same output (with
+``--before``, compared case by case).
+
 ``--daikon FOLDER`` writes the planted point as ``planted.decls`` and ``planted.dtrace`` in
 Daikon 5's format (``imrosc export-daikon``'s writer) and prints the command that runs
 Daikon on them (Daikon is not part of imrosc; a full export is about 200 MB of text).
@@ -32,6 +37,8 @@ Daikon on them (Daikon is not part of imrosc; a full export is about 200 MB of t
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import hashlib
 import json
 import os
 import resource
@@ -222,6 +229,13 @@ def infer_point(
     return [inv for state in states for inv in state.finalize(context)]
 
 
+def digest(invariants: list[Invariant]) -> str:
+    """A short hash of the invariants, every field (floats by their JSON text, which
+    round-trips): equal digests before and after a change mean the same output."""
+    text = json.dumps([dataclasses.asdict(inv) for inv in invariants], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
 def run_point(families: tuple[str, ...], point: str = "synthetic") -> dict[str, Any]:
     time_s, data, variables = point_data(point)
     baseline = peak_mb()
@@ -233,6 +247,7 @@ def run_point(families: tuple[str, ...], point: str = "synthetic") -> dict[str, 
         "seconds": seconds,
         "cpu": time.process_time() - cpu,
         "invariants": len(found),
+        "digest": digest(found),
         "peak_mb": peak_mb(),
         "baseline_mb": baseline,
     }
@@ -335,7 +350,11 @@ def main() -> None:
     print(f"{COLUMNS} float64 variables x {ROWS:,} samples = {values:,} values per point")
     print("targets: Daikon's families < 1 s, all families < 4 s, peak RSS < 500 MB")
     for point in args.points.split(","):
-        print(f"({point}) case: wall and CPU seconds, peak RSS MB (data alone), invariants", end="")
+        print(
+            f"({point}) case: wall and CPU seconds, peak RSS MB (data alone), invariants"
+            " [output digest]",
+            end="",
+        )
         print(", after/before ratios" if args.before else "")
         reference: dict[str, Any] | None = None
         for case in args.cases.split(","):
@@ -346,6 +365,7 @@ def main() -> None:
                 f"    {case:<14} {r['seconds']:6.2f} s (cpu {r['cpu']:6.2f} s)"
                 f"  peak {r['peak_mb']:5.0f} MB "
                 f"(data {r['baseline_mb']:4.0f} MB)  {int(r['invariants']):5d} invariants"
+                f" [{r['digest']}]"
             )
             if args.before is not None:
                 b = measure(case, point, args.repeat, args.before)
@@ -355,11 +375,15 @@ def main() -> None:
                     f" cpu x{r['cpu'] / b['cpu']:.2f},"
                     f" extra memory x{_extra(r) / max(_extra(b), 1.0):.2f}"
                 )
+                if "digest" in b:
+                    line += " same output" if b["digest"] == r["digest"] else " OTHER OUTPUT"
             print(line)
             if "missed" in r and case in ("daikon", "all"):
                 print(f"        planted properties missed: {r['missed'] or 'none'}")
         if reference is not None:
             print(f"    (all families: {ROWS / reference['seconds']:,.0f} samples/s)")
+            if point == "planted":
+                print(against_daikon(reference))
     if not args.no_crazyflie:
         r = measure("crazyflie", "-", args.repeat)
         print(
@@ -368,6 +392,22 @@ def main() -> None:
             f" ({r['messages'] / r['seconds']:,.0f} msg/s), {int(r['samples']):,} samples, "
             f"{int(r['invariants'])} invariants, peak RSS {r['peak_mb']:.0f} MB"
         )
+
+
+ISSUE_DAIKON_SECONDS, ISSUE_DAIKON_MB = 59.0, 341.0
+"""Daikon 5.8 on the planted point's values (its own .dtrace), as issue 22 reports it: measured
+on the issue author's machine, not here (Daikon is on none of this machine's registries)."""
+
+
+def against_daikon(run: dict[str, Any]) -> str:
+    """The line comparing all families on the planted point with the issue's Daikon figure."""
+    return (
+        f"    against Daikon 5.8 as issue 22 measured it ({ISSUE_DAIKON_SECONDS:g} s,"
+        f" {ISSUE_DAIKON_MB:g} MB; not run here, another machine): imrosc's all families"
+        f" {ISSUE_DAIKON_SECONDS / run['cpu']:.1f}x faster by CPU time"
+        f" ({ISSUE_DAIKON_SECONDS / run['seconds']:.1f}x by wall time; target >= 12x),"
+        f" peak RSS {run['peak_mb'] / ISSUE_DAIKON_MB:.2f}x Daikon's"
+    )
 
 
 def _extra(run: dict[str, Any]) -> float:

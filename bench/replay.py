@@ -10,9 +10,11 @@ replay reads (the invariants' topics and the records), and (b) ``imrosc replay``
 of the same bags (plots kept, as the command does): the four Crazyflie flights, and a
 generated bag of ``--messages`` messages. Target: (b) at least 0.5x the rate of (a).
 ``--engine`` also times the per-message engine (the path before column chunks);
-``--classify`` times ``imrosc classify examples/crazyflie.xml`` both ways. Times are CPU
-seconds (the process's, the command's for classify): the machine is shared, and wall time
-moves with the other jobs; ``--bags`` adds a line per Crazyflie flight.
+``--classify`` also times classify's observation of each run (its chunked replay with the
+samples traced for learnt detectors, against the same rosbags rate) and the whole ``imrosc
+classify examples/crazyflie.xml`` both ways. Times are CPU seconds (the process's, the
+command's for classify): the machine is shared, and wall time moves with the other jobs;
+``--bags`` adds a line per Crazyflie flight.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from rosbags.highlevel import AnyReader
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from imrosc.classify import observe, replayer_of  # noqa: E402
 from imrosc.records import ARCH_TOPIC, PARAMS_TOPIC, SRVS_TOPIC  # noqa: E402
 from imrosc.replay import RunReplayer  # noqa: E402
 
@@ -78,6 +81,15 @@ def replayed(bags: Sequence[Path], document: Mapping[str, Any], chunked: bool) -
     return count, time.process_time() - started
 
 
+def observed(bags: Sequence[Path], document: Mapping[str, Any]) -> tuple[int, float]:
+    """Messages and CPU seconds of ``imrosc classify``'s observation of each run (its replay
+    by column chunks, the samples traced for learnt detectors, what classification keeps)."""
+    started = time.process_time()
+    replayer, sampler = replayer_of(document, collect=True)
+    count = sum(observe(replayer, (bag, None), sampler).messages for bag in bags)
+    return count, time.process_time() - started
+
+
 def infer(config: Path) -> dict[str, Any]:
     command = [sys.executable, "-m", "imrosc", "infer", str(config), "-q", "-j", "1"]
     subprocess.run(command, check=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
@@ -86,15 +98,23 @@ def infer(config: Path) -> dict[str, Any]:
 
 
 def measure(
-    name: str, bags: Sequence[Path], document: Mapping[str, Any], repeat: int, engine: bool
+    name: str,
+    bags: Sequence[Path],
+    document: Mapping[str, Any],
+    repeat: int,
+    engine: bool,
+    classifying: bool = False,
 ) -> None:
-    best_b = best_r = best_e = float("inf")
+    best_b = best_r = best_e = best_c = float("inf")
     messages = read = 0
     for _ in range(repeat):  # alternate, keep the best of each: the machine is shared
         read, seconds = baseline(bags, document)
         best_b = min(best_b, seconds)
         messages, seconds = replayed(bags, document, chunked=True)
         best_r = min(best_r, seconds)
+        if classifying:
+            _, seconds = observed(bags, document)
+            best_c = min(best_c, seconds)
     if not read:
         print(f"{name:<24} reads no message of the invariants' topics", flush=True)
         return
@@ -103,6 +123,9 @@ def measure(
         f"{name:<24} {messages:>8,} msgs  rosbags read+deserialize {rate_b:>9,.0f} msg/s  "
         f"imrosc replay {rate_r:>9,.0f} msg/s (ratio {rate_r / rate_b:.2f})"
     )
+    if classifying:
+        rate_c = messages / best_c
+        line += f"  classify's replay {rate_c:>9,.0f} msg/s (ratio {rate_c / rate_b:.2f})"
     if engine:
         _, seconds = replayed(bags, document, chunked=False)
         best_e = seconds
@@ -151,7 +174,7 @@ def main() -> None:
         config.write_text(example.replace("../../shared/data/real/crazyflie", str(CRAZYFLIE)))
         document = infer(config)
         flights = sorted(CRAZYFLIE.glob("*.bag"))
-        measure("crazyflie (4 flights)", flights, document, args.repeat, args.engine)
+        measure("crazyflie (4 flights)", flights, document, args.repeat, args.engine, args.classify)
         for flight in flights if args.bags else ():
             measure(f"  {flight.name}", [flight], document, args.repeat, False)
         if args.classify:
@@ -168,7 +191,7 @@ def main() -> None:
         started = time.perf_counter()
         bag = generator.generate(folder / "generated.bag", args.messages)
         print(f"(generated {args.messages:,} messages in {time.perf_counter() - started:.1f} s)")
-        measure("generated.bag", [bag], document, args.repeat, args.engine)
+        measure("generated.bag", [bag], document, args.repeat, args.engine, args.classify)
 
 
 if __name__ == "__main__":

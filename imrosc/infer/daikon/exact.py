@@ -58,9 +58,10 @@ def exact_sums(matrix: FloatArray) -> list[int]:
         return totals
     spare = math.ceil(math.log2(n + 2)) + 1
     part = np.array(matrix, dtype=np.float64)
+    high = np.empty_like(part)  # the pass's high parts, in place
     active = np.arange(rows)
     while active.size:
-        top = np.abs(part).max(axis=1)
+        top = np.maximum(part.max(axis=1), -part.min(axis=1))  # max |r_i|, no temporary
         awkward = (top > 2.0 ** (1000 - spare)) | ((top < 2.0**-900) & (top > 0))
         if awkward.any():
             chosen = np.flatnonzero(awkward)
@@ -69,10 +70,12 @@ def exact_sums(matrix: FloatArray) -> list[int]:
         keep = ~awkward & (top > 0)
         if not keep.all():
             part, active, top = part[keep], active[keep], top[keep]
+            high = high[: len(part)]
             if not active.size:
                 break
         sigma = np.ldexp(1.0, np.frexp(top)[1] + spare)[:, None]
-        high = (sigma + part) - sigma
+        np.add(sigma, part, out=high)
+        high -= sigma
         part -= high
         for k, total in zip(active.tolist(), high.sum(axis=1).tolist(), strict=True):
             if total:

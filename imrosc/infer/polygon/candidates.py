@@ -670,8 +670,8 @@ def _rows(
     guide: Guide,
     located: bool,
 ) -> list[GroupSet]:
-    """The present rows ``row`` of ``pairs[slot]`` the guide keeps (``located``: with exact
-    location too), by cache-sized blocks."""
+    """The present rows ``row`` of ``pairs[slot]`` the guide keeps (``located``: pairs
+    without a table, whose rows only exact location discards), by cache-sized blocks."""
     values = chunk.values.ravel()
     found: list[GroupSet] = []
     for first in range(0, len(row), _BLOCK):
@@ -680,7 +680,8 @@ def _rows(
         x = values.take(pi.take(pair) * chunk.rows + r)
         y = values.take(pj.take(pair) * chunk.rows + r)
         with np.errstate(invalid="ignore"):
-            drop = guide.discards(pair, x, y) if located else guide.inside(pair, x, y)
+            # pairs with a locator have no table: only exact location discards anything
+            drop = guide.locator.covered(pair, x, y) if located else guide.inside(pair, x, y)
             keep = ~drop & ~(np.isnan(x) | np.isnan(y))
         sel = np.flatnonzero(keep)
         found.append(GroupSet(pair.take(sel), x.take(sel), y.take(sel), r.take(sel)))

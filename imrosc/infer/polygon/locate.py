@@ -28,6 +28,10 @@ from imrosc.infer.polygon.predicates import orientation
 
 BoolArray = npt.NDArray[np.bool_]
 
+_RUN_SEARCH = 64
+"""Samples per chain from which a chain's edges are found by one ``searchsorted`` per chain
+rather than by a binary search across all chains at once."""
+
 
 @dataclass
 class Chains:
@@ -51,18 +55,39 @@ class Chains:
         chain's edges); a vertical last edge (at ``px == R.x``) gives way to the one
         before it."""
         start, size = self.start.take(chain), self.size.take(chain)
-        lo = np.zeros(len(px), np.int64)
-        hi = size.copy()
-        steps = int(np.ceil(np.log2(int(size.max()) + 1))) if len(size) else 0
-        for _ in range(steps):  # count the vertices with x <= px
-            mid = (lo + hi) >> 1
-            open_ = lo < hi
-            below = open_ & (self.x.take(start + np.minimum(mid, size - 1)) <= px)
-            lo = np.where(below, mid + 1, lo)
-            hi = np.where(open_ & ~below, mid, hi)
+        lo = self._by_runs(chain, px)
+        if lo is None:
+            lo = np.zeros(len(px), np.int64)
+            hi = size.copy()
+            steps = int(np.ceil(np.log2(int(size.max()) + 1))) if len(size) else 0
+            for _ in range(steps):  # count the vertices with x <= px
+                mid = (lo + hi) >> 1
+                open_ = lo < hi
+                below = open_ & (self.x.take(start + np.minimum(mid, size - 1)) <= px)
+                lo = np.where(below, mid + 1, lo)
+                hi = np.where(open_ & ~below, mid, hi)
         a = start + np.clip(lo - 1, 0, size - 2)
         a = a - (self.x.take(a) == self.x.take(a + 1))
         return a, a + 1
+
+    def _by_runs(self, chain: IntArray, px: FloatArray) -> IntArray | None:
+        """Per sample, the number of its chain's vertices with ``x <= px``, by one
+        ``searchsorted`` per chain when the samples come chain by chain (a located group
+        set's do) with many samples per chain; None otherwise."""
+        if len(chain) < _RUN_SEARCH or np.any(chain[1:] < chain[:-1]):
+            return None
+        change = np.flatnonzero(chain[1:] != chain[:-1]) + 1
+        if _RUN_SEARCH * (len(change) + 1) > len(chain):
+            return None
+        firsts = np.concatenate([[0], change]).tolist()
+        lasts = [*firsts[1:], len(chain)]
+        count = np.empty(len(chain), np.int64)
+        starts, sizes = self.start.tolist(), self.size.tolist()
+        for first, last in zip(firsts, lasts, strict=True):
+            c = int(chain[first])
+            vertices = self.x[starts[c] : starts[c] + sizes[c]]
+            count[first:last] = np.searchsorted(vertices, px[first:last], side="right")
+        return count
 
 
 @dataclass

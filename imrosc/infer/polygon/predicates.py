@@ -33,6 +33,9 @@ _CCW_ERR_B = (2.0 + 12.0 * _EPS) * _EPS
 _CCW_ERR_C = (9.0 + 64.0 * _EPS) * _EPS * _EPS
 _TINY = 2.0**-900
 """Below this, products may have underflowed: the float stages prove nothing there."""
+_GATHER = 0.875
+"""A later stage runs on the elements still open, gathered, unless they are nearly all
+(gathering a few arrays costs far less than a stage's dozens of operations on the rest)."""
 
 
 def _two_sum(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -109,7 +112,7 @@ def _adaptive(
     if not len(todo):
         return out
     every = (ax, ay, bx, by, cx, cy, detsum, acx, bcx, acy, bcy, acx_t, bcx_t, acy_t, bcy_t)
-    if 2 * len(todo) > len(ax):  # most are open: no gathering, the parallel ones are zero
+    if len(todo) > _GATHER * len(ax):  # nearly all open: no gathering, the parallel ones are zero
         return np.where(level, out, _stages_bcd(*every, settled=level))
     out[todo] = _stages_bcd(*(v.take(todo) for v in every))
     return out
@@ -333,7 +336,7 @@ def orientation(
         sure &= (detsum >= _TINY) | zero
     out = np.sign(det, where=sure, out=np.zeros(det.shape)).astype(np.int8)
     open_ = np.flatnonzero(~sure)
-    if 2 * len(open_) > len(out):  # most are open (samples on an edge): no gathering
+    if len(open_) > _GATHER * len(out):  # nearly all open (samples on an edge): no gathering
         return np.where(sure, out, _adaptive(ax, ay, bx, by, cx, cy, detsum))
     if len(open_):
         out[open_] = _adaptive(

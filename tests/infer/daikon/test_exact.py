@@ -50,6 +50,20 @@ def test_exact_sums_of_many_rows_and_extremes() -> None:
         assert Fraction(total) == scaled(list(row))
 
 
+def test_exact_sums_of_rows_that_settle_after_different_passes() -> None:
+    """Rows done at once (zeros, small integers), after a few passes (floats over a wide
+    range) or summed by exponent groups (near overflow), side by side in one matrix."""
+    rng = np.random.default_rng(7)
+    matrix = np.zeros((6, 3000))
+    matrix[1] = rng.integers(-50, 50, 3000)
+    matrix[2] = rng.normal(size=3000) * 2.0 ** rng.integers(-60, 60, size=3000)
+    matrix[3] = rng.uniform(-10, 10, 3000)
+    matrix[4] = rng.normal(size=3000) * 1e300
+    matrix[5] = -matrix[2]
+    for row, total in zip(matrix, exact_sums(matrix), strict=True):
+        assert Fraction(total) == scaled(list(row))
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.lists(st.tuples(finite, finite), min_size=1, max_size=12), finite, finite, finite)
 def test_residual_is_exact(points: list[tuple[float, float]], a: float, b: float, c: float) -> None:

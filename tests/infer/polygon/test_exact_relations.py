@@ -146,3 +146,25 @@ def test_orientation_of_samples_of_exact_relations_is_exact(relation: object) ->
     ]
     assert got.tolist() == want
     assert math.isfinite(float(y.sum()))
+
+
+@pytest.mark.parametrize("open_share", [0.0, 0.3, 0.6, 0.9, 0.97, 1.0])
+def test_orientation_is_exact_whatever_share_of_elements_the_float_stage_leaves_open(
+    open_share: float,
+) -> None:
+    """Elements stage A decides (points well off the line) mixed with exactly collinear
+    ones (``y = -x``: the parallel shortcut) and ones within rounding of a line
+    (``y = x / 3``: stages B to D), in proportions on both sides of where the later stages
+    stop gathering the open elements and run on all of them."""
+    rng = np.random.default_rng(11)
+    size = 3000
+    x = rng.uniform(-50, 50, (3, size))
+    y = np.where(np.arange(size) % 2 == 0, -x, x / 3)
+    open_ = rng.random(size) < open_share
+    y[2] = np.where(open_, y[2], y[2] + rng.uniform(1, 5, size))  # off the line: decided
+    got = orientation(x[0], y[0], x[1], y[1], x[2], y[2])
+    want = [
+        _reference_orientation((x[0, k], y[0, k]), (x[1, k], y[1, k]), (x[2, k], y[2, k]))
+        for k in range(size)
+    ]
+    assert got.tolist() == want

@@ -76,3 +76,32 @@ def test_covered_is_the_closed_hull_less_its_vertices(
     found = locator.covered(pair, qx, qy).tolist()
     expected = [_covered(vertices.get(g, []), (x, y)) for g, x, y in queries]
     assert found == expected
+
+
+def test_many_samples_per_hull_locate_as_few_do() -> None:
+    """Samples sorted by group, many per hull (each chain's edges found by one search per
+    chain): the same answers as the same samples in shuffled order (a binary search across
+    all chains), and as rational arithmetic on edges full of samples (``ab = |n|``, a
+    rounded line ``b = 2*a + 3``) and inside scattered hulls."""
+    rng = np.random.default_rng(4)
+    n = rng.normal(0, 1, 400)
+    a = rng.uniform(-10, 10, 400)
+    u, v = rng.uniform(-10, 10, (2, 400))
+    groups = [(n, np.abs(n)), (a, 2 * a + 3), (u, v)]
+    points = [(g, x, y) for g, (xs, ys) in enumerate(groups) for x, y in zip(xs, ys, strict=True)]
+    group = np.asarray([p[0] for p in points], dtype=np.int64)
+    xs = np.asarray([p[1] for p in points])
+    ys = np.asarray([p[2] for p in points])
+    hull = hulls(GroupSet(group, xs, ys, np.arange(len(points), dtype=np.int64)))
+    locator = Locator.build(hull, len(groups))
+    vertices: dict[int, list[tuple[float, float]]] = {}
+    for g, x, y in zip(hull.group.tolist(), hull.x.tolist(), hull.y.tolist(), strict=True):
+        vertices.setdefault(g, []).append((x, y))
+    in_order = locator.covered(group, xs, ys)
+    shuffled = rng.permutation(len(points))
+    assert locator.covered(group[shuffled], xs[shuffled], ys[shuffled]).tolist() == (
+        in_order[shuffled].tolist()
+    )
+    expected = [_covered(vertices[g], (x, y)) for g, x, y in points]
+    assert in_order.tolist() == expected
+    assert sum(expected[:400]) > 390  # the V's samples lie on its edges
