@@ -35,10 +35,13 @@ STORE = get_typestore(Stores.ROS1_NOETIC)
 _COUNTER = itertools.count()
 
 
-def variables_of(topic: str, msgtype: str, short: str | None = None) -> list[dict[str, Any]]:
-    """The variables of a topic as an invariants file lists them (inference's layout)."""
+def variables_of(
+    topic: str, msgtype: str, short: str | None = None, store: Any = STORE
+) -> list[dict[str, Any]]:
+    """The variables of a topic as an invariants file lists them (inference's layout), its
+    message laid out from ``store``'s definitions."""
     name = short or topic.rsplit("/", 1)[-1]
-    layout = topic_layout(topic, msgtype, flatten(STORE, msgtype), name, trigger=True)
+    layout = topic_layout(topic, msgtype, flatten(store, msgtype), name, trigger=True)
     return [
         {
             "name": v.name,
@@ -52,16 +55,35 @@ def variables_of(topic: str, msgtype: str, short: str | None = None) -> list[dic
     ]
 
 
+def add_battery_cells(battery: list[dict[str, Any]]) -> None:
+    """Elements 0, 1 and 7 of ``/battery``'s short array ``cell_voltage``, as inference lays
+    them out, added to its variables (in place)."""
+    for index in (0, 1, 7):  # elements of a short array, as inference lays them out
+        battery.append(
+            {
+                "name": f"battery.cell_voltage[{index}]",
+                "type": "float",
+                "topic": "/battery",
+                "path": f"cell_voltage[{index}]",
+                "derived": None,
+                "trigger": True,
+            }
+        )
+
+
 def invariants_document(
     topics: Mapping[str, str],
     *,
     points: Mapping[str, Any] | None = None,
     invariants: Sequence[Mapping[str, Any]] = (),
+    layouts: Mapping[str, list[dict[str, Any]]] | None = None,
 ) -> dict[str, Any]:
-    """A small invariants document: each topic with its real layout and a publish point
-    ``a``, ``b``, ... on it (unless ``points`` are given)."""
-    shorts = short_names(topics)
-    layouts = {t: variables_of(t, m, shorts[t]) for t, m in sorted(topics.items())}
+    """A small invariants document: each topic with its real layout (ROS 1's, unless
+    ``layouts`` gives each topic's variables) and a publish point ``a``, ``b``, ... on it
+    (unless ``points`` are given)."""
+    if layouts is None:
+        shorts = short_names(topics)
+        layouts = {t: variables_of(t, m, shorts[t]) for t, m in sorted(topics.items())}
     if points is None:
         points = {
             ident: {
@@ -135,20 +157,27 @@ def write_package(files: Mapping[str, bytes], root: Path) -> Path:
     return root / package
 
 
-def import_adapter(package: Path) -> ModuleType:
-    """Import a package's ``scripts/imrosc_monitor`` under a fresh name; its flatteners."""
-    name = f"imrosc_monitor_test_{next(_COUNTER)}"
-    folder = package / "scripts" / "imrosc_monitor"
-    copy = package.parent / f"{name}_src" / name
+def import_copy(folder: Path, scratch: Path, prefix: str, module: str) -> ModuleType:
+    """Import a copy (made under ``scratch``) of the Python package ``folder`` under a fresh
+    name (``prefix`` and a count: generated packages share their names); its submodule
+    ``module``."""
+    name = f"{prefix}{next(_COUNTER)}"
+    copy = scratch / f"{name}_src" / name
     shutil.copytree(folder, copy)
     spec = importlib.util.spec_from_file_location(
         name, copy / "__init__.py", submodule_search_locations=[str(copy)]
     )
     assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return importlib.import_module(f"{name}.flatteners")
+    loaded = importlib.util.module_from_spec(spec)
+    sys.modules[name] = loaded
+    spec.loader.exec_module(loaded)
+    return importlib.import_module(f"{name}.{module}")
+
+
+def import_adapter(package: Path) -> ModuleType:
+    """Import a package's ``scripts/imrosc_monitor`` under a fresh name; its flatteners."""
+    folder = package / "scripts" / "imrosc_monitor"
+    return import_copy(folder, package.parent, "imrosc_monitor_test_", "flatteners")
 
 
 @pytest.fixture(scope="session")

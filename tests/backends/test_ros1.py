@@ -30,6 +30,7 @@ from imrosc.sim import Scenario, write_runs
 from tests.backends.monitor_support import (
     ROOT,
     STORE,
+    add_battery_cells,
     build_ros1,
     config_text,
     import_adapter,
@@ -309,17 +310,7 @@ FLAT_TYPES = {
 def flattener_document() -> dict[str, Any]:
     document = invariants_document(FLAT_TYPES)
     battery = document["topics"]["/battery"]["variables"]
-    for index in (0, 1, 7):  # elements of a short array, as inference lays them out
-        battery.append(
-            {
-                "name": f"battery.cell_voltage[{index}]",
-                "type": "float",
-                "topic": "/battery",
-                "path": f"cell_voltage[{index}]",
-                "derived": None,
-                "trigger": True,
-            }
-        )
+    add_battery_cells(battery)
     return document
 
 
