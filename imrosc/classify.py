@@ -602,32 +602,41 @@ def monitor_choice(
     p_cover = union_false_alarm(nominal, found.chosen)
     p_detector = union_false_alarm(nominal, sorted(detectors))
     p_both = 1.0 - (1.0 - p_cover) * (1.0 - p_detector)
-    candidates: list[tuple[Worth, tuple[str, ...], tuple[int, float]]] = []
+    named = tuple(sorted(detectors))
+    # per candidate: its held-out worth, its invariants, and what it detects of the failed
+    # runs and its false-alarm probability as the report gives them
+    candidates: list[tuple[Worth, tuple[str, ...], int, float]] = []
     covered, spoiled = held_out_cover(invariants, plain, before, runs, folds, order)
-    candidates.append((Worth("cover", covered, spoiled, runs * p_cover), found.chosen, (-1, 0)))
+    candidates.append(
+        (
+            Worth("cover", covered, spoiled, runs * p_cover),
+            found.chosen,
+            detected_by(set(found.chosen), fail, before),
+            p_cover,
+        )
+    )
     if detectors:
         both, both_spoiled = held_out_cover(
             invariants, plain, before, runs, folds, order, by_detector
         )
+        alone = sum(by_detector.values())
         candidates += [
-            (
-                Worth("detector", sum(by_detector.values()), 0, runs * p_detector),
-                tuple(sorted(detectors)),
-                (sum(by_detector.values()), p_detector),
-            ),
+            (Worth("detector", alone, 0, runs * p_detector), named, alone, p_detector),
             (
                 Worth("both", both, both_spoiled, runs * p_both),
-                found.chosen + tuple(sorted(detectors)),
-                (-1, 0),
+                found.chosen + named,
+                detected_by(set(found.chosen) | detectors, fail, before),
+                p_both,
             ),
         ]
     if whole is not None:
-        alone = len(whole.detected)
+        inferred = len(whole.detected)
         candidates.append(
             (
-                Worth("inferred", alone, len(whole.early), runs * whole.false_alarm),
+                Worth("inferred", inferred, len(whole.early), runs * whole.false_alarm),
                 whole.chosen,
-                (alone, whole.false_alarm),
+                inferred,
+                whole.false_alarm,
             )
         )
         if detectors:
@@ -640,15 +649,12 @@ def monitor_choice(
             candidates.append(
                 (
                     Worth("inferred+detector", joint, len(whole.early), runs * p_joint),
-                    whole.chosen + tuple(sorted(detectors)),
-                    (joint, p_joint),
+                    whole.chosen + named,
+                    joint,
+                    p_joint,
                 )
             )
-    worth, chosen, counted = max(candidates, key=lambda c: c[0].value)  # the first of equals
-    detected, p_chosen = counted
-    if detected < 0:  # a cover's: counted over its invariants' breaks
-        detected = detected_by(set(chosen), fail, before)
-        p_chosen = union_false_alarm(nominal, chosen)
+    worth, chosen, detected, p_chosen = max(candidates, key=lambda c: c[0].value)  # first of equals
     return Cover(
         chosen,
         detected,
