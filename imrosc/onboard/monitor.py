@@ -400,6 +400,22 @@ class Checking:
         raised, alarmed = take_alarms(self.engine, found)
         return found, raised, alarmed
 
+    def check_values(
+        self, topic: str, now: float, values: Any
+    ) -> Tuple[List[Any], List[Any], List[Any], List[Any]]:
+        """A message's checks, with :attr:`lock` held: the clock moved to ``now``, the
+        message's flattened ``values`` checked (``None``: a message nothing checks) and
+        told to the precheck of the conditions it feeds; the violations the clock found and
+        those the message caused, the alarms raised and the violations that belong to an
+        alarm."""
+        found: List[Any] = self.engine.advance(now)
+        caused: List[Any] = self.engine.message(topic, now, values) if values is not None else []
+        raised, alarmed = take_alarms(self.engine, found + caused)
+        precheck = self.precheck
+        if precheck is not None and values is not None and topic in precheck.condition_topics:
+            precheck.message(topic, now, values)
+        return found, caused, raised, alarmed
+
     def keep_warm(self, warm: float, running: Callable[[], bool]) -> None:
         """Between sparse messages on the blocked topics, check the latest ones again every
         ``warm`` seconds, keeping nothing (:meth:`rehearse`), while ``running()`` and the

@@ -251,12 +251,7 @@ class Monitor(common.Checking):
             values = flatten(message) if flatten is not None else None
         with self.lock:
             now = time.time() if self.wall_clock else rospy.get_time()
-            found = self.engine.advance(now)
-            caused = self.engine.message(topic, now, values) if values is not None else []
-            raised, alarmed = common.take_alarms(self.engine, found + caused)
-            precheck = self.precheck
-            if precheck is not None and values is not None and topic in precheck.condition_topics:
-                precheck.message(topic, now, values)
+            found, caused, raised, alarmed = self.check_values(topic, now, values)
         relay = self.relays.get(topic)
         if relay is not None:
             self.last_relayed = time.time()

@@ -371,12 +371,7 @@ class Monitor(common.Checking):
             values = flatten(message) if flatten is not None else None
         with self.lock:
             now = self.now()
-            found = self.engine.advance(now)
-            caused = self.engine.message(name, now, values) if values is not None else []
-            raised, alarmed = common.take_alarms(self.engine, found + caused)
-            precheck = self.precheck
-            if precheck is not None and values is not None and name in precheck.condition_topics:
-                precheck.message(name, now, values)
+            found, caused, raised, alarmed = self.check_values(name, now, values)
         if topic.relay is not None:
             self.last_relayed = time.time()
             if not common.withheld(caused, alarmed):
