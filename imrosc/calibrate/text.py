@@ -9,8 +9,9 @@ from imrosc.infer.daikon.common import number_text
 from imrosc.infer.polygon.text import polygon_text
 from imrosc.infer.temporal.interval import format_multiset
 from imrosc.infer.timed.families import format_bound
+from imrosc.runtime.families import ARRAY, BOUNDS, FREQUENCY, MEAN, RATE, STEP, VARIANCE
 
-_RANGES = frozenset({"bounds", "array", "rate", "variance", "frequency"})
+_RANGES = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP, VARIANCE, FREQUENCY})
 
 
 def subject(text: str) -> str:

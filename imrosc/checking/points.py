@@ -9,8 +9,8 @@ into the next chunk), kept where every input has been seen and every condition h
   rounding of relations, the polygons' edges, sets, non-zero values, functions, strings,
   and any sample with a value not finite); the engine's own :meth:`Checks.check` then finds
   the violations of those samples alone;
-* time windows: frequency, variance (the same dyadic algorithm, vectorised by
-  :func:`~imrosc.infer.timed.windows.windowed_variances`) and change rate of every sample's
+* time windows: frequency, variance and mean (the same dyadic algorithm, vectorised by
+  :func:`~imrosc.infer.timed.windows.windowed_moments`), change rate and step of every sample's
   window at once; the engine's :meth:`WindowChecks.check` gives the violations of the
   windows out of bounds;
 * the silence timer (a frequency lower bound checked at every message of the bag while the
@@ -35,11 +35,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from imrosc.infer.timed.windows import windowed_variances
+from imrosc.infer.timed.windows import windowed_moments
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
 from imrosc.runtime.engine import PARAMS, Engine, _Point
-from imrosc.runtime.families import RATE, VARIANCE
+from imrosc.runtime.families import MEAN, RATE, STEP, VARIANCE
 from imrosc.runtime.violation import Violation
 
 from .words import RowChecks
@@ -305,7 +305,8 @@ class ChunkPoint:
         return flagged
 
     def _windows(self, time: FloatArray, values: FloatArray) -> dict[str, Any]:
-        """Every sample's window: defined, frequency, variance and rate, the window's rows."""
+        """Every sample's window: defined, frequency, variance, rate, mean and step, the window's
+        rows."""
         point = self.point
         windows = point.windows
         assert windows is not None
@@ -326,12 +327,20 @@ class ChunkPoint:
         out: dict[str, Any] = {"defined": defined, "frequency": frequency}
         families = point.window_checks.arrays
         width = len(point.tracked_at)
-        if VARIANCE in families:
+        if VARIANCE in families or MEAN in families:
             variance = np.full((len(time), width), np.nan)
+            mean = np.full((len(time), width), np.nan)
             wide = np.flatnonzero(defined & (size >= 2))
             if len(wide):
-                variance[wide] = windowed_variances(all_values, starts[wide], size[wide])
+                mean[wide], variance[wide] = windowed_moments(all_values, starts[wide], size[wide])
             out[VARIANCE] = variance
+            out[MEAN] = mean
+        if STEP in families:
+            step = np.full((len(time), width), np.nan)
+            wide = np.flatnonzero(size >= 2)
+            with np.errstate(all="ignore"):
+                step[wide] = all_values[ends[wide]] - all_values[ends[wide] - 1]
+            out[STEP] = step
         if RATE in families:
             with np.errstate(all="ignore"):
                 dt = all_time[ends] - all_time[starts]

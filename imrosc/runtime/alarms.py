@@ -12,7 +12,9 @@ and an *event* violation (a silent topic, an ordered pair past its maximum time,
 unexpected or missing node, an event sequence outside its pattern) raises one at once: it
 is already the outcome of a timer or of a whole sequence. So does, at the first sample of
 its episode, a violation that is no matter of degree (:func:`at_once`): a learnt
-detector's (its threshold is the calibrated decision already) and a **frozen variable**'s,
+detector's (its threshold is the calibrated decision already), a **step**'s (a value that
+jumped from one message to the next further than every run's widened extreme: a jump is one
+sample, it cannot persist) and a **frozen variable**'s,
 a variance of exactly 0 over the window where every training window varied (a stuck sensor
 repeats its value bit for bit; noise never does). The samples of such an episode are in
 alarm until the invariant holds again.
@@ -42,7 +44,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
-from .families import DETECTOR, RANGED, VARIANCE
+from .families import DETECTOR, RANGED, STEP, VARIANCE
 from .violation import Violation, json_safe
 
 Fed = Tuple[float, str, str, int, bool, float]
@@ -64,10 +66,11 @@ def shapes_of(invariants: Sequence[Mapping[str, Any]]) -> Dict[str, Tuple[bool, 
 
 def at_once(violation: Violation) -> bool:
     """Whether ``violation`` raises an alarm at the first sample of its episode, whatever
-    the rule: a learnt detector's, or a frozen variable's (variance exactly 0 against a
-    positive minimum; see the module's docstring)."""
+    the rule: a learnt detector's, a step's (a jump is one sample: it cannot persist), or a
+    frozen variable's (variance exactly 0 against a positive minimum; see the module's
+    docstring)."""
     family = violation.family
-    return family == DETECTOR or (family == VARIANCE and violation.observed == 0.0)
+    return family in (DETECTOR, STEP) or (family == VARIANCE and violation.observed == 0.0)
 
 
 class AlarmRule(NamedTuple):
@@ -141,6 +144,8 @@ class Alarm(NamedTuple):
             why = "a frozen variable"
         elif v.family == DETECTOR:
             why = "a fault detector"
+        elif v.family == STEP:
+            why = "a jump"
         else:
             why = "an event"
         return f"alarm at {self.time:.3f} s, {self.point}: {why}; {v.invariant} {v.text}"

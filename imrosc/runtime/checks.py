@@ -37,11 +37,13 @@ from .families import (
     FREQUENCY,
     FUNCTION,
     LINEAR,
+    MEAN,
     NON_ZERO,
     ONE_OF,
     ORDER,
     POLYGON,
     RATE,
+    STEP,
     STRING_ONE_OF,
     TERNARY,
     VARIANCE,
@@ -642,7 +644,7 @@ def _inside(polygon: Mapping[str, Any]) -> str:
 
 
 class WindowChecks:
-    """The bounds of a point's frequency, variance and rate invariants."""
+    """The bounds of a point's frequency, variance, rate, mean and step invariants."""
 
     def __init__(self, invariants: Sequence[Mapping[str, Any]], tracked: Sequence[str]) -> None:
         position = {name: k for k, name in enumerate(tracked)}
@@ -650,6 +652,8 @@ class WindowChecks:
         self.per_variable: Dict[str, List[Tuple[int, Mapping[str, Any]]]] = {
             VARIANCE: [],
             RATE: [],
+            MEAN: [],
+            STEP: [],
         }
         self.window = 0.0
         for inv in invariants:

@@ -24,7 +24,7 @@ from .checks import Checks, WindowChecks
 from .compiled import numba_module
 from .conditions import holds
 from .detector import Detector
-from .families import DETECTOR, INTERVAL, PATTERN, VARIANCE
+from .families import DETECTOR, INTERVAL, MEAN, PATTERN, RATE, STEP, VARIANCE
 from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
 from .windows import Windows
@@ -40,6 +40,15 @@ Trace = Callable[[str, float, Any, Optional[float]], None]
 
 NUMERIC_TYPES = ("float", "int", "uint", "bool", "time")
 """The variable types a point's sample vector holds (the others are strings or sets)."""
+
+
+WINDOW_VALUES: Dict[str, Callable[[Windows], Any]] = {
+    VARIANCE: Windows.variance,
+    RATE: Windows.rate,
+    MEAN: Windows.mean,
+    STEP: Windows.step,
+}
+"""Each window family's values of the current window, per tracked variable."""
 
 
 def _number(value: Any) -> float:
@@ -195,7 +204,7 @@ class _Point:
                 self.silent = self.silent and frequency < self.window_checks.recovered
 
                 def derived(family: str) -> Any:
-                    return windows.variance() if family == VARIANCE else windows.rate()
+                    return WINDOW_VALUES[family](windows)
 
                 found += self.window_checks.check(
                     time, self.key, frequency, derived, self.checks.cleared, self.silent

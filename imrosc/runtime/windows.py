@@ -1,4 +1,5 @@
-"""Time windows online: frequency, windowed variance and change rate of one program point.
+"""Time windows online: frequency, windowed variance, change rate, mean and last step of
+one program point.
 
 Inference computes every window of a run at once (``imrosc.infer.timed``); this module
 computes the window of each new sample as it arrives, bit for bit the same:
@@ -9,13 +10,17 @@ computes the window of each new sample as it arrives, bit for bit the same:
 * frequency is ``len(window) / window``; the rate is ``(x_last - x_first) / (t_last -
   t_first)`` (no rate when the times are equal); the variance is the fixed dyadic
   algorithm of ``docs/families/time-and-polygon.md``, whose blocks are memoised per
-  sample, so each new sample costs O(log L) block combinations for a window of L samples.
+  sample, so each new sample costs O(log L) block combinations for a window of L samples;
+  the mean is the mean that algorithm carries (windows of two samples or more), the step
+  ``x_last - x_previous`` (windows of two samples or more).
 
 >>> w = Windows(1.0, 1)
 >>> [w.add(0.1 * i, [float(i)]) for i in range(12)][-1]
 True
 >>> w.frequency(), round(float(w.rate()[0]), 9), round(float(w.variance()[0]), 6)
 (10.0, 10.0, 9.166667)
+>>> float(w.mean()[0]), float(w.step()[0])
+(6.5, 1.0)
 """
 
 from __future__ import annotations
@@ -65,6 +70,8 @@ class Windows:
         self.front = 0
         """Absolute index of the window's oldest sample."""
         self.count = 0
+        self.memo: Optional[Tuple[int, Block]] = None
+        """The last window's moments and the sample count they were for."""
 
     def _evict(self, cutoff: float) -> None:
         while self.front < self.count and self.times[self.front - self.base] <= cutoff:
@@ -132,11 +139,35 @@ class Windows:
             cache[level] = found
         return found
 
+    def step(self) -> Any:
+        """Per variable, the last sample less the one before it in the window (NaN below 2
+        samples)."""
+        if self.size() < 2:
+            return np.full(self.variables, np.nan)
+        last = self.count - 1 - self.base
+        with np.errstate(all="ignore"):
+            return self.values[last] - self.values[last - 1]
+
     def variance(self) -> Any:
         """Sample variance per variable over the current window (NaN below 2 samples)."""
         size = self.size()
         if size < 2:
             return np.full(self.variables, np.nan)
+        return self._moments()[2] / (size - 1)
+
+    def mean(self) -> Any:
+        """Mean per variable over the current window, as the variance's algorithm carries
+        it (NaN below 2 samples)."""
+        if self.size() < 2:
+            return np.full(self.variables, np.nan)
+        return self._moments()[1]
+
+    def _moments(self) -> Block:
+        """``(n, mean, M2)`` of the current window by the fixed dyadic algorithm (once per
+        sample: variance and mean both ask)."""
+        if self.memo is not None and self.memo[0] == self.count:
+            return self.memo[1]
+        size = self.size()
         acc: Optional[Block] = None
         position = self.front
         level = 0
@@ -148,4 +179,5 @@ class Windows:
                     position += 1 << level
                 level += 1
             assert acc is not None
-            return acc[2] / (size - 1)
+            self.memo = (self.count, acc)
+            return acc

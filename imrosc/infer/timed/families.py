@@ -5,7 +5,13 @@
   variable over the window (see :mod:`imrosc.infer.timed.windows`);
 * ``rate``: ``(v_last - v_first) / (t_last - t_first)`` over the window, for the same
   variables (Algorithm 4 with ``rate_min`` tracking the minimum and ``-inf`` as the
-  initial maximum).
+  initial maximum);
+* ``mean``: the mean of each such variable over the window (the fixed algorithm's mean,
+  the very float its variance carries), so a sensor whose level moves (a scaled or offset
+  reading) breaks it although every single sample stays within the variable's range;
+* ``step``: ``v_last - v_previous``, the change from the window's previous message to its
+  last, for the same variables: a value that jumps (a position estimate teleported, a
+  spoofed pose) breaks it although the new values are ordinary.
 
 Each keeps, per variable, the minimum and maximum over all defined windows with the
 position of their first occurrence (:class:`~imrosc.infer.timed.windows.Extremes`), so
@@ -27,9 +33,9 @@ import numpy as np
 
 from imrosc.infer.builders import StateBuilder, States, builds
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
-from imrosc.infer.timed.windows import Extremes, WindowTracker, windowed_variances
+from imrosc.infer.timed.windows import Extremes, IntArray, WindowTracker, windowed_moments
 from imrosc.ir import Tunables
-from imrosc.runtime.families import FREQUENCY, RATE, VARIANCE
+from imrosc.runtime.families import FREQUENCY, MEAN, RATE, STEP, VARIANCE
 from imrosc.translate.points import PointSpec
 
 _last: tuple[weakref.ref[Samples], tuple[str, ...], FloatArray] | None = None
@@ -55,6 +61,31 @@ def stacked(samples: Samples, names: tuple[str, ...]) -> FloatArray:
     return values
 
 
+_last_moments: tuple[FloatArray, IntArray, IntArray, tuple[FloatArray, FloatArray]] | None = None
+
+
+def moments(
+    values: FloatArray, starts: IntArray, length: IntArray
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`windowed_moments` of the windows, computed once for variance and mean.
+
+    Both families of a point carry the same window over the same chunks, so the second
+    asks for the very windows of the very values: the last answer is kept for them.
+    """
+    global _last_moments  # noqa: PLW0603
+    last = _last_moments
+    if (
+        last is not None
+        and last[0] is values
+        and np.array_equal(last[1], starts)
+        and np.array_equal(last[2], length)
+    ):
+        return last[3]
+    found = windowed_moments(values, starts, length)
+    _last_moments = (values, starts, length, found)
+    return found
+
+
 def format_bound(value: float) -> str:
     """A bound as text: six significant digits, integers without a fraction."""
     if math.isfinite(value) and value == int(value) and abs(value) < 1e15:
@@ -75,7 +106,7 @@ def trigger_topic(variables: Sequence[Variable]) -> str:
     return ""
 
 
-class _Timed:
+class TimedState:
     """Shared machinery: the window carried across chunks, the extremes, finalize."""
 
     family = ""
@@ -86,6 +117,10 @@ class _Timed:
         self.window = float(window)
         self.tracker = WindowTracker(self.window, len(self.names))
         self.extremes = Extremes(max(len(self.names), 1))
+
+    def update(self, samples: Samples) -> None:
+        """Add the windows of a chunk of the point's samples (each family its statistic)."""
+        raise NotImplementedError
 
     def end_run(self) -> None:
         """Windows never span runs."""
@@ -138,7 +173,7 @@ class _Timed:
         return found
 
 
-class FrequencyState(_Timed):
+class FrequencyState(TimedState):
     """Algorithm 2: ``freq_min <= messages per second <= freq_max`` over full windows."""
 
     family = "frequency"
@@ -161,7 +196,7 @@ class FrequencyState(_Timed):
         return {"window": self.window, "topic": self.topic or context.point}
 
 
-class VarianceState(_Timed):
+class VarianceState(TimedState):
     """Algorithm 3: ``var_min <= window variance <= var_max`` per trigger variable."""
 
     family = "variance"
@@ -174,11 +209,47 @@ class VarianceState(_Timed):
         )
         length = ends - starts + 1
         keep = length >= 2
-        var = windowed_variances(values, starts[keep], length[keep])
+        var = moments(values, starts[keep], length[keep])[1]
         self.extremes.add(var, np.isfinite(var))
 
 
-class RateState(_Timed):
+class MeanState(TimedState):
+    """``mean_min <= window mean <= mean_max`` per trigger variable (windows of at least two
+    messages, as the variance's)."""
+
+    family = "mean"
+    label = "mean"
+
+    def update(self, samples: Samples) -> None:
+        """The mean of every defined window of at least two messages."""
+        _, values, ends, starts = self.tracker.advance(
+            np.asarray(samples.time, dtype=np.float64), self._values(samples)
+        )
+        length = ends - starts + 1
+        keep = length >= 2
+        mean = moments(values, starts[keep], length[keep])[0]
+        self.extremes.add(mean, np.isfinite(mean))
+
+
+class StepState(TimedState):
+    """``step_min <= v_last - v_previous <= step_max`` per trigger variable, over the windows
+    that hold a previous message."""
+
+    family = "step"
+    label = "step"
+
+    def update(self, samples: Samples) -> None:
+        """The last change of every defined window of at least two messages."""
+        _, values, ends, starts = self.tracker.advance(
+            np.asarray(samples.time, dtype=np.float64), self._values(samples)
+        )
+        ends = ends[ends > starts]
+        with np.errstate(all="ignore"):
+            step = values[ends] - values[ends - 1]
+        self.extremes.add(step, np.isfinite(step))
+
+
+class RateState(TimedState):
     """Algorithm 4 (errata fixed): ``rate_min <= window change rate <= rate_max``."""
 
     family = "rate"
@@ -199,10 +270,11 @@ class RateState(_Timed):
 
 def make_states(
     variables: Sequence[Variable], tunables: Tunables, families: Collection[str]
-) -> list[FrequencyState | VarianceState | RateState]:
-    """The enabled time-related states of one point (``frequency``, ``variance``, ``rate``)."""
+) -> list[TimedState]:
+    """The enabled time-related states of one point (``frequency``, ``variance``, ``rate``,
+    ``mean``, ``step``)."""
     enabled = set(families)
-    states: list[FrequencyState | VarianceState | RateState] = []
+    states: list[TimedState] = []
     names = tuple(v.name for v in tracked(variables))
     if "frequency" in enabled:
         states.append(FrequencyState(trigger_topic(variables), tunables.window))
@@ -210,6 +282,10 @@ def make_states(
         states.append(VarianceState(names, tunables.window))
     if "rate" in enabled and names:
         states.append(RateState(names, tunables.window))
+    if MEAN in enabled and names:
+        states.append(MeanState(names, tunables.window))
+    if STEP in enabled and names:
+        states.append(StepState(names, tunables.window))
     return states
 
 
@@ -220,5 +296,5 @@ def _one(name: str) -> StateBuilder:
     return build
 
 
-for _name in (FREQUENCY, VARIANCE, RATE):
+for _name in (FREQUENCY, VARIANCE, RATE, MEAN, STEP):
     builds(_name)(_one(_name))

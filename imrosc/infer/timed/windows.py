@@ -98,11 +98,9 @@ def _dyadic(values: Sequence[float]) -> tuple[int, float, float]:
     return _combine(na, ma, m2a, nb, mb, m2b)
 
 
-def window_variance(values: Sequence[float]) -> float:
-    """The reference fixed-algorithm sample variance of one window (NaN if ``len < 2``)."""
+def _fixed(values: Sequence[float]) -> tuple[int, float, float]:
+    """``(n, mean, M2)`` of a window of at least one value, by the fixed algorithm."""
     size = len(values)
-    if size < 2:
-        return math.nan
     acc: tuple[int, float, float] | None = None
     pos = 0
     k = 0
@@ -113,7 +111,19 @@ def window_variance(values: Sequence[float]) -> float:
             pos += 1 << k
         k += 1
     assert acc is not None
-    return acc[2] / (size - 1)
+    return acc
+
+
+def window_variance(values: Sequence[float]) -> float:
+    """The reference fixed-algorithm sample variance of one window (NaN if ``len < 2``)."""
+    size = len(values)
+    return math.nan if size < 2 else _fixed(values)[2] / (size - 1)
+
+
+def window_mean(values: Sequence[float]) -> float:
+    """The reference fixed-algorithm mean of one window (NaN if ``len < 2``): the mean the
+    variance's dyadic combination carries."""
+    return math.nan if len(values) < 2 else _fixed(values)[1]
 
 
 def _levels(values: FloatArray, top: int) -> tuple[list[FloatArray], list[FloatArray]]:
@@ -141,6 +151,7 @@ def _block_by_length(
     start: IntArray,
     length: IntArray,
     out: FloatArray,
+    out_mean: FloatArray,
 ) -> None:
     lengths, inverse = np.unique(length, return_inverse=True)
     for group, size in enumerate(lengths.tolist()):
@@ -169,8 +180,9 @@ def _block_by_length(
             bm2 += acc_m2
             bm2 += d
             acc_mean, acc_m2, na = new_mean, bm2, n
-        assert acc_m2 is not None
+        assert acc_m2 is not None and acc_mean is not None
         out[rows] = acc_m2 / (size - 1)
+        out_mean[rows] = acc_mean
 
 
 def _block_by_bits(
@@ -179,6 +191,7 @@ def _block_by_bits(
     start: IntArray,
     length: IntArray,
     out: FloatArray,
+    out_mean: FloatArray,
 ) -> None:
     count, width = out.shape
     acc_mean = np.zeros((count, width))
@@ -209,18 +222,24 @@ def _block_by_bits(
         np.copyto(acc_m2, bm2, where=first)
         acc_n += np.where(bit, block, 0)
     out[:] = acc_m2 / (length - 1)[:, None]
+    out_mean[:] = acc_mean
 
 
-def windowed_variances(values: FloatArray, start: IntArray, length: IntArray) -> FloatArray:
-    """Fixed-algorithm variances of the windows ``values[start[w] : start[w] + length[w]]``.
+def windowed_moments(
+    values: FloatArray, start: IntArray, length: IntArray
+) -> tuple[FloatArray, FloatArray]:
+    """Fixed-algorithm means and variances of the windows ``values[start[w] : start[w] +
+    length[w]]``: the mean is the combined blocks' mean, the very float the variance's
+    algorithm carries (so inference and a monitor holding the window agree bit for bit).
 
-    ``values`` is ``(rows, variables)``; the result is ``(windows, variables)``. Every
+    ``values`` is ``(rows, variables)``; each result is ``(windows, variables)``. Every
     ``length`` must be at least 2.
     """
     count = len(start)
     out = np.empty((count, values.shape[1]))
+    out_mean = np.empty((count, values.shape[1]))
     if count == 0:
-        return out
+        return out_mean, out
     with np.errstate(all="ignore"):
         for first in range(0, count, _WINDOW_BLOCK):
             sl = slice(first, first + _WINDOW_BLOCK)
@@ -229,12 +248,18 @@ def windowed_variances(values: FloatArray, start: IntArray, length: IntArray) ->
             end = int((st + ln).max())
             top = int(ln.max()).bit_length() - 1
             means, m2s = _levels(np.ascontiguousarray(values[base:end]), top)
-            target = out[sl]
+            target, target_mean = out[sl], out_mean[sl]
             if len(np.unique(ln)) <= _MAX_GROUPS:
-                _block_by_length(means, m2s, st - base, ln, target)
+                _block_by_length(means, m2s, st - base, ln, target, target_mean)
             else:
-                _block_by_bits(means, m2s, st - base, ln, target)
-    return out
+                _block_by_bits(means, m2s, st - base, ln, target, target_mean)
+    return out_mean, out
+
+
+def windowed_variances(values: FloatArray, start: IntArray, length: IntArray) -> FloatArray:
+    """Fixed-algorithm variances of the windows ``values[start[w] : start[w] + length[w]]``
+    (:func:`windowed_moments`)."""
+    return windowed_moments(values, start, length)[1]
 
 
 class WindowTracker:

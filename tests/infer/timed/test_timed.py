@@ -16,6 +16,7 @@ from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, V
 from imrosc.infer.timed import (
     FrequencyState,
     RateState,
+    TimedState,
     VarianceState,
     effective_width,
     make_states,
@@ -28,7 +29,7 @@ from imrosc.ir import Tunables
 EPOCH = 1.7e9
 X = Variable("x", "float", topic="/a", path="x")
 Y = Variable("y", "float", topic="/a", path="y")
-States = FrequencyState | VarianceState | RateState
+States = TimedState
 
 
 def samples(time: Sequence[float] | FloatArray, run: int = 0, **columns: Any) -> Samples:
