@@ -35,7 +35,6 @@ from imrosc.calibrate.tolerance import tolerance, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
-from imrosc.runtime.families import STEP
 
 Key = tuple[Any, ...]
 
@@ -153,12 +152,6 @@ class Envelopes:
                 ]
             elif self._unstable(invariant, found):
                 self._drop(invariant, self.dropped)
-        self.step_limits = sum(
-            len(limits)
-            for invariant in document["invariants"]
-            if invariant["family"] == STEP and (limits := self.limits.get(invariant["id"]))
-        )
-        """The limits of every step invariant (they share the budget: :meth:`_level`)."""
 
     def untested(self, units: set[int]) -> set[str]:
         """The invariants about which a unit outside ``units``, replayed against the
@@ -240,15 +233,6 @@ class Envelopes:
         out["invariants"] = kept
         return out
 
-    def _level(self, invariant: Mapping[str, Any], limits: Sequence[_Limit]) -> float:
-        """The probability a new run may break one of the invariant's limits with: the
-        budget over its ``m`` limits, or for a step (whose violation alarms at once, with
-        no rule to hold it back) the budget over every step limit of the file, so that
-        together they alarm on a new run with probability at most the budget."""
-        if invariant["family"] == STEP:
-            return self.budget / max(1, self.step_limits)
-        return self.budget / len(limits)
-
     def _widen(
         self,
         invariant: dict[str, Any],
@@ -267,7 +251,7 @@ class Envelopes:
             if base is None:
                 continue
             counted = limit.slot.quantum if limit.slot.scale == "count" else 0.0
-            tol = tolerance(known, base, self._level(invariant, limits), counted)
+            tol = tolerance(known, base, self.budget / len(limits), counted)
             if tol is None:  # one unit alone reaches this limit: what it did, no more
                 tol = 0.0
             if tol == 0 and final and limit.slot.scale != "count":

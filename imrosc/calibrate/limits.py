@@ -6,7 +6,7 @@ invariant and its *support* in every unit (a run, or a segment of one): how far 
 alone went. It compares them in the limit's scale:
 
 * ``add``: the value itself (bounds and array elements, change rates, window means,
-  steps, interval times);
+  interval times);
 * ``log``: the logarithm (variance: a tolerance is a factor, so a frozen sensor, whose
   variance falls to zero, still breaks a lower bound however wide);
 * ``count``: whole counts of ``quantum`` (messages per window for a frequency, events for an
@@ -43,15 +43,14 @@ from imrosc.runtime.families import (
     ONE_OF,
     POLYGON,
     RATE,
-    STEP,
     STRING_ONE_OF,
     VARIANCE,
 )
 
 Scale = Literal["add", "log", "count"]
 
-WIDENED = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP, VARIANCE, FREQUENCY, INTERVAL, POLYGON})
-ADDITIVE = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP})
+WIDENED = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE, FREQUENCY, INTERVAL, POLYGON})
+ADDITIVE = frozenset({BOUNDS, ARRAY, RATE, MEAN})
 """Ranges widened in the value's own scale."""
 """Families whose limits calibration widens."""
 SETS = frozenset({ONE_OF, STRING_ONE_OF, ARCHITECTURE})

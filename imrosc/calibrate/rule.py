@@ -30,13 +30,15 @@ import multiprocessing
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, NamedTuple
 
 from imrosc.calibrate.tolerance import conformal, too_many
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
 from imrosc.runtime import Engine
 from imrosc.runtime.alarms import AlarmRule, Fed
+from imrosc.runtime.families import WINDOW as WINDOW_FAMILIES
 
 WINDOW = 1.0
 """Seconds of the agreement rule's window."""
@@ -47,13 +49,14 @@ HELD_BACK = AlarmRule(persist=1 << 30, distinct=0, window=WINDOW)
 def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[str, Any]:
     """What the rule of any subset of the invariants needs from a unit's violating samples
     (:attr:`imrosc.runtime.alarms.AlarmTracker.fed`) and event alarms, compactly: per
-    invariant its point, longest episode (samples, seconds) and the times its counted
+    invariant its point, family, longest episode (samples, seconds) and the times its counted
     violations cover, each violation's time widened by ``window`` and overlapping ones
     merged."""
     found: dict[str, dict[str, Any]] = {}
-    for time, point, ident, n, counted, lasted in fed:
+    for time, point, ident, n, counted, lasted, family in fed:
         entry = found.setdefault(
-            ident, {"point": point, "persist": 0, "lasting": 0.0, "evidence": []}
+            ident,
+            {"point": point, "family": family, "persist": 0, "lasting": 0.0, "evidence": []},
         )
         entry["persist"] = max(entry["persist"], n)
         entry["lasting"] = max(entry["lasting"], lasted)
@@ -83,6 +86,8 @@ class HeldOut:
     persist: int = 0
     lasting: float = 0.0
     distinct: int = 0
+    families: dict[str, tuple[int, float]] = field(default_factory=dict, repr=False)
+    """Per family, its longest episode (samples, seconds)."""
     event_alarms: int = 0
     absent: list[str] = field(default_factory=list, repr=False)
     """The file's invariants this unit says nothing about: its fold's document held them
@@ -99,7 +104,9 @@ class HeldOut:
 
     def settle(self, dropped: set[str]) -> None:
         """Its figures without the ``dropped`` invariants."""
-        self.persist, self.lasting, self.distinct, _ = covered(self.trace, self.broken - dropped)
+        figures = covered(self.trace, self.broken - dropped)
+        self.persist, self.lasting, self.distinct = figures[:3]
+        self.families = dict(figures.families)
         self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
 
     def as_json(self) -> dict[str, Any]:
@@ -117,31 +124,43 @@ class HeldOut:
         }
 
 
-Figures = tuple[int, float, int, bool]
-"""A held-out unit's longest episode (samples, seconds), largest agreement, and whether
-an event alarm came."""
+class Figures(NamedTuple):
+    """A held-out unit's longest episode (samples, seconds), largest agreement, whether an
+    event alarm came, and per family its longest episode (samples, seconds)."""
+
+    persist: int
+    lasting: float
+    distinct: int
+    event: bool
+    families: Mapping[str, tuple[int, float]] = MappingProxyType({})
 
 
 def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
     """From one held-out unit's trace (:func:`trace_of`), with only the ``kept``
     invariants: its longest episode (samples, seconds), its largest agreement (distinct
-    invariants of a point whose violations fall within one window) and whether an event
-    alarm came.
+    invariants of a point whose violations fall within one window), whether an event
+    alarm came, and each family's longest episode (a trace without families: none).
 
     >>> trace = {"a": {"point": "p", "persist": 3, "lasting": 0.1, "evidence": [[0.0, 1.0]]},
     ...          "b": {"point": "p", "persist": 1, "evidence": [[0.5, 1.5]]},
     ...          "c": {"point": "p", "persist": 9, "lasting": 0.4, "evidence": [[5.0, 6.0]],
-    ...                "event": True}}
-    >>> covered(trace, {"a", "b"}), covered(trace, {"a", "c"})
-    ((3, 0.1, 2, False), (9, 0.4, 1, True))
+    ...                "event": True, "family": "mean"}}
+    >>> covered(trace, {"a", "b"})[:4], covered(trace, {"a", "c"})
+    ((3, 0.1, 2, False), Figures(persist=9, lasting=0.4, distinct=1, event=True, \
+families={'mean': (9, 0.4)}))
     """
     persist, lasting, event = 0, 0.0, False
+    families: dict[str, tuple[int, float]] = {}
     edges: dict[str, list[tuple[float, int]]] = {}
     for ident, entry in traces.items():
         if ident not in kept:
             continue
-        persist = max(persist, int(entry.get("persist", 0)))
-        lasting = max(lasting, float(entry.get("lasting", 0.0)))
+        own = int(entry.get("persist", 0)), float(entry.get("lasting", 0.0))
+        persist, lasting = max(persist, own[0]), max(lasting, own[1])
+        family = entry.get("family")
+        if family:
+            before = families.get(family, (0, 0.0))
+            families[family] = (max(before[0], own[0]), max(before[1], own[1]))
         event = event or bool(entry.get("event"))
         for start, end in entry.get("evidence", ()):
             edges.setdefault(str(entry.get("point", "")), []).extend(
@@ -153,22 +172,55 @@ def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
         for _, step in sorted(found, key=lambda e: (e[0], -e[1])):
             open_ += step
             distinct = max(distinct, open_)
-    return persist, lasting, distinct, event
+    return Figures(persist, lasting, distinct, event, families)
 
 
-def rule_from(figures: Sequence[tuple[int, float, int]], budget: float) -> tuple[AlarmRule, bool]:
+def _seconds(lasting: float) -> float:
+    """Just past ``lasting`` seconds: one more millisecond."""
+    return (math.floor(lasting * 1000) + 1) / 1000
+
+
+def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, bool]:
     """The rule just past the conformal ``1 - budget/3`` rank of held-out units' longest
-    episodes (samples, seconds) and largest agreements; whether they certify it."""
-    persist, sure_persist = conformal([p + 1 for p, _, _ in figures], budget / 3)
-    lasting, sure_lasting = conformal([s for _, s, _ in figures], budget / 3)
-    distinct, sure_distinct = conformal([d + 1 for _, _, d in figures], budget / 3)
+    episodes (samples, seconds) and largest agreements; whether they certify it.
+
+    Each window family (:data:`imrosc.runtime.families.WINDOW`: frequency, variance, rate,
+    mean) whose invariants some unit broke has its own persistence, past the rank of
+    the units' longest episodes of that family at ``budget / 3`` shared among those
+    families. A window statistic's nominal violation lasts about as long as the windows that
+    hold the odd samples, whereas a value family's (a bound, a polygon, a relation) lasts as
+    long as the robot stays somewhere the training runs never went: a held-out landing that
+    broke a polygon over position for 12 s would make a scaled accelerometer, whose window
+    mean stays out from the onset on, wait 12 s too. The value families, and a window
+    family no unit broke, share the pooled persistence: how long a new run may stay
+    somewhere new is not a property of one family, and a few units cannot tell it per family.
+
+    >>> rule, sure = rule_from([Figures(3, 0.2, 1, False, {"mean": (3, 0.2)}),
+    ...                         Figures(40, 2.0, 2, False, {"polygon": (40, 2.0)})], 0.05)
+    >>> rule.persistence("mean"), rule.persistence("polygon"), rule.persistence("rate")
+    ((4, 0.201), (41, 2.001), (41, 2.001))
+    """
+    persist, sure_persist = conformal([f.persist + 1 for f in figures], budget / 3)
+    lasting, sure_lasting = conformal([f.lasting for f in figures], budget / 3)
+    distinct, sure_distinct = conformal([f.distinct + 1 for f in figures], budget / 3)
+    names = sorted({name for f in figures for name in f.families if name in WINDOW_FAMILIES})
+    share = budget / 3 / max(1, len(names))
+    families = []
+    sure = sure_persist and sure_lasting and sure_distinct
+    for name in names:
+        own = [f.families.get(name, (0, 0.0)) for f in figures]
+        own_persist, sure_own = conformal([p + 1 for p, _ in own], share)
+        own_lasting, sure_seconds = conformal([s for _, s in own], share)
+        families.append((name, max(1, int(own_persist)), _seconds(own_lasting)))
+        sure = sure and sure_own and sure_seconds
     rule = AlarmRule(
         persist=max(1, int(persist)),
-        seconds=(math.floor(lasting * 1000) + 1) / 1000,
+        seconds=_seconds(lasting),
         distinct=max(1, int(distinct)),
         window=WINDOW,
+        families=tuple(families),
     )
-    return rule, sure_persist and sure_lasting and sure_distinct
+    return rule, sure
 
 
 def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
@@ -180,28 +232,35 @@ def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
     if not units:
         return None
     budget = float(calibration.get("budget", 0.05))
-    figures = [covered(u["trace"], kept) for u in units]
-    rule, _ = rule_from([(p, s, d) for p, s, d, _ in figures], budget)
+    rule, _ = rule_from([covered(u["trace"], kept) for u in units], budget)
     return rule
 
 
 def alarms_under(figures: Figures, rule: AlarmRule) -> bool:
     """Whether a held-out unit with these :func:`covered` figures raises an alarm under
-    ``rule``.
+    ``rule`` (each family's episodes under its own persistence, when the rule and the
+    figures have families).
 
     >>> rule = AlarmRule(persist=5, seconds=1.0, distinct=3)
-    >>> [alarms_under(f, rule) for f in [(4, 0.9, 2, False), (5, 0.2, 0, False),
-    ...                                  (1, 1.0, 0, False), (1, 0.0, 3, False),
-    ...                                  (0, 0.0, 0, True)]]
+    >>> [alarms_under(Figures(*f), rule) for f in [(4, 0.9, 2, False), (5, 0.2, 0, False),
+    ...                                            (1, 1.0, 0, False), (1, 0.0, 3, False),
+    ...                                            (0, 0.0, 0, True)]]
     [False, True, True, True, True]
+    >>> own = AlarmRule(persist=50, seconds=9.0, families=(("mean", 5, 1.0),))
+    >>> alarms_under(Figures(6, 0.5, 0, False, {"mean": (6, 0.5)}), own)
+    True
     """
-    persist, lasting, distinct, event = figures
-    return (
-        event
-        or persist >= rule.persist
-        or (rule.seconds is not None and lasting >= rule.seconds)
-        or (rule.distinct > 0 and distinct >= rule.distinct)
-    )
+    if figures.event or (rule.distinct > 0 and figures.distinct >= rule.distinct):
+        return True
+    if not (rule.families and figures.families):
+        return figures.persist >= rule.persist or (
+            rule.seconds is not None and figures.lasting >= rule.seconds
+        )
+    for family, (persist, lasting) in figures.families.items():
+        most, seconds = rule.persistence(family)
+        if persist >= most or (seconds is not None and lasting >= seconds):
+            return True
+    return False
 
 
 @dataclass(frozen=True)
@@ -352,5 +411,7 @@ def calibrate_rule(
         for unit in held_out:
             if unit.fold == fold:
                 unit.settle(others)
-    rule, certified = rule_from([(h.persist, h.lasting, h.distinct) for h in held_out], budget)
+    rule, certified = rule_from(
+        [Figures(h.persist, h.lasting, h.distinct, False, h.families) for h in held_out], budget
+    )
     return RuleResult(rule, certified, dropped, held_out)

@@ -9,9 +9,9 @@ from imrosc.infer.daikon.common import number_text
 from imrosc.infer.polygon.text import polygon_text
 from imrosc.infer.temporal.interval import format_multiset
 from imrosc.infer.timed.families import format_bound
-from imrosc.runtime.families import ARRAY, BOUNDS, FREQUENCY, MEAN, RATE, STEP, VARIANCE
+from imrosc.runtime.families import ARRAY, BOUNDS, FREQUENCY, MEAN, RATE, VARIANCE
 
-_RANGES = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP, VARIANCE, FREQUENCY})
+_RANGES = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE, FREQUENCY})
 
 
 def subject(text: str) -> str:

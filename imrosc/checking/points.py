@@ -10,7 +10,7 @@ into the next chunk), kept where every input has been seen and every condition h
   and any sample with a value not finite); the engine's own :meth:`Checks.check` then finds
   the violations of those samples alone;
 * time windows: frequency, variance and mean (the same dyadic algorithm, vectorised by
-  :func:`~imrosc.infer.timed.windows.windowed_moments`), change rate and step of every sample's
+  :func:`~imrosc.infer.timed.windows.windowed_moments`) and change rate of every sample's
   window at once; the engine's :meth:`WindowChecks.check` gives the violations of the
   windows out of bounds;
 * the silence timer (a frequency lower bound checked at every message of the bag while the
@@ -39,7 +39,7 @@ from imrosc.infer.timed.windows import windowed_moments
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
 from imrosc.runtime.engine import PARAMS, Engine, _Point
-from imrosc.runtime.families import MEAN, RATE, STEP, VARIANCE
+from imrosc.runtime.families import MEAN, RATE, VARIANCE
 from imrosc.runtime.violation import Violation
 
 from .words import RowChecks
@@ -305,8 +305,7 @@ class ChunkPoint:
         return flagged
 
     def _windows(self, time: FloatArray, values: FloatArray) -> dict[str, Any]:
-        """Every sample's window: defined, frequency, variance, rate, mean and step, the window's
-        rows."""
+        """Every sample's window: defined, frequency, variance, rate and mean, the window's rows."""
         point = self.point
         windows = point.windows
         assert windows is not None
@@ -335,12 +334,6 @@ class ChunkPoint:
                 mean[wide], variance[wide] = windowed_moments(all_values, starts[wide], size[wide])
             out[VARIANCE] = variance
             out[MEAN] = mean
-        if STEP in families:
-            step = np.full((len(time), width), np.nan)
-            wide = np.flatnonzero(size >= 2)
-            with np.errstate(all="ignore"):
-                step[wide] = all_values[ends[wide]] - all_values[ends[wide] - 1]
-            out[STEP] = step
         if RATE in families:
             with np.errstate(all="ignore"):
                 dt = all_time[ends] - all_time[starts]

@@ -29,7 +29,7 @@ from imrosc.infer.core import FamilyState, FinalizeContext, Invariant, Samples, 
 from imrosc.infer.registry import make_point_states
 from imrosc.ir import Tunables
 from imrosc.progress import bag_done
-from imrosc.runtime.families import BOUNDS, MEAN, RATE, STEP, VARIANCE
+from imrosc.runtime.families import BOUNDS, MEAN, RATE, VARIANCE
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec
 from imrosc.translate.stream import BagTranslator
@@ -138,13 +138,13 @@ def count_nonfinite(counts: dict[str, list[int]], samples: Samples) -> None:
         found[2] += len(bad) - nan - positive
 
 
-WINDOW_STATISTICS = frozenset({VARIANCE, RATE, MEAN, STEP})
+WINDOW_STATISTICS = frozenset({VARIANCE, RATE, MEAN})
 """Window statistics of one variable: a constant's say nothing its one-of does not."""
 
 
 def suppress_implied(found: list[Invariant]) -> list[Invariant]:
-    """Drop what another family's invariant implies: a constant has no variance, rate, step
-    and no mean but itself.
+    """Drop what another family's invariant implies: a constant has no variance, no rate and
+    no mean but itself.
 
     >>> from imrosc.infer.core import Invariant
     >>> c = Invariant("one-of", "one-of", "a", ("x",), {"values": [0.0]}, "x == 0", 9, 0.99)
@@ -173,25 +173,22 @@ def suppress_implied(found: list[Invariant]) -> list[Invariant]:
 
 
 def informative_only(found: list[Invariant]) -> list[Invariant]:
-    """Drop the window means and steps that say little beyond their variable's bounds.
+    """Drop the window means that say little beyond their variable's bounds.
 
     The mean over a window of a smooth signal is nearly the signal: its envelope is the
     bounds' again, and its violations last as long as the signal's excursion, so it adds
     false alarms and no evidence. It is kept where the windows average most of the values'
-    spread away (its envelope spans at most half the bounds' range: a noisy sensor's level).
-    The steps of noise reach across the values' range: a step envelope wider than the
-    range says nothing (it is kept where steps are small against the range: a smooth
-    estimate, whose jump is then a fault). Only the merged invariants are filtered: each
-    run's own keep every statistic, so calibration reads every run's extreme.
+    spread away: its envelope spans at most half the bounds' range (a noisy sensor's level,
+    which a scaled or biased reading moves while every sample stays within the range). Only
+    the merged invariants are filtered: each run's own keep every mean, so calibration reads
+    every run's extreme.
 
     >>> from imrosc.infer.core import Invariant
     >>> def make(family, low, high):
     ...     return Invariant(family, "range", "a", ("x",), {"min": low, "max": high}, "", 9, 0.9)
-    >>> found = [make("bounds", 0.0, 10.0), make("mean", 4.0, 6.0), make("step", -1.0, 1.0)]
-    >>> [i.family for i in informative_only(found)]
-    ['bounds', 'mean', 'step']
-    >>> found = [make("bounds", 0.0, 10.0), make("mean", 1.0, 9.0), make("step", -8.0, 7.0)]
-    >>> [i.family for i in informative_only(found)]
+    >>> [i.family for i in informative_only([make("bounds", 0.0, 10.0), make("mean", 4.0, 6.0)])]
+    ['bounds', 'mean']
+    >>> [i.family for i in informative_only([make("bounds", 0.0, 10.0), make("mean", 1.0, 9.0)])]
     ['bounds']
     """
     spans = {
@@ -201,13 +198,11 @@ def informative_only(found: list[Invariant]) -> list[Invariant]:
     }
     kept: list[Invariant] = []
     for invariant in found:
-        if invariant.family in (MEAN, STEP):
+        if invariant.family == MEAN:
             span = spans.get((invariant.point, invariant.variables[0], invariant.condition))
-            if span is not None:
-                width = invariant.params["max"] - invariant.params["min"]
-                limit = span / 2 if invariant.family == MEAN else span
-                if not width < limit:  # (NaN: not informative either)
-                    continue
+            width = invariant.params["max"] - invariant.params["min"]
+            if span is not None and not width < span / 2:  # (NaN: not informative either)
+                continue
         kept.append(invariant)
     return kept
 

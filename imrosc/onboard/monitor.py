@@ -112,11 +112,21 @@ def alarm_document(
 
     >>> alarm_document({"alarms": {"persist": 4, "distinct": 3}}, {"distinct": 0})["alarms"]
     {'persist': 4, 'distinct': 0}
+
+    A ``persist`` or ``seconds`` given holds for every family (the file's per-family
+    persistence goes):
+
+    >>> rule = {"persist": 40, "families": {"mean": {"persist": 8}}}
+    >>> alarm_document({"alarms": rule}, {"persist": 3})["alarms"]
+    {'persist': 3}
     """
     if not overrides:
         return document
     merged = dict(document)
-    merged["alarms"] = dict(document.get("alarms") or {}, **overrides)
+    alarms = dict(document.get("alarms") or {}, **overrides)
+    if "persist" in overrides or "seconds" in overrides:
+        alarms.pop("families", None)
+    merged["alarms"] = alarms
     return merged
 
 

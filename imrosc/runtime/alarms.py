@@ -4,7 +4,8 @@ A violation is one invariant broken by one sample or one event; an alarm is the 
 decision that the system is in trouble. A point's violations raise an alarm when
 
 * **persistence**: one invariant is violated by ``persist`` consecutive samples of its point
-  (or, when ``seconds`` is set, by consecutive samples spanning at least that long), or
+  (or, when ``seconds`` is set, by consecutive samples spanning at least that long; a
+  family the rule gives its own, :attr:`AlarmRule.families`, by its own), or
 * **agreement**: ``distinct`` different invariants of the point are violated within
   ``window`` seconds,
 
@@ -12,9 +13,7 @@ and an *event* violation (a silent topic, an ordered pair past its maximum time,
 unexpected or missing node, an event sequence outside its pattern) raises one at once: it
 is already the outcome of a timer or of a whole sequence. So does, at the first sample of
 its episode, a violation that is no matter of degree (:func:`at_once`): a learnt
-detector's (its threshold is the calibrated decision already), a **step**'s (a value that
-jumped from one message to the next further than every run's widened extreme: a jump is one
-sample, it cannot persist) and a **frozen variable**'s,
+detector's (its threshold is the calibrated decision already) and a **frozen variable**'s,
 a variance of exactly 0 over the window where every training window varied (a stuck sensor
 repeats its value bit for bit; noise never does). The samples of such an episode are in
 alarm until the invariant holds again.
@@ -44,10 +43,10 @@ from __future__ import annotations
 from collections import deque
 from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
-from .families import DETECTOR, RANGED, STEP, VARIANCE
+from .families import DETECTOR, RANGED, VARIANCE
 from .violation import Violation, json_safe
 
-Fed = Tuple[float, str, str, int, bool, float]
+Fed = Tuple[float, str, str, int, bool, float, str]
 """A violating sample as calibration keeps it (:attr:`AlarmTracker.fed`)."""
 RANGES = RANGED
 """Families whose invariants are the range of one variable."""
@@ -66,11 +65,10 @@ def shapes_of(invariants: Sequence[Mapping[str, Any]]) -> Dict[str, Tuple[bool, 
 
 def at_once(violation: Violation) -> bool:
     """Whether ``violation`` raises an alarm at the first sample of its episode, whatever
-    the rule: a learnt detector's, a step's (a jump is one sample: it cannot persist), or a
-    frozen variable's (variance exactly 0 against a positive minimum; see the module's
-    docstring)."""
+    the rule: a learnt detector's, or a frozen variable's (variance exactly 0 against a
+    positive minimum; see the module's docstring)."""
     family = violation.family
-    return family in (DETECTOR, STEP) or (family == VARIANCE and violation.observed == 0.0)
+    return family == DETECTOR or (family == VARIANCE and violation.observed == 0.0)
 
 
 class AlarmRule(NamedTuple):
@@ -84,31 +82,72 @@ class AlarmRule(NamedTuple):
     """Distinct invariants of a point violated within ``window`` (0: not used)."""
     window: float = 1.0
     """Seconds of the agreement rule."""
+    families: Tuple[Tuple[str, int, Optional[float]], ...] = ()
+    """Per family, its own ``(family, persist, seconds)``: the families whose invariants
+    broke in calibration's held-out runs have the persistence those showed; the others
+    (and every family of a rule without them) ``persist`` and ``seconds``."""
+
+    def persistence(self, family: str) -> Tuple[int, Optional[float]]:
+        """The ``persist`` and ``seconds`` of a family's invariants.
+
+        >>> rule = AlarmRule(persist=50, seconds=2.0, families=(("mean", 8, 0.1),))
+        >>> rule.persistence("mean"), rule.persistence("bounds")
+        ((8, 0.1), (50, 2.0))
+        """
+        for name, persist, seconds in self.families:
+            if name == family:
+                return persist, seconds
+        return self.persist, self.seconds
 
     def as_json(self) -> Dict[str, Any]:
-        return {
+        found: Dict[str, Any] = {
             "persist": self.persist,
             "seconds": self.seconds,
             "distinct": self.distinct,
             "window": self.window,
         }
+        if self.families:
+            found["families"] = {
+                name: {"persist": persist, "seconds": seconds}
+                for name, persist, seconds in self.families
+            }
+        return found
 
     @classmethod
     def from_json(cls, data: Optional[Mapping[str, Any]]) -> AlarmRule:
-        """The rule of an invariants file's ``alarms`` (every violation alarms without it)."""
+        """The rule of an invariants file's ``alarms`` (every violation alarms without it).
+
+        >>> AlarmRule.from_json({"persist": 9, "families": {"mean": {"persist": 3}}})
+        AlarmRule(persist=9, seconds=None, distinct=0, window=1.0, families=(('mean', 3, None),))
+        """
         if not data:
             return EVERY_VIOLATION
         seconds = data.get("seconds")
+        families = []
+        for name, own in sorted((data.get("families") or {}).items()):
+            own_seconds = own.get("seconds")
+            families.append(
+                (
+                    str(name),
+                    max(1, int(own.get("persist", 1))),
+                    None if own_seconds is None else float(own_seconds),
+                )
+            )
         return cls(
             max(1, int(data.get("persist", 1))),
             None if seconds is None else float(seconds),
             max(0, int(data.get("distinct", 0))),
             float(data.get("window", 1.0)),
+            tuple(families),
         )
 
     def overridden(self, **changes: Any) -> AlarmRule:
-        """The rule with the given fields replaced (``None`` values keep the field)."""
-        return self._replace(**{k: v for k, v in changes.items() if v is not None})
+        """The rule with the given fields replaced (``None`` values keep the field); a
+        ``persist`` or ``seconds`` given holds for every family."""
+        given = {k: v for k, v in changes.items() if v is not None}
+        if "persist" in given or "seconds" in given:
+            given.setdefault("families", ())
+        return self._replace(**given)
 
 
 EVERY_VIOLATION = AlarmRule()
@@ -144,8 +183,6 @@ class Alarm(NamedTuple):
             why = "a frozen variable"
         elif v.family == DETECTOR:
             why = "a fault detector"
-        elif v.family == STEP:
-            why = "a jump"
         else:
             why = "an event"
         return f"alarm at {self.time:.3f} s, {self.point}: {why}; {v.invariant} {v.text}"
@@ -178,7 +215,7 @@ class AlarmTracker:
         self.raised: List[Alarm] = []
         self.fed: List[Fed] = []
         """``(time, point, invariant, samples of its episode so far, counted by agreement,
-        seconds since the episode began)`` of every violating sample (``record``)."""
+        seconds since the episode began, family)`` of every violating sample (``record``)."""
 
     def busy(self, point: str) -> bool:
         """Whether ``point`` has an open episode (a clean sample must then be told)."""
@@ -204,6 +241,7 @@ class AlarmTracker:
                         raised.append(Alarm(time, point, "event", (v.invariant,), v))
             found = [v for v in found if not at_once(v)]  # nor persistence nor agreement
         counted = self.evidence(found) if found else found
+        persistence = (rule.persist, rule.seconds)
         counted_ids = {id(v) for v in counted} if self.record else set()
         for v in found:
             episode = episodes.get(v.invariant)
@@ -213,12 +251,21 @@ class AlarmTracker:
             if self.record:
                 lasted = time - episode[0]
                 self.fed.append(
-                    (time, point, v.invariant, int(episode[1]), id(v) in counted_ids, lasted)
+                    (
+                        time,
+                        point,
+                        v.invariant,
+                        int(episode[1]),
+                        id(v) in counted_ids,
+                        lasted,
+                        v.family,
+                    )
                 )
             if episode[2]:
                 continue
-            lasting = rule.seconds is not None and time - episode[0] >= rule.seconds
-            if episode[1] >= rule.persist or lasting:
+            persist, seconds = rule.persistence(v.family) if rule.families else persistence
+            lasting = seconds is not None and time - episode[0] >= seconds
+            if episode[1] >= persist or lasting:
                 episode[2] = 1.0
                 raised.append(Alarm(time, point, "persist", (v.invariant,), v))
         if rule.distinct > 0:

@@ -43,7 +43,6 @@ from .families import (
     ORDER,
     POLYGON,
     RATE,
-    STEP,
     STRING_ONE_OF,
     TERNARY,
     VARIANCE,
@@ -644,7 +643,7 @@ def _inside(polygon: Mapping[str, Any]) -> str:
 
 
 class WindowChecks:
-    """The bounds of a point's frequency, variance, rate, mean and step invariants."""
+    """The bounds of a point's frequency, variance, rate and mean invariants."""
 
     def __init__(self, invariants: Sequence[Mapping[str, Any]], tracked: Sequence[str]) -> None:
         position = {name: k for k, name in enumerate(tracked)}
@@ -653,7 +652,6 @@ class WindowChecks:
             VARIANCE: [],
             RATE: [],
             MEAN: [],
-            STEP: [],
         }
         self.window = 0.0
         for inv in invariants:

@@ -1,5 +1,5 @@
-"""Time windows online: frequency, windowed variance, change rate, mean and last step of
-one program point.
+"""Time windows online: frequency, windowed variance, change rate and mean of one program
+point.
 
 Inference computes every window of a run at once (``imrosc.infer.timed``); this module
 computes the window of each new sample as it arrives, bit for bit the same:
@@ -11,16 +11,15 @@ computes the window of each new sample as it arrives, bit for bit the same:
   t_first)`` (no rate when the times are equal); the variance is the fixed dyadic
   algorithm of ``docs/families/time-and-polygon.md``, whose blocks are memoised per
   sample, so each new sample costs O(log L) block combinations for a window of L samples;
-  the mean is the mean that algorithm carries (windows of two samples or more), the step
-  ``x_last - x_previous`` (windows of two samples or more).
+  the mean is the mean that algorithm carries (windows of two samples or more).
 
 >>> w = Windows(1.0, 1)
 >>> [w.add(0.1 * i, [float(i)]) for i in range(12)][-1]
 True
 >>> w.frequency(), round(float(w.rate()[0]), 9), round(float(w.variance()[0]), 6)
 (10.0, 10.0, 9.166667)
->>> float(w.mean()[0]), float(w.step()[0])
-(6.5, 1.0)
+>>> float(w.mean()[0])
+6.5
 """
 
 from __future__ import annotations
@@ -138,15 +137,6 @@ class Windows:
                 found = _combine(self._block(end - half, level - 1), self._block(end, level - 1))
             cache[level] = found
         return found
-
-    def step(self) -> Any:
-        """Per variable, the last sample less the one before it in the window (NaN below 2
-        samples)."""
-        if self.size() < 2:
-            return np.full(self.variables, np.nan)
-        last = self.count - 1 - self.base
-        with np.errstate(all="ignore"):
-            return self.values[last] - self.values[last - 1]
 
     def variance(self) -> Any:
         """Sample variance per variable over the current window (NaN below 2 samples)."""

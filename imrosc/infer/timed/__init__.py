@@ -1,5 +1,5 @@
 """Time-related invariants (thesis 3.4.1): message frequency, windowed variance, change rate;
-and the window's mean and last step.
+and the window's mean.
 
 ``make_states(variables, tunables, families)`` builds the enabled states of one program
 point; :mod:`imrosc.infer.timed.windows` defines exactly what a window is and how a
@@ -12,7 +12,6 @@ from imrosc.infer.timed.families import (
     FrequencyState,
     MeanState,
     RateState,
-    StepState,
     TimedState,
     VarianceState,
     make_states,
@@ -32,7 +31,6 @@ __all__ = [
     "FrequencyState",
     "MeanState",
     "RateState",
-    "StepState",
     "TimedState",
     "VarianceState",
     "effective_width",

@@ -8,10 +8,7 @@
   initial maximum);
 * ``mean``: the mean of each such variable over the window (the fixed algorithm's mean,
   the very float its variance carries), so a sensor whose level moves (a scaled or offset
-  reading) breaks it although every single sample stays within the variable's range;
-* ``step``: ``v_last - v_previous``, the change from the window's previous message to its
-  last, for the same variables: a value that jumps (a position estimate teleported, a
-  spoofed pose) breaks it although the new values are ordinary.
+  reading) breaks it although every single sample stays within the variable's range.
 
 Each keeps, per variable, the minimum and maximum over all defined windows with the
 position of their first occurrence (:class:`~imrosc.infer.timed.windows.Extremes`), so
@@ -35,7 +32,7 @@ from imrosc.infer.builders import StateBuilder, States, builds
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
 from imrosc.infer.timed.windows import Extremes, IntArray, WindowTracker, windowed_moments
 from imrosc.ir import Tunables
-from imrosc.runtime.families import FREQUENCY, MEAN, RATE, STEP, VARIANCE
+from imrosc.runtime.families import FREQUENCY, MEAN, RATE, VARIANCE
 from imrosc.translate.points import PointSpec
 
 _last: tuple[weakref.ref[Samples], tuple[str, ...], FloatArray] | None = None
@@ -231,24 +228,6 @@ class MeanState(TimedState):
         self.extremes.add(mean, np.isfinite(mean))
 
 
-class StepState(TimedState):
-    """``step_min <= v_last - v_previous <= step_max`` per trigger variable, over the windows
-    that hold a previous message."""
-
-    family = "step"
-    label = "step"
-
-    def update(self, samples: Samples) -> None:
-        """The last change of every defined window of at least two messages."""
-        _, values, ends, starts = self.tracker.advance(
-            np.asarray(samples.time, dtype=np.float64), self._values(samples)
-        )
-        ends = ends[ends > starts]
-        with np.errstate(all="ignore"):
-            step = values[ends] - values[ends - 1]
-        self.extremes.add(step, np.isfinite(step))
-
-
 class RateState(TimedState):
     """Algorithm 4 (errata fixed): ``rate_min <= window change rate <= rate_max``."""
 
@@ -272,7 +251,7 @@ def make_states(
     variables: Sequence[Variable], tunables: Tunables, families: Collection[str]
 ) -> list[TimedState]:
     """The enabled time-related states of one point (``frequency``, ``variance``, ``rate``,
-    ``mean``, ``step``)."""
+    ``mean``)."""
     enabled = set(families)
     states: list[TimedState] = []
     names = tuple(v.name for v in tracked(variables))
@@ -284,8 +263,6 @@ def make_states(
         states.append(RateState(names, tunables.window))
     if MEAN in enabled and names:
         states.append(MeanState(names, tunables.window))
-    if STEP in enabled and names:
-        states.append(StepState(names, tunables.window))
     return states
 
 
@@ -296,5 +273,5 @@ def _one(name: str) -> StateBuilder:
     return build
 
 
-for _name in (FREQUENCY, VARIANCE, RATE, MEAN, STEP):
+for _name in (FREQUENCY, VARIANCE, RATE, MEAN):
     builds(_name)(_one(_name))
