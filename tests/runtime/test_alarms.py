@@ -98,6 +98,30 @@ def test_rule_from_the_file_and_overrides() -> None:
     assert AlarmRule.from_json(rule.as_json()) == rule
 
 
+def test_a_family_of_its_own_persists_by_its_own_rule() -> None:
+    rule = AlarmRule(persist=5, seconds=None, families=(("mean", 2, None),))
+    tracker = AlarmTracker(rule)
+    mean = Violation(0.0, "p", "m", "mean", "range", "mean(x)", 9.0, "[0, 1]")
+    for k in range(4):
+        found = tracker.sample("p", 0.1 * k, [broken("b", 0.1 * k), mean._replace(time=0.1 * k)])
+        assert [a.invariants for a in found] == ([("m",)] if k == 1 else [])
+    (alarm,) = tracker.sample("p", 0.4, [broken("b", 0.4)])
+    assert alarm.invariants == ("b",)  # the pooled rule: the fifth sample
+
+
+def test_a_rule_of_families_round_trips_and_an_override_holds_for_every_family() -> None:
+    rule = AlarmRule(40, 2.0, 9, 1.0, (("mean", 8, 0.5), ("rate", 3, None)))
+    assert rule.as_json()["families"] == {
+        "mean": {"persist": 8, "seconds": 0.5},
+        "rate": {"persist": 3, "seconds": None},
+    }
+    assert AlarmRule.from_json(rule.as_json()) == rule
+    assert rule.persistence("mean") == (8, 0.5) and rule.persistence("bounds") == (40, 2.0)
+    assert rule.overridden(distinct=2).families == rule.families
+    assert rule.overridden(persist=3) == AlarmRule(3, 2.0, 9, 1.0)
+    assert rule.overridden(seconds=1.0).persistence("mean") == (40, 1.0)
+
+
 def document(alarms: dict[str, Any] | None) -> dict[str, Any]:
     doc: dict[str, Any] = {
         "topics": {"/a/x": {"type": "T", "variables": [var("x.v", "v"), var("x.w", "w")]}},

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from imrosc.infer.timed import effective_width, window_starts, window_variance
-from imrosc.infer.timed.windows import WindowTracker, windowed_variances
+from imrosc.infer.timed.windows import WindowTracker, windowed_moments
 from imrosc.runtime.windows import Windows
 from imrosc.runtime.windows import effective_width as runtime_width
 
@@ -58,11 +58,11 @@ def streams(draw: st.DrawFn) -> tuple[float, FloatArray, FloatArray, list[int]]:
 
 def inference(
     window: float, times: FloatArray, values: FloatArray, cuts: list[int]
-) -> dict[int, tuple[float, FloatArray, FloatArray]]:
-    """Per defined window (by the index of its last sample): frequency, variance, rate, as
-    inference's states compute them, chunk by chunk."""
+) -> dict[int, tuple[float, FloatArray, FloatArray, FloatArray]]:
+    """Per defined window (by the index of its last sample): frequency, variance, rate and
+    mean, as inference's states compute them, chunk by chunk."""
     tracker = WindowTracker(window, values.shape[1])
-    found: dict[int, tuple[float, FloatArray, FloatArray]] = {}
+    found: dict[int, tuple[float, FloatArray, FloatArray, FloatArray]] = {}
     bounds = [0, *cuts, len(times)]
     for lo, hi in itertools.pairwise(bounds):
         if lo == hi:
@@ -73,13 +73,14 @@ def inference(
         length = ends - starts + 1
         keep = length >= 2
         variance = np.full((len(ends), values.shape[1]), np.nan)
-        variance[keep] = windowed_variances(all_values, starts[keep], length[keep])
+        mean = np.full((len(ends), values.shape[1]), np.nan)
+        mean[keep], variance[keep] = windowed_moments(all_values, starts[keep], length[keep])
         dt = all_time[ends] - all_time[starts]  # RateState
         with np.errstate(all="ignore"):
             rate = (all_values[ends] - all_values[starts]) / dt[:, None]
         rate[~(dt > 0)] = np.nan
         for k, end in enumerate(ends.tolist()):
-            found[offset + end] = (float(frequency[k]), variance[k], rate[k])
+            found[offset + end] = (float(frequency[k]), variance[k], rate[k], mean[k])
     return found
 
 
@@ -99,10 +100,11 @@ def test_windows_agree_with_inference_bit_for_bit(
         assert online.last_time() == time
         if not defined:
             continue
-        frequency, variance, rate = expected[i]
+        frequency, variance, rate, mean = expected[i]
         assert online.frequency() == frequency
         assert bits(online.variance()) == bits(variance)
         assert bits(online.rate()) == bits(rate)
+        assert bits(online.mean()) == bits(mean)
 
 
 @settings(max_examples=100, deadline=None)
@@ -173,10 +175,11 @@ def test_long_irregular_streams_and_eviction() -> None:
             if not online.add(float(times[i]), values[i]):
                 assert i not in expected
                 continue
-            frequency, variance, rate = expected[i]
+            frequency, variance, rate, mean = expected[i]
             assert online.frequency() == frequency
             assert bits(online.variance()) == bits(variance)
             assert bits(online.rate()) == bits(rate)
+            assert bits(online.mean()) == bits(mean)
             checked += 1
         assert checked == len(expected) > size // 2
         assert online.base > 0  # old samples were dropped

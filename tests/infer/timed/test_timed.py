@@ -20,7 +20,9 @@ from imrosc.infer.timed import (
     VarianceState,
     effective_width,
     make_states,
+    window_mean,
     window_variance,
+    windowed_moments,
     windowed_variances,
 )
 from imrosc.infer.timed.windows import Extremes
@@ -265,6 +267,41 @@ def test_vectorised_variance_equals_the_reference_bit_for_bit(
         assert got[k] == want or (math.isnan(got[k]) and math.isnan(want))
 
 
+def test_window_means_are_the_variance_algorithm_s_means_bit_for_bit() -> None:
+    """The mean a window's variance carries, on both of inference's paths (few distinct
+    lengths: grouped; many: bit masks), is the reference algorithm's, and near numpy's."""
+    rng = np.random.default_rng(3)
+    values = rng.normal(size=(400, 2)) * 1e3 + 9.81
+    for lengths in (rng.integers(2, 5, 200), rng.integers(2, 120, 200)):
+        start = rng.integers(0, 400 - 120, 200)
+        means, variances = windowed_moments(values, start, lengths)
+        assert np.array_equal(variances, windowed_variances(values, start, lengths))
+        for k in range(200):
+            window = values[start[k] : start[k] + lengths[k]]
+            for c in range(2):
+                assert means[k, c] == window_mean(window[:, c].tolist())
+            assert np.allclose(means[k], window.mean(axis=0), rtol=1e-12)
+    assert math.isnan(window_mean([1.0]))
+
+
+def test_a_scaled_sensor_breaks_its_mean_but_not_its_bounds() -> None:
+    """Noise around 9.81 with shocks to 25: a reading scaled by 1.5 stays within the bounds
+    and leaves the window mean's envelope."""
+    rng = np.random.default_rng(5)
+    time = (EPOCH + np.arange(2000) * 0.01).tolist()
+    good = 9.81 + rng.normal(0, 2.0, 2000)
+    good[::400] = 25.0
+    states = make_states((X,), Tunables(window=1.0), {"mean"})
+    run_all(states, [samples(time, 0, x=good)])
+    (mean,) = states[0].finalize(context())
+    scaled = 9.81 * 1.5 + rng.normal(0, 2.0 * 1.5, 2000)
+    assert float(np.max(scaled)) < 25.0 and float(np.min(scaled)) > float(np.min(good))
+    states = make_states((X,), Tunables(window=1.0), {"mean"})
+    run_all(states, [samples(time, 0, x=scaled)])
+    (moved,) = states[0].finalize(context())
+    assert moved.params["min"] > mean.params["max"]
+
+
 def test_the_bit_mask_path_equals_the_grouped_path() -> None:
     rng = np.random.default_rng(0)
     values = rng.normal(size=(400, 3)) * 1e4 + 7
@@ -286,9 +323,10 @@ def test_constant_windows_have_exactly_zero_variance() -> None:
 
 
 def brute(time: FloatArray, values: FloatArray, window: float) -> dict[str, list[float]]:
-    """Every defined window's frequency, variance and rate, straight from the definition."""
+    """Every defined window's frequency, variance, rate and mean, straight from the
+    definition."""
     cut = time - effective_width(window)
-    out: dict[str, list[float]] = {"frequency": [], "variance": [], "rate": []}
+    out: dict[str, list[float]] = {"frequency": [], "variance": [], "rate": [], "mean": []}
     for i in range(len(time)):
         if cut[i] < time[0]:
             continue
@@ -299,6 +337,9 @@ def brute(time: FloatArray, values: FloatArray, window: float) -> dict[str, list
             var = window_variance(members.tolist())
             if math.isfinite(var):
                 out["variance"].append(var)
+            mean = window_mean(members.tolist())
+            if math.isfinite(mean):
+                out["mean"].append(mean)
             if time[i] > time[first]:
                 with np.errstate(invalid="ignore"):
                     rate = (values[i] - values[first]) / (time[i] - time[first])
@@ -354,7 +395,7 @@ def test_fold_merge_and_rechunking_agree_exactly(
     values = np.array([v for _, v in stream])
     runs = _cut(len(stream), run_points)
     tunables = Tunables(window=window)
-    families = {"frequency", "variance", "rate"}
+    families = {"frequency", "variance", "rate", "mean"}
 
     def fresh() -> list[States]:
         return make_states((X,), tunables, families)
@@ -376,7 +417,7 @@ def test_fold_merge_and_rechunking_agree_exactly(
         for state, other in zip(merged, mine, strict=True):
             state.merge(other)
     # brute force over each run
-    want: dict[str, list[float]] = {"frequency": [], "variance": [], "rate": []}
+    want: dict[str, list[float]] = {"frequency": [], "variance": [], "rate": [], "mean": []}
     for a, b in runs:
         for family, found in brute(time[a:b], values[a:b], window).items():
             want[family] += found
