@@ -187,18 +187,25 @@ def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, boo
     Each window family (:data:`imrosc.runtime.families.WINDOW`: frequency, variance, rate,
     mean) whose invariants some unit broke has its own persistence, past the rank of
     the units' longest episodes of that family at ``budget / 3`` shared among those
-    families. A window statistic's nominal violation lasts about as long as the windows that
-    hold the odd samples, whereas a value family's (a bound, a polygon, a relation) lasts as
-    long as the robot stays somewhere the training runs never went: a held-out landing that
-    broke a polygon over position for 12 s would make a scaled accelerometer, whose window
-    mean stays out from the onset on, wait 12 s too. The value families, and a window
-    family no unit broke, share the pooled persistence: how long a new run may stay
-    somewhere new is not a property of one family, and a few units cannot tell it per family.
+    families, **when the units certify that rank** (``n >= 3F / budget - 1`` for ``F``
+    such families). A window statistic's nominal violation lasts about as long as the
+    windows that hold the odd samples, whereas a value family's (a bound, a polygon, a
+    relation) lasts as long as the robot stays somewhere the training runs never went: a
+    held-out landing that broke a polygon over position for 12 s makes a scaled
+    accelerometer, whose window mean stays out from the onset on, wait 12 s too. But with
+    fewer units each family's own threshold would be its largest held-out episode, which a
+    new run exceeds with probability up to ``1/(n+1)`` per family instead of once for the
+    pooled rule: the value families, a window family no unit broke, and every family
+    while the units are too few, share the pooled persistence.
 
-    >>> rule, sure = rule_from([Figures(3, 0.2, 1, False, {"mean": (3, 0.2)}),
-    ...                         Figures(40, 2.0, 2, False, {"polygon": (40, 2.0)})], 0.05)
-    >>> rule.persistence("mean"), rule.persistence("polygon"), rule.persistence("rate")
-    ((4, 0.201), (41, 2.001), (41, 2.001))
+    >>> few = [Figures(3, 0.2, 1, False, {"mean": (3, 0.2)}),
+    ...        Figures(40, 2.0, 2, False, {"polygon": (40, 2.0)})]
+    >>> rule_from(few, 0.05)[0].families
+    ()
+    >>> many = few + [Figures(0, 0.0, 0, False)] * 57
+    >>> rule, sure = rule_from(many, 0.05)
+    >>> rule.persistence("mean"), rule.persistence("polygon"), sure
+    ((4, 0.201), (41, 2.001), True)
     """
     persist, sure_persist = conformal([f.persist + 1 for f in figures], budget / 3)
     lasting, sure_lasting = conformal([f.lasting for f in figures], budget / 3)
@@ -211,8 +218,8 @@ def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, boo
         own = [f.families.get(name, (0, 0.0)) for f in figures]
         own_persist, sure_own = conformal([p + 1 for p, _ in own], share)
         own_lasting, sure_seconds = conformal([s for _, s in own], share)
-        families.append((name, max(1, int(own_persist)), _seconds(own_lasting)))
-        sure = sure and sure_own and sure_seconds
+        if sure_own and sure_seconds:
+            families.append((name, max(1, int(own_persist)), _seconds(own_lasting)))
     rule = AlarmRule(
         persist=max(1, int(persist)),
         seconds=_seconds(lasting),

@@ -28,16 +28,20 @@ def test_covered_keeps_each_family_s_longest_episode() -> None:
     assert covered(trace, {"a"}).families == {"mean": (3, 0.2)}
 
 
-def test_a_window_family_gets_its_own_persistence_and_value_families_the_pooled() -> None:
-    """A landing broke a polygon for 9 s; window means broke for 0.2 s at most: a mean
-    out for 0.3 s alarms, a polygon out for 5 s does not."""
+QUIET = Figures(0, 0.0, 0, False)
+"""A held-out unit that broke nothing."""
+
+
+def test_a_window_family_gets_its_own_persistence_once_the_units_certify_it() -> None:
+    """A landing broke a polygon for 9 s; window means broke for 0.2 s at most: with 60
+    units a mean out for 0.3 s alarms, a polygon out for 5 s does not."""
     figures = [
         Figures(90, 9.0, 2, False, {"polygon": (90, 9.0), "mean": (20, 0.2)}),
         Figures(4, 0.05, 1, False, {"bounds": (4, 0.05), "mean": (3, 0.02)}),
-        Figures(0, 0.0, 0, False, {}),
+        *[QUIET] * 58,
     ]
     rule, certified = rule_from(figures, 0.05)
-    assert not certified  # three units cannot certify 0.05
+    assert certified
     assert (rule.persist, rule.seconds) == (91, 9.001)
     assert rule.families == (("mean", 21, 0.201),)
     assert rule.persistence("polygon") == rule.persistence("bounds") == (91, 9.001)
@@ -49,21 +53,34 @@ def test_a_window_family_gets_its_own_persistence_and_value_families_the_pooled(
     assert not alarms_under(Figures(30, 0.3, 0, False), rule)
 
 
-def test_every_held_out_unit_passes_the_rule_set_from_them() -> None:
+def test_too_few_units_keep_one_pooled_persistence() -> None:
+    """Each family's largest episode of a few units would be exceeded by a new run with
+    probability up to 1/(n+1) per family: the pooled rule stays."""
     figures = [
-        Figures(12, 0.6, 3, False, {"rate": (12, 0.6), "bounds": (5, 0.1)}),
-        Figures(40, 2.5, 1, False, {"mean": (40, 2.5)}),
-        Figures(2, 0.01, 4, False, {"frequency": (2, 0.01), "polygon": (1, 0.0)}),
+        Figures(90, 9.0, 2, False, {"polygon": (90, 9.0), "mean": (20, 0.2)}),
+        Figures(4, 0.05, 1, False, {"bounds": (4, 0.05), "mean": (3, 0.02)}),
+        *[QUIET] * 20,
     ]
-    rule, _ = rule_from(figures, 0.05)
-    assert {name for name, _, _ in rule.families} == {"rate", "mean", "frequency"}
-    assert not any(alarms_under(f, rule) for f in figures)
+    rule, certified = rule_from(figures, 0.05)
+    assert not certified and rule.families == ()
+    assert not alarms_under(Figures(30, 0.3, 0, False, {"mean": (30, 0.3)}), rule)
+
+
+def test_each_family_shares_the_budget_of_persistence() -> None:
+    """Two window families: each at budget/6, which 60 units do not certify, 120 do."""
+    two = [Figures(12, 0.6, 3, False, {"rate": (12, 0.6), "mean": (40, 2.5)})]
+    assert rule_from(two + [QUIET] * 59, 0.05)[0].families == ()
+    rule, _ = rule_from(two + [QUIET] * 119, 0.05)
+    assert rule.families == (("mean", 41, 2.501), ("rate", 13, 0.601))
+    # the pooled rank (budget/3) lies below the one unit that broke anything
+    assert (rule.persist, rule.distinct) == (1, 1)
 
 
 def test_the_rule_of_a_subset_comes_from_the_file_s_traces() -> None:
     units = [
         {"trace": {"m": entry("p", "mean", 5, 0.05), "q": entry("p", "polygon", 50, 5.0)}},
         {"trace": {"m": entry("p", "mean", 9, 0.09)}},
+        *[{"trace": {}}] * 58,
     ]
     document = {"calibration": {"budget": 0.05, "held_out": units}}
     whole = rule_for(document, {"m", "q"})
