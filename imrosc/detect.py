@@ -35,6 +35,7 @@ from imrosc.infer.registry import group_of
 from imrosc.invariants import PointInfo, document
 from imrosc.remote import bag_path
 from imrosc.runtime.families import INFERRED_GROUPS
+from imrosc.runtime.points import Filter, Pairing
 from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
@@ -102,26 +103,16 @@ def _compile(
     return project, render_plan(inputs), render_job(inputs), problems
 
 
-def _sources(spec: PointSpec, discovered: Discovered | None) -> dict[str, Any]:
-    """How the runtime engine rebuilds the point's samples (see ``imrosc.runtime``)."""
-    filters: list[dict[str, Any]] = []
+def _pairing(spec: PointSpec, discovered: Discovered | None) -> Pairing:
+    """How the runtime engine rebuilds the point's samples (:mod:`imrosc.runtime.points`)."""
+    filters: list[Filter] = []
     if spec.condition is not None:
-        filters.append(
-            {
-                "id": spec.condition.id,
-                "topic": spec.condition.topic,
-                "expression": spec.condition.expression,
-                "fields": [[list(path), name] for path, name in spec.condition.fields.items()],
-            }
-        )
+        condition = spec.condition
+        fields = tuple((tuple(path), name) for path, name in condition.fields.items())
+        filters.append(Filter(condition.id, condition.topic, condition.expression, fields))
     if discovered is not None:
-        filters.append({"variable": discovered.variable, "value": discovered.value})
-    return {
-        "inputs": list(spec.inputs),
-        "params": list(spec.params),
-        "events": [list(event) for event in spec.events],
-        "filter": filters,
-    }
+        filters.append(Filter(variable=discovered.variable, value=discovered.value))
+    return Pairing(spec.inputs, spec.params, spec.events, tuple(filters))
 
 
 def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointInfo]:
@@ -140,7 +131,7 @@ def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointIn
                 state.samples,
                 state.runs,
                 spec.variables,
-                _sources(spec, found),
+                _pairing(spec, found),
                 None if found else {k: tuple(v) for k, v in state.nonfinite.items()},
             )
         )

@@ -49,6 +49,7 @@ from imrosc.diagnostics import Diagnostic, make
 from imrosc.invariants import InvariantsFileError, load
 from imrosc.onboard.monitor import relay_name
 from imrosc.runtime import Engine
+from imrosc.runtime.points import Pairing
 from imrosc.schema.names import BAD_NAME, check_graph_name, is_global_name
 
 NAMESPACE = "/m"
@@ -359,7 +360,8 @@ def _values(check: _Checker, topic: str, variables: Any) -> tuple[FlatValue, ...
 
 
 def _document_names(check: _Checker, document: Mapping[str, Any]) -> tuple[set[str], set[str]]:
-    """Check the names the points use; return the services and parameters they watch."""
+    """Check the names the points use; return the services and parameters they watch. The
+    engine was built from ``document`` first, so every point's pairing reads."""
     services: set[str] = set()
     params: set[str] = set()
     points = document.get("points")
@@ -378,20 +380,19 @@ def _document_names(check: _Checker, document: Mapping[str, Any]) -> tuple[set[s
             params.add(trigger)
         elif kind == "publish":
             check.name(trigger, "topic", where)
-        for name in info.get("inputs", ()):
+        pairing = Pairing.from_json(info)
+        for name in pairing.inputs:
             check.name(name, "topic", where)
-        for name in info.get("params", ()):
+        for name in pairing.params:
             if check.name(name, "parameter", where):
                 params.add(name)
-        for event in info.get("events", ()):
-            if isinstance(event, list) and len(event) == 3:
-                _, event_kind, name = event
-                is_call = event_kind == "call"
-                if check.name(name, "service" if is_call else "topic", where) and is_call:
-                    services.add(name)
-        for condition in info.get("filter", ()):
-            if isinstance(condition, dict) and condition.get("topic") is not None:
-                check.name(condition["topic"], "topic", where)
+        for _, event_kind, name in pairing.events:
+            is_call = event_kind == "call"
+            if check.name(name, "service" if is_call else "topic", where) and is_call:
+                services.add(name)
+        for condition in pairing.filters:
+            if condition.topic is not None:
+                check.name(condition.topic, "topic", where)
     return services, params
 
 
