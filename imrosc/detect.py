@@ -22,6 +22,8 @@ from imrosc.build import load_graph
 from imrosc.calibrate import Calibration, calibrate
 from imrosc.calibrate.rule import Replays
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
+from imrosc.formats.job import JobDocument
+from imrosc.formats.plan import PlanDocument, PlanPoint
 from imrosc.frontend import lowered, passed
 from imrosc.infer.engine import (
     BagReducer,
@@ -93,7 +95,7 @@ class DetectResult:
 
 def _compile(
     lowered: ir.Project, graph_files: Sequence[Path], catalog: Catalog
-) -> tuple[ir.Project, dict[str, Any], dict[str, Any], list[Diagnostic]]:
+) -> tuple[ir.Project, PlanDocument, JobDocument, list[Diagnostic]]:
     graph, found = load_graph(graph_files, catalog.bags)
     problems = [d for d in found if d.code != "bag-error"]  # the catalog reported bad bags
     project, found_passes = passed(lowered, graph)
@@ -177,11 +179,14 @@ def prepare(
     return Prepared(project, base, catalog, specs, layouts, skipped), finalize(problems)
 
 
-def _topics_of(point: dict[str, Any]) -> set[str]:
+def _topics_of(point: PlanPoint) -> set[str]:
     """Every topic a plan point reads."""
-    topics = {i["topic"] for i in point.get("inputs", ())}
-    topics |= {point["trigger"].get("topic", "")} | {e["name"] for e in point.get("events", ())}
-    if point.get("condition"):
+    topics: set[str] = set()
+    if point["kind"] == "publish":
+        topics |= {point["trigger"]["topic"], *(i["topic"] for i in point["inputs"])}
+    elif point["kind"] == "temporal":
+        topics |= {e["name"] for e in point["events"]}
+    if point["condition"]:
         topics.add(point["condition"]["topic"])
     return topics - {""}
 
