@@ -47,6 +47,7 @@ from imrosc import ir
 from imrosc.backends.registry import BuildInputs
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.invariants import InvariantsFileError, load
+from imrosc.onboard.files import SPEC_FORMAT, SPEC_VERSION, SpecDocument
 from imrosc.onboard.monitor import relay_name
 from imrosc.runtime import Engine
 from imrosc.runtime.points import Pairing
@@ -55,7 +56,6 @@ from imrosc.schema.names import BAD_NAME, check_graph_name, is_global_name
 NAMESPACE = "/m"
 """Where the node publishes its warnings and relays blocked topics (thesis 4.3)."""
 INVARIANTS_PATH = "config/invariants.json"
-SPEC_VERSION = 1
 
 VARIABLE_TYPES = frozenset({"float", "int", "uint", "bool", "string", "time", "bytes"})
 STATISTICS = {"len": "len_", "avg": "avg_", "std": "std_", "min": "min_", "max": "max_"}
@@ -222,11 +222,11 @@ class MonitorSpec:
         """Relayed service to the name the node serves."""
         return {s.name: s.relay for s in self.services}
 
-    def runtime_document(self, banner: str) -> dict[str, Any]:
+    def runtime_document(self, banner: str) -> SpecDocument:
         """What the node reads at start (``spec.json``): plain JSON data, never code."""
         return {
             "$comment": banner,
-            "format": "imrosc-monitor",
+            "format": SPEC_FORMAT,
             "version": SPEC_VERSION,
             "project": self.project,
             "package": self.package,

@@ -10,5 +10,23 @@
   :mod:`imrosc.onboard.records` writes them, :mod:`imrosc.records` reads them.
 
 Each typed description is held to the format's JSON schema by a test (``tests/formats/``,
-``tests/test_invariants_format.py``).
+``tests/test_invariants_format.py``); the schemas of the plan, the job and the monitor spec
+are shipped in ``imrosc/backends/schemas/`` (:func:`schema`).
 """
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from typing import Any
+
+PLAN_SCHEMA = "plan.schema.json"
+JOB_SCHEMA = "job.schema.json"
+SPEC_SCHEMA = "spec.schema.json"
+
+
+def schema(name: str) -> dict[str, Any]:
+    """A JSON schema of ``imrosc/backends/schemas/`` (draft 2020-12), by file name."""
+    folder = resources.files("imrosc.backends").joinpath("schemas")
+    found: dict[str, Any] = json.loads(folder.joinpath(name).read_text(encoding="utf-8"))
+    return found

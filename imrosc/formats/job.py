@@ -13,17 +13,15 @@ from __future__ import annotations
 
 from typing import Any, TypedDict
 
-from imrosc.formats import plan
+from imrosc import formats
 
 FORMAT = "imrosc-job"
 VERSION = 1
-SCHEMA = "job.schema.json"
-"""The JSON schema of the format, shipped in ``imrosc/backends/schemas/``."""
 
 
 def schema() -> dict[str, Any]:
     """The JSON schema of the format (draft 2020-12)."""
-    return plan.schema(SCHEMA)
+    return formats.schema(formats.JOB_SCHEMA)
 
 
 class JobPoint(TypedDict):

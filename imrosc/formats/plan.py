@@ -10,21 +10,17 @@ the backend writes (every example's golden plan follows the schema).
 
 from __future__ import annotations
 
-import json
-from importlib import resources
 from typing import Any, Literal, TypedDict
+
+from imrosc import formats
 
 FORMAT = "imrosc-plan"
 VERSION = 1
-SCHEMA = "plan.schema.json"
-"""The JSON schema of the format, shipped in ``imrosc/backends/schemas/``."""
 
 
-def schema(name: str = SCHEMA) -> dict[str, Any]:
-    """A JSON schema of ``imrosc/backends/schemas/`` (draft 2020-12)."""
-    folder = resources.files("imrosc.backends").joinpath("schemas")
-    found: dict[str, Any] = json.loads(folder.joinpath(name).read_text(encoding="utf-8"))
-    return found
+def schema() -> dict[str, Any]:
+    """The JSON schema of the format (draft 2020-12)."""
+    return formats.schema(formats.PLAN_SCHEMA)
 
 
 class PlanTopic(TypedDict):
