@@ -7,11 +7,11 @@
 * a monitor's ``spec.json``: :mod:`imrosc.backends.monitor` (``MonitorSpec``), read on the
   robot by :mod:`imrosc.onboard.files`;
 * the records in bags (``/imrosc/arch``, ``/imrosc/params``, ``/imrosc/srvs``):
-  :mod:`imrosc.onboard.records` writes them, :mod:`imrosc.records` reads them.
+  :mod:`imrosc.onboard.records` types and writes them, :mod:`imrosc.records` reads them.
 
 Each typed description is held to the format's JSON schema by a test (``tests/formats/``,
-``tests/test_invariants_format.py``); the schemas of the plan, the job and the monitor spec
-are shipped in ``imrosc/backends/schemas/`` (:func:`schema`).
+``tests/test_invariants_format.py``); the schemas of the plan, the job, the monitor spec
+and the records are shipped in ``imrosc/backends/schemas/`` (:func:`schema`).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from typing import Any
 PLAN_SCHEMA = "plan.schema.json"
 JOB_SCHEMA = "job.schema.json"
 SPEC_SCHEMA = "spec.schema.json"
+RECORDS_SCHEMA = "records.schema.json"
 
 
 def schema(name: str) -> dict[str, Any]:
