@@ -37,7 +37,7 @@ from imrosc.infer.registry import group_of
 from imrosc.invariants import PointInfo, document
 from imrosc.remote import bag_path
 from imrosc.runtime.families import INFERRED_GROUPS
-from imrosc.runtime.points import Filter, Pairing
+from imrosc.runtime.points import Filter
 from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
@@ -105,16 +105,9 @@ def _compile(
     return project, render_plan(inputs), render_job(inputs), problems
 
 
-def _pairing(spec: PointSpec, discovered: Discovered | None) -> Pairing:
-    """How the runtime engine rebuilds the point's samples (:mod:`imrosc.runtime.points`)."""
-    filters: list[Filter] = []
-    if spec.condition is not None:
-        condition = spec.condition
-        fields = tuple((tuple(path), name) for path, name in condition.fields.items())
-        filters.append(Filter(condition.id, condition.topic, condition.expression, fields))
-    if discovered is not None:
-        filters.append(Filter(variable=discovered.variable, value=discovered.value))
-    return Pairing(spec.inputs, spec.params, spec.events, tuple(filters))
+def _discovered(found: Discovered | None) -> tuple[Filter, ...]:
+    """The condition inference discovered for a point, as the engine filters on it."""
+    return () if found is None else (Filter(variable=found.variable, value=found.value),)
 
 
 def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointInfo]:
@@ -133,7 +126,7 @@ def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointIn
                 state.samples,
                 state.runs,
                 spec.variables,
-                _pairing(spec, found),
+                spec.pairing(*_discovered(found)),
                 None if found else {k: tuple(v) for k, v in state.nonfinite.items()},
             )
         )

@@ -1,8 +1,9 @@
 """How a program point pairs its samples: the one record every stage shares.
 
-Inference writes it into each point of the invariants file (``imrosc.detect`` makes it from
-the translator's point, ``imrosc.invariants`` writes it), and whatever checks the file reads
-it back (the engine below, replay, and the monitor backends, which watch the names in it):
+The translator's point makes it (``imrosc.translate.points.PointSpec.pairing``, with the
+conditions inference discovered), the invariants file holds it in each point
+(``imrosc.invariants``), and whatever checks the file reads it back (the engine, replay, and
+the monitor backends, which watch the names in it):
 
 * ``inputs``: the input topics whose latest message joins each sample of a publish point;
 * ``params``: the parameters whose latest values join it (publish and call points);

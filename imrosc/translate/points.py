@@ -15,6 +15,7 @@ from typing import Any
 from imrosc.formats.job import JobDocument
 from imrosc.formats.plan import PlanDocument, PlanPoint
 from imrosc.infer.core import Variable
+from imrosc.runtime.points import Filter, Pairing
 from imrosc.translate.catalog import Catalog, arch_resources
 from imrosc.translate.condition import resolve_fields
 from imrosc.translate.layout import TopicLayout, short_names, topic_layout
@@ -53,6 +54,17 @@ class PointSpec:
     patterns: tuple[Mapping[str, Any], ...] = ()
     max_interval: float = 2.0
     max_events: int = 10
+
+    def pairing(self, *discovered: Filter) -> Pairing:
+        """How the engine rebuilds this point's samples (the invariants file's record of it,
+        :mod:`imrosc.runtime.points`): its inputs, parameters, events, its declared condition
+        and the ``discovered`` ones inference adds."""
+        filters = list(discovered)
+        if self.condition is not None:
+            condition = self.condition
+            fields = tuple((tuple(path), name) for path, name in condition.fields.items())
+            filters.insert(0, Filter(condition.id, condition.topic, condition.expression, fields))
+        return Pairing(self.inputs, self.params, self.events, tuple(filters))
 
 
 def _service_variables(catalog: Catalog, service: str, short: str) -> tuple[Variable, ...]:
