@@ -68,19 +68,19 @@ class Slot:
 def slots(invariant: Mapping[str, Any]) -> list[Slot]:
     """The limits of an invariant of a widened family (none for other families)."""
     family, params = invariant["family"], invariant["params"]
-    if family in ("bounds", "array", "rate"):
+    if family in (BOUNDS, ARRAY, RATE):
         return [Slot(p, None, p == "max", "add") for p in ("min", "max") if p in params]
-    if family == "variance":
+    if family == VARIANCE:
         return [Slot(p, None, p == "max", "log") for p in ("min", "max") if p in params]
-    if family == "frequency":
+    if family == FREQUENCY:
         quantum = 1.0 / float(params.get("window", 1.0))
         return [Slot(p, None, p == "max", "count", quantum) for p in ("min", "max")]
-    if family == "interval":
+    if family == INTERVAL:
         found = [Slot("min_time", None, False, "add"), Slot("max_time", None, True, "add")]
         found += [Slot("min_events", e, False, "count") for e in params.get("min_events", {})]
         found += [Slot("max_events", e, True, "count") for e in params.get("max_events", {})]
         return found
-    if family == "polygon":
+    if family == POLYGON:
         return [Slot("b", k, True, "add") for k in range(len(params.get("b", ())))]
     return []
 
@@ -173,7 +173,7 @@ def _hashable(value: Any) -> Any:
 def set_broken(invariant: Mapping[str, Any], unit: frozenset[Any], others: frozenset[Any]) -> bool:
     """Whether a unit breaks a set learnt from the others: a new value or node for a
     ``one-of``, ``string-one-of`` or ``max_*`` set, a missing node for a ``min_*`` set."""
-    if invariant["family"] == "architecture" and invariant["kind"].startswith("min_"):
+    if invariant["family"] == ARCHITECTURE and invariant["kind"].startswith("min_"):
         return bool(others - unit)
     return bool(unit - others)
 
@@ -182,6 +182,6 @@ def merge_sets(invariant: Mapping[str, Any], sets: Sequence[frozenset[Any]]) -> 
     """The set learnt from several units: the union, or for ``min_*`` the intersection."""
     if not sets:
         return frozenset()
-    if invariant["family"] == "architecture" and invariant["kind"].startswith("min_"):
+    if invariant["family"] == ARCHITECTURE and invariant["kind"].startswith("min_"):
         return frozenset.intersection(*sets)
     return frozenset.union(*sets)
