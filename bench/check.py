@@ -85,7 +85,7 @@ def inferred(data: np.ndarray) -> dict[str, Any]:
     context = FinalizeContext(Tunables(), variables, "a", None, 1)
     found = [i for state in states for i in state.finalize(context)]
     layout = [{"name": v.name, "path": v.path, "type": v.type, "derived": None} for v in variables]
-    point = PointInfo("a", "publish", "/t", None, ROWS, 1, variables, {"inputs": []})
+    point = PointInfo("a", "publish", "/t", None, ROWS, 1, variables)
     return document(
         project="bench",
         source="bench/check.py",

@@ -1,4 +1,5 @@
-"""``imrosc build``: check, lower, run the passes, render a backend, write its files.
+"""``imrosc build``: check, lower, run the passes (:mod:`imrosc.frontend`), render a backend,
+write its files.
 
 Writing never destroys what a user had (:mod:`imrosc.outputs`): a file is written atomically
 and overwritten only if it carries imrosc's generated-file mark, unless ``force`` is given;
@@ -21,16 +22,13 @@ from imrosc.backends.registry import (
     load,
 )
 from imrosc.bags import BagError, discover_bags, open_bag
-from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
+from imrosc.frontend import lowered, passed
 from imrosc.graph.bags import read_bag_graphs
 from imrosc.graph.file import load_graph_file
 from imrosc.graph.model import Graph
-from imrosc.lower import lower
 from imrosc.msgtypes import flatten
 from imrosc.outputs import OutputRefusedError, file_kind, target, write_atomic
-from imrosc.passes.context import PassContext
-from imrosc.passes.pipeline import run_passes
 from imrosc.progress import ProgressFactory
 
 
@@ -100,19 +98,18 @@ def build(
     """Run the compiler up to the backend's files (nothing is written). ``inv`` is the
     invariants file the monitor deploys instead of its ``<monitor inv>`` (a refined file
     of ``imrosc classify``, say)."""
-    config, problems = load_checked(config_path)
-    if config is None:
+    project, problems = lowered(config_path)
+    if project is None:
         return BuildResult(None, finalize(problems))
     graph, found = load_graph(graph_files, bags, progress_factory)
     types, found_types = topic_types(bags)
     problems += found + found_types
-    context = PassContext(path=config.path, graph=graph)
-    project = run_passes(lower(config), context)
+    project, found_passes = passed(project, graph)
     if inv is not None and project.monitor is not None:
         base = Path(project.source).parent.absolute()
         deployed = os.path.relpath(inv.absolute(), base)
         project = replace(project, monitor=replace(project.monitor, inv=deployed))
-    problems += context.diagnostics
+    problems += found_passes
     inputs = BuildInputs(project, tuple(str(b) for b in bags), types, graph)
     renderer = load(backend)
     files = renderer(inputs) if not has_errors(problems) else {}

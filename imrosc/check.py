@@ -26,10 +26,9 @@ def check_loaded(config: LoadedConfig) -> list[Diagnostic]:
 
 
 def load_checked(config_path: Path) -> tuple[LoadedConfig | None, list[Diagnostic]]:
-    """The front door of every command that compiles a configuration: read and check it;
-    the loaded tree (``None`` when it has errors) and the diagnostics so far (not yet
-    finalized: the command adds its own). The command then lowers it (:func:`imrosc.lower.
-    lower`) and runs the passes with what it knows of the graph."""
+    """Read and check a configuration: the loaded tree (``None`` when it has errors) and the
+    diagnostics so far (not yet finalized: the command adds its own). Commands that compile
+    it go through :mod:`imrosc.frontend`, which lowers it and runs the passes."""
     config, problems = load_config(config_path)
     if config is not None:
         problems += check_loaded(config)

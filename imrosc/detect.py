@@ -1,8 +1,9 @@
 """The detect stage (``imrosc infer``): configuration and bags in, invariants file out.
 
-1. check the configuration; 2. catalog the ``<detect>`` bags (bad bags are reported and
-skipped); 3. compile the configuration with the bags as graph and type sources (the plan and
-job of ``imrosc build --backend plan``, in memory); 4. infer over the good bags in worker
+1. check and lower the configuration; 2. catalog the ``<detect>`` bags (bad bags are
+reported and skipped); 3. run the passes with the bags as graph source (both steps through
+:mod:`imrosc.frontend`) and render the plan and job of ``imrosc build --backend plan`` with
+the bags as type source, in memory; 4. infer over the good bags in worker
 processes; 5. write the invariants file next to the configuration.
 """
 
@@ -20,8 +21,10 @@ from imrosc.backends.registry import BuildInputs, TopicType
 from imrosc.build import load_graph
 from imrosc.calibrate import Calibration, calibrate
 from imrosc.calibrate.rule import Replays
-from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
+from imrosc.formats.job import JobDocument
+from imrosc.formats.plan import PlanDocument, PlanPoint
+from imrosc.frontend import lowered, passed
 from imrosc.infer.engine import (
     BagReducer,
     Discovered,
@@ -32,11 +35,9 @@ from imrosc.infer.engine import (
 )
 from imrosc.infer.registry import group_of
 from imrosc.invariants import PointInfo, document
-from imrosc.lower import lower
-from imrosc.passes.context import PassContext
-from imrosc.passes.pipeline import run_passes
 from imrosc.remote import bag_path
 from imrosc.runtime.families import INFERRED_GROUPS
+from imrosc.runtime.points import Filter
 from imrosc.translate.catalog import Catalog, build_catalog
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
@@ -93,38 +94,20 @@ class DetectResult:
 
 
 def _compile(
-    lowered: ir.Project, path: str, graph_files: Sequence[Path], catalog: Catalog
-) -> tuple[ir.Project, dict[str, Any], dict[str, Any], list[Diagnostic]]:
+    lowered: ir.Project, graph_files: Sequence[Path], catalog: Catalog
+) -> tuple[ir.Project, PlanDocument, JobDocument, list[Diagnostic]]:
     graph, found = load_graph(graph_files, catalog.bags)
     problems = [d for d in found if d.code != "bag-error"]  # the catalog reported bad bags
-    context = PassContext(path=path, graph=graph)
-    project = run_passes(lowered, context)
-    problems += context.diagnostics
+    project, found_passes = passed(lowered, graph)
+    problems += found_passes
     types = {t: TopicType(m, f) for t, (m, f) in catalog.types.items()}
     inputs = BuildInputs(project, tuple(str(b) for b in catalog.bags), types)
     return project, render_plan(inputs), render_job(inputs), problems
 
 
-def _sources(spec: PointSpec, discovered: Discovered | None) -> dict[str, Any]:
-    """How the runtime engine rebuilds the point's samples (see ``imrosc.runtime``)."""
-    filters: list[dict[str, Any]] = []
-    if spec.condition is not None:
-        filters.append(
-            {
-                "id": spec.condition.id,
-                "topic": spec.condition.topic,
-                "expression": spec.condition.expression,
-                "fields": [[list(path), name] for path, name in spec.condition.fields.items()],
-            }
-        )
-    if discovered is not None:
-        filters.append({"variable": discovered.variable, "value": discovered.value})
-    return {
-        "inputs": list(spec.inputs),
-        "params": list(spec.params),
-        "events": [list(event) for event in spec.events],
-        "filter": filters,
-    }
+def _discovered(found: Discovered | None) -> tuple[Filter, ...]:
+    """The condition inference discovered for a point, as the engine filters on it."""
+    return () if found is None else (Filter(variable=found.variable, value=found.value),)
 
 
 def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointInfo]:
@@ -143,7 +126,7 @@ def _points(specs: Sequence[PointSpec], result: InferenceResult) -> list[PointIn
                 state.samples,
                 state.runs,
                 spec.variables,
-                _sources(spec, found),
+                spec.pairing(*_discovered(found)),
                 None if found else {k: tuple(v) for k, v in state.nonfinite.items()},
             )
         )
@@ -166,15 +149,15 @@ def prepare(
     config_path: Path, *, graph_files: Sequence[Path] = (), bags: Sequence[Path] | None = None
 ) -> tuple[Prepared | None, list[Diagnostic]]:
     """Check and compile the configuration against its bags (or ``bags``)."""
-    config, problems = load_checked(config_path)
-    if config is None:
+    lowered_project, problems = lowered(config_path)
+    if lowered_project is None:
         return None, finalize(problems)
-    lowered = lower(config)
     base = config_path.parent
+    detect = lowered_project.detect
     if bags is None:
-        bags = [bag_path(b, base) for b in lowered.detect.bags] if lowered.detect else []
+        bags = [bag_path(b, base) for b in detect.bags] if detect else []
     catalog = build_catalog(bags)
-    project, plan, job, found = _compile(lowered, config.path, graph_files, catalog)
+    project, plan, job, found = _compile(lowered_project, graph_files, catalog)
     problems = finalize(problems + found + catalog.diagnostics)
     if has_errors(found):
         return None, problems
@@ -189,11 +172,14 @@ def prepare(
     return Prepared(project, base, catalog, specs, layouts, skipped), finalize(problems)
 
 
-def _topics_of(point: dict[str, Any]) -> set[str]:
+def _topics_of(point: PlanPoint) -> set[str]:
     """Every topic a plan point reads."""
-    topics = {i["topic"] for i in point.get("inputs", ())}
-    topics |= {point["trigger"].get("topic", "")} | {e["name"] for e in point.get("events", ())}
-    if point.get("condition"):
+    topics: set[str] = set()
+    if point["kind"] == "publish":
+        topics |= {point["trigger"]["topic"], *(i["topic"] for i in point["inputs"])}
+    elif point["kind"] == "temporal":
+        topics |= {e["name"] for e in point["events"]}
+    if point["condition"]:
         topics.add(point["condition"]["topic"])
     return topics - {""}
 

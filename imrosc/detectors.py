@@ -49,6 +49,7 @@ from imrosc.folds import blocked
 from imrosc.invariants import hashed_id
 from imrosc.runtime.detector import evidence, features
 from imrosc.runtime.families import DETECTOR
+from imrosc.runtime.points import Pairing
 
 WINDOW = 1.0
 """Seconds of the trailing window of the statistics."""
@@ -234,7 +235,8 @@ def variables_of(point: Mapping[str, Any]) -> list[str]:
     """The variables a detector of a point weighs: its numeric values as recorded; none for
     a point that is not an unconditional publish point (a conditional point's samples are
     the moments its condition held, not a stretch of time a window can summarise)."""
-    if point.get("kind") != "publish" or point.get("filter") or point.get("condition"):
+    conditional = Pairing.from_json(point).filters or point.get("condition")
+    if point.get("kind") != "publish" or conditional:
         return []
     return [
         v["name"]

@@ -20,7 +20,7 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, TypedDict
@@ -28,6 +28,7 @@ from typing import Any, TypedDict
 from imrosc.infer.core import Invariant, Variable
 from imrosc.outputs import INVARIANTS, mark
 from imrosc.runtime.families import NAMES
+from imrosc.runtime.points import Pairing, PairingEntry
 
 FORMAT = "imrosc-invariants"
 VERSION = 1
@@ -56,6 +57,28 @@ class VariableEntry(TypedDict):
     trigger: bool
 
 
+class PointSupport(Support, total=False):
+    """How much a point was learnt from, and the non-finite values inference left out:
+    per variable, ``{"nan": n, "+inf": n, "-inf": n}``."""
+
+    nonfinite: dict[str, dict[str, int]]
+
+
+class _RequiredPoint(TypedDict):
+    kind: str
+    variables: list[VariableEntry]
+
+
+class PointEntry(_RequiredPoint, PairingEntry, total=False):
+    """One program point (``points.<key>``): its kind, trigger, condition, support and
+    variables, and how the engine pairs its samples (:class:`~imrosc.runtime.points.
+    PairingEntry`, read by :class:`~imrosc.runtime.points.Pairing`)."""
+
+    trigger: str
+    condition: str | None
+    support: PointSupport
+
+
 class InvariantEntry(TypedDict):
     """One invariant (``invariants[]``)."""
 
@@ -78,9 +101,7 @@ _RequiredDocument = TypedDict(
         "format": str,
         "version": int,
         "topics": dict[str, dict[str, Any]],
-        # by point key: kind, trigger, condition, support, variables (VariableEntry) and how
-        # the engine pairs its samples (inputs, params, events, filter)
-        "points": dict[str, dict[str, Any]],
+        "points": dict[str, PointEntry],
         "invariants": list[InvariantEntry],
     },
 )
@@ -166,23 +187,38 @@ class PointInfo:
     samples: int
     runs: int
     variables: tuple[Variable, ...]
-    sources: Mapping[str, Any] | None = None
+    pairing: Pairing = field(default_factory=Pairing)
     """What the runtime engine needs to rebuild the point's samples: ``inputs`` (topics),
-    ``params``, ``events`` (``[id, kind, name]``) and ``filter`` (its conditions)."""
+    ``params``, ``events`` and ``filters`` (its conditions)."""
     nonfinite: Mapping[str, Sequence[int]] | None = None
     """Per numeric variable that had some in training, its NaN (or missing), +inf and -inf
     values, which inference left out (``support.nonfinite``: ``{"nan", "+inf", "-inf"}``)."""
 
 
-def _support(point: PointInfo) -> dict[str, Any]:
+def _support(point: PointInfo) -> PointSupport:
     """A point's support: samples and runs, and the non-finite values left out, if any."""
-    found: dict[str, Any] = {"samples": point.samples, "runs": point.runs}
+    found: PointSupport = {"samples": point.samples, "runs": point.runs}
     if point.nonfinite:
         found["nonfinite"] = {
             name: dict(zip(("nan", "+inf", "-inf"), counts, strict=True))
             for name, counts in sorted(point.nonfinite.items())
         }
     return found
+
+
+def _point(point: PointInfo) -> PointEntry:
+    pairing = point.pairing.to_json()
+    return {
+        "kind": point.kind,
+        "trigger": point.trigger,
+        "condition": point.condition,
+        "support": _support(point),
+        "variables": [_variable(v) for v in point.variables],
+        "inputs": pairing["inputs"],
+        "params": pairing["params"],
+        "events": pairing["events"],
+        "filter": _json_safe(pairing["filter"]),  # a discovered value may be a numpy scalar
+    }
 
 
 def document(
@@ -207,17 +243,7 @@ def document(
         "bags": list(bags),
         "tunables": dict(tunables),
         "topics": {name: dict(info) for name, info in sorted(topics.items())},
-        "points": {
-            p.key: {
-                "kind": p.kind,
-                "trigger": p.trigger,
-                "condition": p.condition,
-                "support": _support(p),
-                "variables": [_variable(v) for v in p.variables],
-                **_json_safe(dict(p.sources or {})),
-            }
-            for p in points
-        },
+        "points": {p.key: _point(p) for p in points},
         "invariants": [
             {
                 "id": invariant_id(i),

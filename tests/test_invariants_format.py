@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from imrosc import invariants
-from imrosc.runtime import families
+from imrosc.runtime import families, points
 from tests.runtime.support import infer, planted
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -56,6 +56,10 @@ def test_the_typed_dictionaries_name_the_schema_s_keys() -> None:
         definitions["variable"]["properties"]
     )
     assert set(invariants.Support.__annotations__) == set(definitions["support"]["required"])
+    point = invariants.PointEntry
+    assert set(point.__annotations__) == set(definitions["point"]["properties"])
+    assert set(point.__required_keys__) == set(definitions["point"]["required"])
+    assert set(points.FilterEntry.__annotations__) == set(definitions["filter"]["properties"])
 
 
 def test_the_reader_checks_the_keys_the_schema_requires() -> None:

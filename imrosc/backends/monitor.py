@@ -47,14 +47,15 @@ from imrosc import ir
 from imrosc.backends.registry import BuildInputs
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.invariants import InvariantsFileError, load
+from imrosc.onboard.files import SPEC_FORMAT, SPEC_VERSION, SpecDocument
 from imrosc.onboard.monitor import relay_name
 from imrosc.runtime import Engine
+from imrosc.runtime.points import Pairing
 from imrosc.schema.names import BAD_NAME, check_graph_name, is_global_name
 
 NAMESPACE = "/m"
 """Where the node publishes its warnings and relays blocked topics (thesis 4.3)."""
 INVARIANTS_PATH = "config/invariants.json"
-SPEC_VERSION = 1
 
 VARIABLE_TYPES = frozenset({"float", "int", "uint", "bool", "string", "time", "bytes"})
 STATISTICS = {"len": "len_", "avg": "avg_", "std": "std_", "min": "min_", "max": "max_"}
@@ -221,11 +222,11 @@ class MonitorSpec:
         """Relayed service to the name the node serves."""
         return {s.name: s.relay for s in self.services}
 
-    def runtime_document(self, banner: str) -> dict[str, Any]:
+    def runtime_document(self, banner: str) -> SpecDocument:
         """What the node reads at start (``spec.json``): plain JSON data, never code."""
         return {
             "$comment": banner,
-            "format": "imrosc-monitor",
+            "format": SPEC_FORMAT,
             "version": SPEC_VERSION,
             "project": self.project,
             "package": self.package,
@@ -359,7 +360,8 @@ def _values(check: _Checker, topic: str, variables: Any) -> tuple[FlatValue, ...
 
 
 def _document_names(check: _Checker, document: Mapping[str, Any]) -> tuple[set[str], set[str]]:
-    """Check the names the points use; return the services and parameters they watch."""
+    """Check the names the points use; return the services and parameters they watch. The
+    engine was built from ``document`` first, so every point's pairing reads."""
     services: set[str] = set()
     params: set[str] = set()
     points = document.get("points")
@@ -378,20 +380,19 @@ def _document_names(check: _Checker, document: Mapping[str, Any]) -> tuple[set[s
             params.add(trigger)
         elif kind == "publish":
             check.name(trigger, "topic", where)
-        for name in info.get("inputs", ()):
+        pairing = Pairing.from_json(info)
+        for name in pairing.inputs:
             check.name(name, "topic", where)
-        for name in info.get("params", ()):
+        for name in pairing.params:
             if check.name(name, "parameter", where):
                 params.add(name)
-        for event in info.get("events", ()):
-            if isinstance(event, list) and len(event) == 3:
-                _, event_kind, name = event
-                is_call = event_kind == "call"
-                if check.name(name, "service" if is_call else "topic", where) and is_call:
-                    services.add(name)
-        for condition in info.get("filter", ()):
-            if isinstance(condition, dict) and condition.get("topic") is not None:
-                check.name(condition["topic"], "topic", where)
+        for _, event_kind, name in pairing.events:
+            is_call = event_kind == "call"
+            if check.name(name, "service" if is_call else "topic", where) and is_call:
+                services.add(name)
+        for condition in pairing.filters:
+            if condition.topic is not None:
+                check.name(condition.topic, "topic", where)
     return services, params
 
 

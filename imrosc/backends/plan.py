@@ -5,28 +5,31 @@ trigger, the input topics with their hop distance, the variables to extract (fie
 the bags gave the message types, ``"*"`` for all otherwise), condition predicates, and the
 record topics for services, parameters and the architecture. ``job.json`` tells inference
 which bags to read, which template families to instantiate at each point, the tunables and
-where to write the invariants. ``plan.schema.json`` and ``job.schema.json`` (shipped beside
-this module) describe both formats.
+where to write the invariants. Both formats are typed in :mod:`imrosc.formats.plan` and
+:mod:`imrosc.formats.job`; ``plan.schema.json`` and ``job.schema.json`` (shipped beside this
+module) describe them.
 """
 
 from __future__ import annotations
 
 import json
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, Literal
 
 from imrosc import ir, records
 from imrosc.backends.families import families
 from imrosc.backends.registry import BuildInputs, register
+from imrosc.formats import job, plan
 
-PLAN_VERSION = 1
-JOB_VERSION = 1
+PLAN_VERSION = plan.VERSION
+JOB_VERSION = job.VERSION
 
 
-def _dump(document: dict[str, Any]) -> bytes:
+def _dump(document: Mapping[str, Any]) -> bytes:
     return (json.dumps(document, indent=2, ensure_ascii=False) + "\n").encode("utf-8")
 
 
-def _variables(inputs: BuildInputs, topic: str) -> Any:
+def _variables(inputs: BuildInputs, topic: str) -> list[plan.Field] | Literal["*"]:
     known = inputs.topic_types.get(topic)
     if known is None:
         return "*"
@@ -35,7 +38,7 @@ def _variables(inputs: BuildInputs, topic: str) -> Any:
     ]
 
 
-def _condition(project: ir.Project, point: ir.Point) -> dict[str, Any] | None:
+def _condition(project: ir.Project, point: ir.Point) -> plan.PointCondition | None:
     if point.condition is None:
         return None
     condition = project.condition(point.condition)
@@ -48,56 +51,84 @@ def _condition(project: ir.Project, point: ir.Point) -> dict[str, Any] | None:
     }
 
 
-def _point(inputs: BuildInputs, point: ir.Point) -> dict[str, Any]:
-    entry: dict[str, Any] = {"key": ir.point_key(point), "id": point.id, "kind": point.kind}
+def _point(inputs: BuildInputs, point: ir.Point) -> plan.PlanPoint:
+    key, ident = ir.point_key(point), point.id
+    condition = _condition(inputs.project, point)
     if isinstance(point, ir.PublishPoint):
         topics = [point.topic, *(i.name for i in point.inputs)]
-        entry["trigger"] = {"topic": point.topic}
-        entry["inputs"] = [
-            {"topic": i.name, "hops": i.hops, "explicit": i.explicit} for i in point.inputs
-        ]
-        entry["variables"] = {topic: _variables(inputs, topic) for topic in topics}
-        entry["params"] = list(point.params)
-    elif isinstance(point, ir.CallPoint):
-        entry["trigger"] = {"service": point.service}
-        entry["records"] = records.SRVS_TOPIC
-        entry["variables"] = ["request.*", "response.*", "delay"]
-        entry["params"] = list(point.params)
-    elif isinstance(point, ir.ParamPoint):
-        entry["trigger"] = {"param": point.name}
-        entry["records"] = records.PARAMS_TOPIC
-    elif isinstance(point, ir.ArchPoint):
-        entry["trigger"] = {"architecture": list(point.kinds)}
-        entry["records"] = records.ARCH_TOPIC
-    else:
-        entry["trigger"] = {"events": [label.id for label in point.labels]}
-        entry["events"] = [
+        return {
+            "key": key,
+            "id": ident,
+            "kind": "publish",
+            "trigger": {"topic": point.topic},
+            "inputs": [
+                {"topic": i.name, "hops": i.hops, "explicit": i.explicit} for i in point.inputs
+            ],
+            "variables": {topic: _variables(inputs, topic) for topic in topics},
+            "params": list(point.params),
+            "condition": condition,
+        }
+    if isinstance(point, ir.CallPoint):
+        return {
+            "key": key,
+            "id": ident,
+            "kind": "call",
+            "trigger": {"service": point.service},
+            "records": records.SRVS_TOPIC,
+            "variables": ["request.*", "response.*", "delay"],
+            "params": list(point.params),
+            "condition": condition,
+        }
+    if isinstance(point, ir.ParamPoint):
+        return {
+            "key": key,
+            "id": ident,
+            "kind": "param",
+            "trigger": {"param": point.name},
+            "records": records.PARAMS_TOPIC,
+            "condition": condition,
+        }
+    if isinstance(point, ir.ArchPoint):
+        return {
+            "key": key,
+            "id": ident,
+            "kind": "arch",
+            "trigger": {"architecture": list(point.kinds)},
+            "records": records.ARCH_TOPIC,
+            "condition": condition,
+        }
+    return {
+        "key": key,
+        "id": ident,
+        "kind": "temporal",
+        "trigger": {"events": [label.id for label in point.labels]},
+        "events": [
             {"id": label.id, "event": label.event, "name": label.name} for label in point.labels
-        ]
-        entry["patterns"] = [
+        ],
+        "patterns": [
             {
                 "text": spec.text,
                 "canonical": spec.canonical,
                 "concrete": [{"binding": dict(c.binding), "text": c.text} for c in spec.concrete],
             }
             for spec in point.patterns
-        ]
-        entry["thresholds"] = {"max_interval": point.max_interval, "max_events": point.max_events}
-    entry["condition"] = _condition(inputs.project, point)
-    return entry
+        ],
+        "thresholds": {"max_interval": point.max_interval, "max_events": point.max_events},
+        "condition": condition,
+    }
 
 
-def _topics(inputs: BuildInputs) -> dict[str, Any]:
+def _topics(inputs: BuildInputs) -> dict[str, plan.PlanTopic]:
     return {topic: {"type": known.msgtype} for topic, known in sorted(inputs.topic_types.items())}
 
 
-def render_plan(inputs: BuildInputs) -> dict[str, Any]:
+def render_plan(inputs: BuildInputs) -> plan.PlanDocument:
     """The translator plan as a JSON document."""
     project = inputs.project
     return {
         "$comment": inputs.banner("plan"),
-        "format": "imrosc-plan",
-        "version": PLAN_VERSION,
+        "format": plan.FORMAT,
+        "version": plan.VERSION,
         "project": project.name,
         "source": project.source,
         "passes": list(project.passes),
@@ -110,15 +141,15 @@ def render_plan(inputs: BuildInputs) -> dict[str, Any]:
     }
 
 
-def render_job(inputs: BuildInputs) -> dict[str, Any]:
+def render_job(inputs: BuildInputs) -> job.JobDocument:
     """The inference job as a JSON document."""
     project = inputs.project
     detect = project.detect
     tunables = detect.tunables if detect else ir.Tunables()
     return {
         "$comment": inputs.banner("plan"),
-        "format": "imrosc-job",
-        "version": JOB_VERSION,
+        "format": job.FORMAT,
+        "version": job.VERSION,
         "project": project.name,
         "source": project.source,
         "plan": "plan.json",

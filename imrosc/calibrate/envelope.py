@@ -35,6 +35,7 @@ from imrosc.calibrate.tolerance import tolerance, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
+from imrosc.runtime.families import ARRAY, BOUNDS, INTERVAL, ONE_OF, PATTERN, POLYGON
 
 Key = tuple[Any, ...]
 
@@ -43,7 +44,7 @@ def key_of(point: str, family: str, variables: Sequence[str], ident: str) -> Key
     """How a unit's invariant is matched with the merged one: its id for ordered pairs and
     patterns (their variables say nothing), else point, family and variables (so a bound
     that is only an upper bound in one unit still gives its support)."""
-    if family in ("interval", "pattern"):
+    if family in (INTERVAL, PATTERN):
         return (ident,)
     return (point, family, tuple(variables))
 
@@ -67,7 +68,7 @@ class UnitView:
         ident = invariant_id(invariant)
         key = key_of(invariant.point, invariant.family, invariant.variables, ident)
         self.params[key] = invariant.params
-        if invariant.family == "one-of" and len(invariant.variables) == 1:
+        if invariant.family == ONE_OF and len(invariant.variables) == 1:
             values = [v for v in invariant.params.get("values", ()) if isinstance(v, int | float)]
             if values:
                 self.one_of[(invariant.point, invariant.variables[0])] = [float(v) for v in values]
@@ -80,10 +81,10 @@ class UnitView:
         if found is not None:
             return found
         family, point, variables = invariant["family"], invariant["point"], invariant["variables"]
-        if family in ("bounds", "array"):
+        if family in (BOUNDS, ARRAY):
             return self.range_of(point, variables[0], family)
-        if family == "polygon" and len(variables) == 2:
-            x, y = (self.range_of(point, v, "bounds") for v in variables)
+        if family == POLYGON and len(variables) == 2:
+            x, y = (self.range_of(point, v, BOUNDS) for v in variables)
             if x is not None and y is not None:
                 corners = [[a, b] for a in (x["min"], x["max"]) for b in (y["min"], y["max"])]
                 return {"vertices": corners}
@@ -262,7 +263,7 @@ class Envelopes:
                     value = float(math.ceil(value) if limit.slot.upper else math.floor(value))
                 with_value(params, limit.slot, value)
                 moved = True
-        if moved and invariant["family"] == "polygon":
+        if moved and invariant["family"] == POLYGON:
             params["vertices"] = vertices(params["A"], params["b"], params["vertices"])
         invariant["params"] = params
         return moved
@@ -277,7 +278,7 @@ def _types(document: Mapping[str, Any]) -> tuple[dict[tuple[str, str], str], set
     integer = {
         invariant["id"]
         for invariant in document["invariants"]
-        if invariant["family"] == "bounds"
+        if invariant["family"] == BOUNDS
         and invariant["variables"]
         and types.get((invariant["point"], invariant["variables"][0])) in ("int", "uint")
     }

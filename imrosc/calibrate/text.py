@@ -9,7 +9,16 @@ from imrosc.infer.daikon.common import number_text
 from imrosc.infer.polygon.text import polygon_text
 from imrosc.infer.temporal.interval import format_multiset
 from imrosc.infer.timed.families import format_bound
-from imrosc.runtime.families import ARRAY, BOUNDS, FREQUENCY, MEAN, RATE, VARIANCE
+from imrosc.runtime.families import (
+    ARRAY,
+    BOUNDS,
+    FREQUENCY,
+    INTERVAL,
+    MEAN,
+    POLYGON,
+    RATE,
+    VARIANCE,
+)
 
 _RANGES = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE, FREQUENCY})
 
@@ -35,13 +44,11 @@ def retext(invariant: dict[str, Any], types: Mapping[tuple[str, str], str]) -> N
     if family in _RANGES:
         shown = subject(invariant["text"])
         kind = "float"
-        if family == "bounds" and invariant["variables"]:
+        if family == BOUNDS and invariant["variables"]:
             kind = types.get((invariant["point"], invariant["variables"][0]), "float")
 
         def number(value: float) -> str:
-            return (
-                number_text(value, kind) if family in ("bounds", "array") else format_bound(value)
-            )
+            return number_text(value, kind) if family in (BOUNDS, ARRAY) else format_bound(value)
 
         low, high = params.get("min"), params.get("max")
         if low is not None and high is not None:
@@ -50,9 +57,9 @@ def retext(invariant: dict[str, Any], types: Mapping[tuple[str, str], str]) -> N
             invariant["text"] = f"{shown} >= {number(low)}"
         elif high is not None:
             invariant["text"] = f"{shown} <= {number(high)}"
-    elif family == "polygon":
+    elif family == POLYGON:
         invariant["text"] = polygon_text(params["x"], params["y"], params["vertices"])
-    elif family == "interval":
+    elif family == INTERVAL:
         invariant["text"] = (
             f"{params['first']} -> {params['second']}: "
             f"[{params['min_time']!r}, {params['max_time']!r}] s, "

@@ -8,6 +8,8 @@ snapshot only when its text changed. The ROS 1 recorder (``imrosc/onboard/record
 recorder (``imrosc/onboard/record_ros2``) and :func:`imrosc.records.encode` all write through this
 module; :mod:`imrosc.records` reads the records back.
 
+The three records' JSON objects are typed below (:class:`ArchRecord`, :class:`ParamsRecord`,
+:class:`CallRecord`; their JSON schema is ``imrosc/backends/schemas/records.schema.json``).
 Python 3.8 syntax, standard library only: the ROS 2 backend copies it into generated
 packages and the ROS 1 recorder imports it under the robot's Python.
 
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 import json
 import re
-from typing import Any, Iterable, Mapping, Optional, Tuple
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, TypedDict
 
 VERSION = 1
 RECORD_PREFIX = "/imrosc/"
@@ -31,6 +33,42 @@ RECORD_TOPICS = (ARCH_TOPIC, PARAMS_TOPIC, SRVS_TOPIC)
 RECORD_TYPE = "std_msgs/msg/String"
 """The message type of every record (rosbags' name for ROS 1 ``std_msgs/String`` too)."""
 _GLOBAL_NAME = re.compile(r"^(/[A-Za-z0-9_]+)+$")
+
+
+class TopicEndsEntry(TypedDict):
+    """A topic's publishers and subscribers in an architecture snapshot."""
+
+    pubs: List[str]
+    subs: List[str]
+
+
+class ArchRecord(TypedDict):
+    """``/imrosc/arch``: the node graph."""
+
+    version: int
+    topics: Dict[str, TopicEndsEntry]
+    services: Dict[str, List[str]]
+
+
+class ParamsRecord(TypedDict):
+    """``/imrosc/params``: every parameter's value."""
+
+    version: int
+    params: Dict[str, Any]
+
+
+class CallRecord(TypedDict):
+    """``/imrosc/srvs``: one service call (``response`` None and ``ok`` false: no answer)."""
+
+    version: int
+    service: str
+    client: str
+    server: str
+    request: Dict[str, Any]
+    response: Optional[Dict[str, Any]]
+    ok: bool
+    stamp: float
+    delay: float
 
 
 def dumps(document: Any) -> str:
@@ -56,16 +94,15 @@ def arch_text(
     services: Mapping[str, Iterable[str]],
 ) -> str:
     """An architecture snapshot: topic -> (publishers, subscribers), service -> servers."""
-    return dumps(
-        {
-            "version": VERSION,
-            "topics": {
-                name: {"pubs": sorted(set(pubs)), "subs": sorted(set(subs))}
-                for name, (pubs, subs) in topics.items()
-            },
-            "services": {name: sorted(set(servers)) for name, servers in services.items()},
-        }
-    )
+    record: ArchRecord = {
+        "version": VERSION,
+        "topics": {
+            name: {"pubs": sorted(set(pubs)), "subs": sorted(set(subs))}
+            for name, (pubs, subs) in topics.items()
+        },
+        "services": {name: sorted(set(servers)) for name, servers in services.items()},
+    }
+    return dumps(record)
 
 
 def params_text(params: Mapping[str, Any]) -> str:
@@ -74,7 +111,8 @@ def params_text(params: Mapping[str, Any]) -> str:
     >>> params_text({"/b": "x", "/a": 1.5})
     '{"params":{"/a":1.5,"/b":"x"},"version":1}'
     """
-    return dumps({"version": VERSION, "params": dict(params)})
+    record: ParamsRecord = {"version": VERSION, "params": dict(params)}
+    return dumps(record)
 
 
 def call_text(
@@ -94,16 +132,15 @@ def call_text(
     '{"client":"/c","delay":0.25,"ok":false,"request":{"a":1},"response":null,\
 "server":"/n","service":"/s","stamp":2.5,"version":1}'
     """
-    return dumps(
-        {
-            "version": VERSION,
-            "service": service,
-            "client": client,
-            "server": server,
-            "request": dict(request),
-            "response": None if response is None else dict(response),
-            "ok": response is not None,
-            "stamp": float(stamp),
-            "delay": max(0.0, float(delay)),
-        }
-    )
+    record: CallRecord = {
+        "version": VERSION,
+        "service": service,
+        "client": client,
+        "server": server,
+        "request": dict(request),
+        "response": None if response is None else dict(response),
+        "ok": response is not None,
+        "stamp": float(stamp),
+        "delay": max(0.0, float(delay)),
+    }
+    return dumps(record)

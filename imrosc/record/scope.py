@@ -1,8 +1,8 @@
 """What a configuration needs recorded: topics, services, parameters, architecture kinds.
 
-The configuration is checked and compiled as for ``imrosc build`` (lowering and the passes,
-relative grouping included, with the graph the caller has: usually the live master's), and
-the scope is read off the compiled points:
+The configuration is checked and compiled as for ``imrosc build`` (:mod:`imrosc.frontend`:
+lowering and the passes, relative grouping included, with the graph the caller has: usually
+the live master's), and the scope is read off the compiled points:
 
 * **topics**: the topic of every ``<publish>``, its declared and grouped input topics, and
   the topic of every ``<condition>`` a point uses;
@@ -35,12 +35,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from imrosc import ir
-from imrosc.check import load_checked
 from imrosc.diagnostics import Diagnostic, finalize, has_errors
+from imrosc.frontend import compile_config
 from imrosc.graph.model import Graph
-from imrosc.lower import lower
-from imrosc.passes.context import PassContext
-from imrosc.passes.pipeline import run_passes
 
 __all__ = ["ARCH_KINDS", "CompiledScope", "Scope", "compile_scope", "scope_of"]
 
@@ -120,13 +117,11 @@ class CompiledScope:
 def compile_scope(config_path: Path, graph: Graph | None) -> CompiledScope:
     """Check and compile the configuration with ``graph``; its scope if it has no errors."""
     out = CompiledScope()
-    config, problems = load_checked(config_path)
-    if config is None:
+    project, problems, found = compile_config(config_path, graph)
+    if project is None:
         out.diagnostics = finalize(problems)
         return out
-    context = PassContext(path=config.path, graph=graph)
-    project = run_passes(lower(config), context)
-    for diagnostic in context.diagnostics:
+    for diagnostic in found:
         if diagnostic.code in _GRAPH_CODES:
             out.warnings.append(_graph_warning(diagnostic, project))
         else:

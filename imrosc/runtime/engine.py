@@ -25,6 +25,7 @@ from .compiled import numba_module
 from .conditions import holds
 from .detector import Detector
 from .families import DETECTOR, INTERVAL, MEAN, PATTERN, RATE, VARIANCE
+from .points import Pairing
 from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
 from .windows import Windows
@@ -67,19 +68,6 @@ def _picker(positions: Sequence[int]) -> Callable[[Sequence[Any]], Sequence[Any]
     return operator.itemgetter(*positions)
 
 
-class _Filter:
-    """One condition of a conditional point."""
-
-    def __init__(self, spec: Mapping[str, Any]) -> None:
-        self.topic: Optional[str] = spec.get("topic")
-        self.expression: Mapping[str, Any] = spec.get("expression") or {}
-        self.fields: List[Tuple[Tuple[Any, ...], str]] = [
-            (tuple(path), name) for path, name in spec.get("fields", ())
-        ]
-        self.variable: Optional[str] = spec.get("variable")
-        self.value = spec.get("value")
-
-
 class _Point:
     """One program point: where its values come from, its checks and its windows."""
 
@@ -94,9 +82,10 @@ class _Point:
         self.key = key
         self.kind: str = info["kind"]
         self.trigger: str = info.get("trigger", "")
-        self.inputs: Tuple[str, ...] = tuple(info.get("inputs", ()))
-        self.params: Tuple[str, ...] = tuple(info.get("params", ()))
-        self.filters = [_Filter(f) for f in info.get("filter", ())]
+        pairing = Pairing.from_json(info)
+        self.inputs = pairing.inputs
+        self.params = pairing.params
+        self.filters = pairing.filters
         variables = info["variables"]
         self.variables = variables
         numeric = [v for v in variables if v["type"] in NUMERIC_TYPES]
@@ -147,7 +136,7 @@ class _Point:
             elif inv["family"] == PATTERN:
                 self.patterns.append(PatternMachine(inv, key))
         self.events: Dict[Tuple[str, str], str] = {
-            (kind, name): ident for ident, kind, name in info.get("events", ())
+            (kind, name): ident for ident, kind, name in pairing.events
         }
 
     def reset(self) -> None:

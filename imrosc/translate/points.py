@@ -12,7 +12,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from imrosc.formats.job import JobDocument
+from imrosc.formats.plan import PlanDocument, PlanPoint
 from imrosc.infer.core import Variable
+from imrosc.runtime.points import Filter, Pairing
 from imrosc.translate.catalog import Catalog, arch_resources
 from imrosc.translate.condition import resolve_fields
 from imrosc.translate.layout import TopicLayout, short_names, topic_layout
@@ -52,6 +55,17 @@ class PointSpec:
     max_interval: float = 2.0
     max_events: int = 10
 
+    def pairing(self, *discovered: Filter) -> Pairing:
+        """How the engine rebuilds this point's samples (the invariants file's record of it,
+        :mod:`imrosc.runtime.points`): its inputs, parameters, events, its declared condition
+        and the ``discovered`` ones inference adds."""
+        filters = list(discovered)
+        if self.condition is not None:
+            condition = self.condition
+            fields = tuple((tuple(path), name) for path, name in condition.fields.items())
+            filters.insert(0, Filter(condition.id, condition.topic, condition.expression, fields))
+        return Pairing(self.inputs, self.params, self.events, tuple(filters))
+
 
 def _service_variables(catalog: Catalog, service: str, short: str) -> tuple[Variable, ...]:
     fields = catalog.services.get(service, {})
@@ -72,7 +86,7 @@ def _param_variable(catalog: Catalog, name: str, *, trigger: bool) -> Variable:
 class PointBuilder:
     """Builds :class:`PointSpec` s of one plan against one catalog."""
 
-    plan: Mapping[str, Any]
+    plan: PlanDocument
     catalog: Catalog
 
     def __post_init__(self) -> None:
@@ -95,8 +109,8 @@ class PointBuilder:
             )
         return self.layouts[key]
 
-    def condition(self, point: Mapping[str, Any]) -> ConditionSpec | None:
-        data = point.get("condition")
+    def condition(self, point: PlanPoint) -> ConditionSpec | None:
+        data = point["condition"]
         if not data:
             return None
         layout = self.layout(data["topic"], trigger=False)
@@ -111,15 +125,14 @@ class PointBuilder:
             raise PlanError(f"condition {data['id']}: {error}") from None
         return ConditionSpec(data["id"], data["topic"], data["expression"], fields)
 
-    def build(self, point: Mapping[str, Any], families: tuple[str, ...]) -> PointSpec:
-        kind = point["kind"]
+    def build(self, point: PlanPoint, families: tuple[str, ...]) -> PointSpec:
         common: dict[str, Any] = {
             "key": point["key"],
-            "kind": kind,
+            "kind": point["kind"],
             "families": families,
             "condition": self.condition(point),
         }
-        if kind == "publish":
+        if point["kind"] == "publish":
             topic = point["trigger"]["topic"]
             inputs = tuple(i["topic"] for i in point["inputs"] if i["topic"] in self.catalog.types)
             variables: list[Variable] = []
@@ -131,18 +144,18 @@ class PointBuilder:
             return PointSpec(
                 variables=tuple(variables), trigger=topic, inputs=inputs, params=params, **common
             )
-        if kind == "call":
+        if point["kind"] == "call":
             service = point["trigger"]["service"]
             short = self.short[service]
             params = tuple(point["params"])
             variables = [*_service_variables(self.catalog, service, short)]
             variables += [_param_variable(self.catalog, p, trigger=False) for p in params]
             return PointSpec(variables=tuple(variables), trigger=service, params=params, **common)
-        if kind == "param":
+        if point["kind"] == "param":
             name = point["trigger"]["param"]
             variable = _param_variable(self.catalog, name, trigger=True)
             return PointSpec(variables=(variable,), trigger=name, **common)
-        if kind == "arch":
+        if point["kind"] == "arch":
             resources = arch_resources(self.catalog, point["trigger"]["architecture"])
             variables = [
                 Variable(f"{ARCH_VARIABLE[k]}({r})", "set", r, k)
@@ -164,7 +177,7 @@ class PointBuilder:
 
 
 def point_specs(
-    plan: Mapping[str, Any], job: Mapping[str, Any], catalog: Catalog
+    plan: PlanDocument, job: JobDocument, catalog: Catalog
 ) -> tuple[list[PointSpec], list[str], dict[str, TopicLayout]]:
     """Specs of the plan points the bags can feed, a message per point they cannot, and the
     layout of every topic the specs read."""

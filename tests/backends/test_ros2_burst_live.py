@@ -25,8 +25,8 @@ import pytest
 
 from tests.backends.monitor_support import config_text, write_case, write_package
 from tests.backends.ros2_build import build_ros2, ros2_document
+from tests.backends.ros2_live_support import drive, invariant, start_monitor
 from tests.backends.ros2_support import Reader, require_ros2, ros2_environment
-from tests.backends.test_ros2_live import _invariant, drive, start_monitor
 
 pytestmark = pytest.mark.live
 
@@ -142,7 +142,7 @@ def test_bursts_through_the_monitor_arrive_complete_and_in_order_as_through_a_ba
     ros2_python = require_ros2()
     document = ros2_document({"/a/imu": "sensor_msgs/msg/Imu"})
     document["invariants"] = [
-        _invariant("w", "a", "bounds", "range", variables=["imu.orientation.w"], min=0.0, max=2.0)
+        invariant("w", "a", "bounds", "range", variables=["imu.orientation.w"], min=0.0, max=2.0)
     ]
     config = write_case(tmp_path, config_text(scope=SCOPE, monitor=MONITOR), document)
     result = build_ros2(config)

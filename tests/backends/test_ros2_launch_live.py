@@ -7,7 +7,7 @@ and the vendored launch system and ``ros2`` command; colcon runs from it, so the
 scripts run under its python. ``AMENT_PREFIX_PATH`` lists the virtualenv (where the message
 packages and ``ros2cli`` put their ament index) before ``setup.sh`` adds the install space.
 
-The package is the one of ``test_ros2_live.py``'s system, started with ``fail_open:=true``
+The package is the one of ``ros2_live_support.py``'s system, started with ``fail_open:=true``
 (the watchdog runs beside the monitor and stays idle while it beats), and the same driver
 plays the system: blocking, the publishing action, QoS matching against a best-effort
 publisher, a parameter, the relayed service (allowed and refused), an unknown publisher,
@@ -35,8 +35,8 @@ from click.testing import CliRunner
 from imrosc import records
 from imrosc.cli import main
 from tests.backends.monitor_support import config_text, write_case
+from tests.backends.ros2_live_support import DRIVER, MONITOR, SCOPE, assert_monitored, demo_document
 from tests.backends.ros2_support import Reader, require_launch, ros2_environment
-from tests.backends.test_ros2_live import DRIVER, MONITOR, SCOPE, assert_monitored, demo_document
 
 pytestmark = pytest.mark.live
 

@@ -1,7 +1,8 @@
 """The small project the catalogue of bad inputs runs its commands in: a configuration,
 training, successful and failed bags and the invariants learnt from them (``template``, made
 once per module), copied fresh for every case (``project``); ``snapshot`` tells whether a
-file changed."""
+file changed; ``COMMANDS`` are the commands that read bags, each with the bag it is given
+damaged, and ``run`` runs one in a project."""
 
 from __future__ import annotations
 
@@ -62,3 +63,30 @@ def project(template: Path, tmp_path: Path) -> Iterator[Path]:
     folder = tmp_path / "project"
     shutil.copytree(template, folder, symlinks=True)
     yield folder
+
+
+RECOVERED = "recovered"
+"""The word of the warning that a damaged bag was read in part."""
+
+COMMANDS: dict[str, tuple[tuple[str, ...], str, set[int]]] = {
+    # the command, the bag it reads that is damaged, the statuses it may give (a run cut
+    # short may break what the whole run kept: replay's 1 and 3)
+    "infer": (("infer", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r2.bag", {0}),
+    "replay": (("replay", "{d}/p.inv", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
+    "classify": (("classify", "{d}/p.xml", "-j", "1"), "bags/bad/f1.bag", {0}),
+    "stability": (("stability", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r1.bag", {0}),
+    "info": (("info", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
+    "export-daikon": (
+        ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon", "-q"),
+        "bags/train/r1.bag",
+        {0},
+    ),
+}
+
+
+def run(project: Path, args: tuple[str, ...]) -> tuple[int, str, str]:
+    """Run an imrosc command in ``project`` (``{d}``): its status, stdout and stderr."""
+    result = CliRunner().invoke(main, [arg.replace("{d}", str(project)) for arg in args])
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.output
+    assert "Traceback" not in result.output
+    return result.exit_code, result.stdout, result.stderr

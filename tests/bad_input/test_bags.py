@@ -15,14 +15,10 @@ import struct
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 
-from imrosc.cli import main
-from tests.bad_input.support import project, snapshot, template
+from tests.bad_input.support import COMMANDS, RECOVERED, project, run, snapshot, template
 
 __all__ = ["project", "template"]
-
-RECOVERED = "recovered"
 
 
 def cut(bag: Path, fraction: float) -> int:
@@ -41,29 +37,6 @@ def unindex(bag: Path) -> None:
     (index_pos,) = struct.unpack_from("<Q", data, field)
     data[field : field + 8] = bytes(8)
     bag.write_bytes(bytes(data[:index_pos]))
-
-
-COMMANDS: dict[str, tuple[tuple[str, ...], str, set[int]]] = {
-    # the command, the bag it reads that is damaged, the statuses it may give (a run cut
-    # short may break what the whole run kept: replay's 1 and 3)
-    "infer": (("infer", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r2.bag", {0}),
-    "replay": (("replay", "{d}/p.inv", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
-    "classify": (("classify", "{d}/p.xml", "-j", "1"), "bags/bad/f1.bag", {0}),
-    "stability": (("stability", "{d}/p.xml", "-j", "1", "-q"), "bags/train/r1.bag", {0}),
-    "info": (("info", "{d}/bags/ok/s1.bag"), "bags/ok/s1.bag", {0, 1, 3}),
-    "export-daikon": (
-        ("export-daikon", "{d}/p.xml", "-o", "{d}/daikon", "-q"),
-        "bags/train/r1.bag",
-        {0},
-    ),
-}
-
-
-def run(project: Path, args: tuple[str, ...]) -> tuple[int, str, str]:
-    result = CliRunner().invoke(main, [arg.replace("{d}", str(project)) for arg in args])
-    assert result.exception is None or isinstance(result.exception, SystemExit), result.output
-    assert "Traceback" not in result.output
-    return result.exit_code, result.stdout, result.stderr
 
 
 @pytest.mark.parametrize("fraction", [0.3, 0.6, 0.95, 1.0])

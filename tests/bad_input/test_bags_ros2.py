@@ -20,8 +20,7 @@ from click.testing import CliRunner
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from imrosc.cli import main
-from tests.bad_input.support import CONFIG, snapshot
-from tests.bad_input.test_bags import COMMANDS, RECOVERED, run
+from tests.bad_input.support import COMMANDS, CONFIG, RECOVERED, run, snapshot
 from tests.graph import ros2_typestore
 
 PAIRS = 400

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from tests.backends.monitor_support import build_ros1, config_text, write_case, write_package
-from tests.backends.test_ros2_live import MONITOR, SCOPE, demo_document
+from tests.backends.ros2_live_support import MONITOR, SCOPE, demo_document
 from tests.live.harness import ROS_PYTHON, Ros, wait_until
 
 pytestmark = pytest.mark.live

@@ -14,7 +14,7 @@ import numpy as np
 from imrosc.onboard import monitor
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
-from tests.runtime.test_alarms import document as alarm_case
+from tests.runtime.support import alarm_document as alarm_case
 
 
 def violation(point: str = "a", **fields: Any) -> Violation:

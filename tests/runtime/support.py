@@ -188,3 +188,25 @@ def point_inv(
         "params": params,
         "text": ident,
     }
+
+
+def alarm_document(alarms: dict[str, Any] | None) -> dict[str, Any]:
+    """A document of one publish point ``x`` (``/a/x``: ``x.v``, ``x.w``) whose two upper
+    bounds (``v_max``, ``w_max``: 1.0) are checked under ``alarms`` (``None``: no rule)."""
+    doc: dict[str, Any] = {
+        "topics": {"/a/x": {"type": "T", "variables": [var("x.v", "v"), var("x.w", "w")]}},
+        "points": {
+            "x": {
+                "kind": "publish",
+                "trigger": "/a/x",
+                "variables": [var("x.v", "v"), var("x.w", "w")],
+            }
+        },
+        "invariants": [
+            point_inv("v_max", "x", "bounds", "upper", ["x.v"], max=1.0),
+            point_inv("w_max", "x", "bounds", "upper", ["x.w"], max=1.0),
+        ],
+    }
+    if alarms is not None:
+        doc["alarms"] = alarms
+    return doc

@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
-from tests.runtime.support import point_inv as inv
-from tests.runtime.support import var
+from tests.runtime.support import alarm_document
 
 
 def broken(ident: str, time: float, point: str = "p") -> Violation:
@@ -122,28 +119,8 @@ def test_a_rule_of_families_round_trips_and_an_override_holds_for_every_family()
     assert rule.overridden(seconds=1.0).persistence("mean") == (40, 1.0)
 
 
-def document(alarms: dict[str, Any] | None) -> dict[str, Any]:
-    doc: dict[str, Any] = {
-        "topics": {"/a/x": {"type": "T", "variables": [var("x.v", "v"), var("x.w", "w")]}},
-        "points": {
-            "x": {
-                "kind": "publish",
-                "trigger": "/a/x",
-                "variables": [var("x.v", "v"), var("x.w", "w")],
-            }
-        },
-        "invariants": [
-            inv("v_max", "x", "bounds", "upper", ["x.v"], max=1.0),
-            inv("w_max", "x", "bounds", "upper", ["x.w"], max=1.0),
-        ],
-    }
-    if alarms is not None:
-        doc["alarms"] = alarms
-    return doc
-
-
 def test_the_engine_raises_alarms_under_the_files_rule() -> None:
-    engine = Engine(document({"persist": 3, "distinct": 2, "window": 0.5}))
+    engine = Engine(alarm_document({"persist": 3, "distinct": 2, "window": 0.5}))
     for k, (v, w) in enumerate([(2.0, 0.0), (2.0, 0.0), (0.0, 0.0), (2.0, 0.0), (2.0, 0.0)]):
         assert len(engine.message("/a/x", 0.1 * k, [v, w])) == (v > 1)
     assert engine.take_alarms() == []
@@ -156,12 +133,12 @@ def test_the_engine_raises_alarms_under_the_files_rule() -> None:
 
 
 def test_without_a_rule_every_violation_alarms() -> None:
-    engine = Engine(document(None))
+    engine = Engine(alarm_document(None))
     engine.message("/a/x", 0.0, [2.0, 0.0])
     engine.message("/a/x", 0.1, [0.0, 0.0])
     engine.message("/a/x", 0.2, [2.0, 0.0])
     assert [a.time for a in engine.take_alarms()] == [0.0, 0.2]
-    strict = Engine(document(None), rule=AlarmRule(persist=2))
+    strict = Engine(alarm_document(None), rule=AlarmRule(persist=2))
     strict.message("/a/x", 0.0, [2.0, 0.0])
     assert strict.take_alarms() == []
 
