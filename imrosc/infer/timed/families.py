@@ -193,39 +193,38 @@ class FrequencyState(TimedState):
         return {"window": self.window, "topic": self.topic or context.point}
 
 
-class VarianceState(TimedState):
-    """Algorithm 3: ``var_min <= window variance <= var_max`` per trigger variable."""
+class MomentState(TimedState):
+    """A statistic of the fixed dyadic algorithm (:func:`moments`) over every defined window
+    of at least two messages: ``moment`` 0 the mean, 1 the variance."""
 
-    family = "variance"
-    label = "var"
+    moment = 1
 
     def update(self, samples: Samples) -> None:
-        """Evaluate the variance of every defined window of at least two messages."""
+        """Evaluate the statistic of every defined window of at least two messages."""
         _, values, ends, starts = self.tracker.advance(
             np.asarray(samples.time, dtype=np.float64), self._values(samples)
         )
         length = ends - starts + 1
         keep = length >= 2
-        var = moments(values, starts[keep], length[keep])[1]
-        self.extremes.add(var, np.isfinite(var))
+        found = moments(values, starts[keep], length[keep])[self.moment]
+        self.extremes.add(found, np.isfinite(found))
 
 
-class MeanState(TimedState):
+class VarianceState(MomentState):
+    """Algorithm 3: ``var_min <= window variance <= var_max`` per trigger variable."""
+
+    family = "variance"
+    label = "var"
+    moment = 1
+
+
+class MeanState(MomentState):
     """``mean_min <= window mean <= mean_max`` per trigger variable (windows of at least two
     messages, as the variance's)."""
 
     family = "mean"
     label = "mean"
-
-    def update(self, samples: Samples) -> None:
-        """The mean of every defined window of at least two messages."""
-        _, values, ends, starts = self.tracker.advance(
-            np.asarray(samples.time, dtype=np.float64), self._values(samples)
-        )
-        length = ends - starts + 1
-        keep = length >= 2
-        mean = moments(values, starts[keep], length[keep])[0]
-        self.extremes.add(mean, np.isfinite(mean))
+    moment = 0
 
 
 class RateState(TimedState):
