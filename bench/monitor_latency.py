@@ -231,7 +231,7 @@ def run_rounds(
     """Every path at every rate, ``rounds`` times, interleaved (every other round in the
     reverse order, so that no path always runs last)."""
     results: Results = {
-        (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": []}
+        (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": [], "cpu": 0.0}
         for rate in rates
         for path in paths
     }
@@ -243,6 +243,7 @@ def run_rounds(
                 total["received"] += run["received"]
                 total["sent"] += run["sent"]
                 total["latencies"] += run["latencies"]
+                total["cpu"] += run.get("cpu", math.nan)
                 total["rounds"].append(
                     float(np.median(run["latencies"])) if run["latencies"] else math.nan
                 )
@@ -369,8 +370,12 @@ def checks_compiled() -> str:
 
 
 def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
-    """The table: per rate and path, messages, median and p99; monitor / plain relay."""
-    print(f"{'rate':>8}  {'path':<12} {'received':>13}  {'median ms':>9}  {'p99 ms':>8}")
+    """The table: per rate and path, messages, median and p99, and (ROS 2) the CPU time the
+    relay or monitor process used per message sent; monitor / plain relay."""
+    print(
+        f"{'rate':>8}  {'path':<12} {'received':>13}  {'median ms':>9}  {'p99 ms':>8}"
+        f"  {'CPU us/msg':>10}"
+    )
     figures: dict[tuple[float, str], tuple[float, float]] = {}
     for (rate, path), total in results.items():
         values = np.array(total["latencies"])
@@ -381,7 +386,9 @@ def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
         )
         figures[(rate, path)] = median, p99
         received = f"{total['received']}/{total['sent']}"
-        print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}")
+        cpu = total["cpu"] / total["sent"] * 1e6 if total["sent"] else math.nan
+        shown_cpu = "" if math.isnan(cpu) else f"{cpu:>10.0f}"
+        print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}  {shown_cpu}")
         if path in ("monitor", NUMPY_MONITOR):
             for baseline, note in (("plain relay", "  (target: within 1.2x)"), ("raw relay", "")):
                 base_median, base_p99 = figures[(rate, baseline)]
