@@ -88,9 +88,10 @@ except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
 
 QUEUE = plumbing.QUEUE
 THREADS = 4
-"""Executor threads of a node that relays services: checks run in one mutually exclusive
-group (messages are checked and relayed in order); relayed service calls wait for the real
-service in the others. A node that relays no service spins one thread (:func:`executor_for`)."""
+"""Executor threads of a node that relays services: the timer, ``/m/clear_inv`` (and the
+topics' messages before Humble: in order) run in one mutually exclusive group; relayed
+service calls wait for the real service in the others. A node that relays no service spins
+one thread (:func:`executor_for`)."""
 SERVICE_TIMEOUT = 10.0
 WAIT = 0.5
 """Seconds the thread that takes the topics' messages waits at most before it looks
@@ -633,7 +634,9 @@ def executor_for(monitor: Monitor) -> Any:
     every callback to a worker thread through a future and rebuilds its wait set for each,
     which at 1 kHz cost several times the checks (bench/monitor_latency.py); without relayed
     services nothing waits in a callback (actions run in their own thread, parameters are
-    asked asynchronously), and one thread keeps messages in order as the exclusive group did."""
+    asked asynchronously). The topics' messages are taken by the node's own thread
+    (:meth:`Monitor.take_messages`) where rclpy allows it, else by this executor, in order
+    (one thread, or the exclusive group)."""
     if monitor.service_relays:
         return MultiThreadedExecutor(num_threads=THREADS)
     return SingleThreadedExecutor()
