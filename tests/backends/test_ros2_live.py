@@ -560,10 +560,13 @@ def wait(what, timeout=30.0):
         time.sleep(0.05)
     return False
 
+# the command publisher's own side of the match (the graph may list the monitor's
+# subscription before this writer matched it, and a volatile writer drops what it
+# publishes before), and the relay in the graph
 out["ready"] = wait(
-    lambda: node.count_subscribers("/a/cmd") > 0 and node.count_publishers("/m/a/cmd") > 0, 60
+    lambda: cmd.get_subscription_count() > 0 and node.count_publishers("/m/a/cmd") > 0, 60
 )
-time.sleep(1.0)  # matching both ways
+time.sleep(1.0)  # the relay's side of its match with this node's subscription
 for value in (1, 2, 9):
     cmd.publish(UInt8(data=value))
     time.sleep(0.3)
