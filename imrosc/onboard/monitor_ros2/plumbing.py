@@ -51,6 +51,8 @@ try:  # Humble and later: the wait set of rclpy's executors, for :class:`Waiter`
     )
 
     WAIT_SET: Any = getattr(_rclpy, "WaitSet", None)
+    if not hasattr(getattr(_rclpy, "Subscription", None), "take_message"):
+        WAIT_SET = None  # nothing to take a message with outside the executor
 except ImportError:  # no ROS 2, or a release without them: the executor takes every message
     CallbackGroup = object
     WAIT_SET = None
