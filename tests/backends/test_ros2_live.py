@@ -562,11 +562,12 @@ def wait(what, timeout=30.0):
 
 # the command publisher's own side of the match (the graph may list the monitor's
 # subscription before this writer matched it, and a volatile writer drops what it
-# publishes before), and the relay in the graph
+# publishes before), and both of the monitor's publishers on /m/a/cmd in the graph: the
+# relay and action f's
 out["ready"] = wait(
-    lambda: cmd.get_subscription_count() > 0 and node.count_publishers("/m/a/cmd") > 0, 60
+    lambda: cmd.get_subscription_count() > 0 and node.count_publishers("/m/a/cmd") >= 2, 60
 )
-time.sleep(1.0)  # the relay's side of its match with this node's subscription
+time.sleep(1.0)  # their side of the match with this node's subscription
 for value in (1, 2, 9):
     cmd.publish(UInt8(data=value))
     time.sleep(0.3)
