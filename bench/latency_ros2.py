@@ -35,6 +35,7 @@ before ``publish``).
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import signal
@@ -100,6 +101,14 @@ import numpy as np
 node = Node("bench_source")
 publisher = node.create_publisher(JointState, args["topic"], QOS)
 rows = np.load(args["rows"]).tolist()
+echoed = [None]
+if args["echo"]:  # lockstep: the next message once the path delivered this one
+
+    def on_echo(message):
+        if message.header.frame_id != "pre":
+            echoed[0] = (message.header.stamp.sec, message.header.stamp.nanosec)
+
+    node.create_subscription(JointState, args["echo"], on_echo, QOS)
 say("source up")
 while not os.path.exists(args["go"]):
     time.sleep(0.01)
@@ -131,6 +140,11 @@ while time.monotonic() < end:
     message.header.stamp.nanosec = int((now - int(now)) * 1e9)
     publisher.publish(message)
     k += 1
+    if args["echo"]:
+        stamp = (message.header.stamp.sec, message.header.stamp.nanosec)
+        waited = time.monotonic() + 0.5
+        while echoed[0] != stamp and time.monotonic() < waited:
+            rclpy.spin_once(node, timeout_sec=0.05)
     delay = start + k * period - time.monotonic()
     if delay > 0:
         time.sleep(delay)
@@ -243,6 +257,11 @@ class Ros2Bench:
         self.runs = 0
         self.profile: Path | None = None
         """A folder: the monitor runs under cProfile, its statistics written there."""
+        self.lockstep = False
+        """The source publishes the next message once it heard this one at the path's end
+        (or after 0.5 s), at most at the rate: every message crosses the path alone, so the
+        relay's CPU time per message does not depend on how far the machine's load let it
+        fall behind (it takes the messages that piled up at once, which costs less)."""
         self.scripts: dict[str, Path] = {}
         for name, text in (("source", SOURCE), ("relay", RELAY), ("sink", SINK)):
             self.scripts[name] = folder / f"bench_{name}.py"
@@ -310,9 +329,13 @@ class Ros2Bench:
         # still count until their lease ends, must not count as this run's matches, nor
         # may a test's graph on this machine
         self.run_env = {**self.env, "ROS_DOMAIN_ID": str(private_domain())}
+        sink_topic = {"direct": TOPIC, "plain relay": RELAYED, "raw relay": RELAYED}.get(
+            path, "/m" + TOPIC
+        )
         try:
             source = self.node(
                 "source",
+                echo=sink_topic if self.lockstep else "",
                 topic=TOPIC,
                 rows=str(self.rows),
                 rate=rate,
@@ -323,12 +346,10 @@ class Ros2Bench:
             )
             started.append(source)
             source.wait_for("source up", 60)
-            sink_topic = TOPIC
             if path in ("plain relay", "raw relay"):
                 relay = self.node("relay", input=TOPIC, output=RELAYED, raw=path == "raw relay")
                 started.append(relay)
                 relay.wait_for("relay up", 60)
-                sink_topic = RELAYED
             elif path in ("monitor", "monitor, numpy"):
                 script = self.install / "lib" / MONITOR / MONITOR
                 command = [str(script)]
@@ -343,7 +364,6 @@ class Ros2Bench:
                 line = monitor.wait_for(f"imrosc monitor /{MONITOR}: checking", 120)
                 if "compiles the checks" in line:  # numba compiles them in the background
                     monitor.wait_for("imrosc: compiled checks in use", 120)
-                sink_topic = "/m" + TOPIC
             sink = self.node("sink", topic=sink_topic, out=str(out))
             started.append(sink)
             sink.wait_for("sink matched 1", 60)  # a publisher of a compatible QoS
@@ -358,8 +378,13 @@ class Ros2Bench:
                 sink.wait_for("sink heard the pre-roll", 60)
             except AssertionError:  # counted anyway: the run's received count shows it
                 print(f"{tag}: the sink did not hear the pre-roll in 60 s", file=sys.stderr)
+            middle = started[1] if len(started) > 2 else None  # a relay or the monitor
             go.with_name(f"start-{tag}").write_text("start\n")
-            _wait(lambda: source.popen.poll() is not None, seconds + warmup + 90)
+            cpu_before = cpu_seconds(middle.popen.pid) if middle is not None else math.nan
+            # the source writes the count once it published the last message
+            _wait(sent_file.exists, seconds + warmup + 90, 0.01)
+            cpu = cpu_seconds(middle.popen.pid) - cpu_before if middle is not None else math.nan
+            _wait(lambda: source.popen.poll() is not None, 90)
             time.sleep(1.0)  # the last messages through a relay that fell behind
             sink.stop(signal.SIGINT, timeout=30)
             record = json.loads(out.read_text(encoding="utf-8"))
@@ -374,15 +399,28 @@ class Ros2Bench:
             for latency, received in zip(record["latency"], record["received"], strict=True)
             if received >= first + warmup
         ]
-        return {"received": len(record["latency"]), "sent": sent, "latencies": kept}
+        return {
+            "received": len(record["latency"]),
+            "sent": sent,
+            "latencies": kept,
+            "cpu": cpu,
+        }
 
 
-def _wait(done: Callable[[], bool], timeout: float) -> None:
+def cpu_seconds(pid: int) -> float:
+    """The CPU time (user and system, all threads) process ``pid`` has used so far, from
+    ``/proc``: what a relay costs per message, which the machine's other load does not
+    change as it changes latencies."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _wait(done: Callable[[], bool], timeout: float, every: float = 0.05) -> None:
     deadline = time.monotonic() + timeout
     while not done():
         if time.monotonic() > deadline:
             raise TimeoutError("the source did not finish")
-        time.sleep(0.05)
+        time.sleep(every)
 
 
 def ros2_python() -> str | None:

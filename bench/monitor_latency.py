@@ -2,6 +2,7 @@
 
     python bench/monitor_latency.py [--rates 100,1000] [--seconds 5] [--invariants 1000]
                                     [--rounds N] [--middleware ros1,ros2] [--numpy-too]
+                                    [--lockstep]
 
 Two tables, one per middleware (``--middleware`` chooses; both by default), each with the
 ratio of the monitor to a bare relay of that middleware. ROS 2 is described in
@@ -9,8 +10,12 @@ ratio of the monitor to a bare relay of that middleware. ROS 2 is described in
 ``tools/ros2_venv.sh``, or ``IMROSC_ROS2_PYTHON``), the monitor package built with colcon, the
 message a ``sensor_msgs/msg/JointState`` carrying the 56 values, the same invariants; with
 ``--numpy-too`` the ROS 2 table has a fifth path, the same monitor with ``IMROSC_NUMBA=0``,
-run in the same rounds (the compiled checks and numpy's on the same machine load). What
-follows describes ROS 1.
+run in the same rounds (the compiled checks and numpy's on the same machine load). The ROS 2
+table also has the CPU time the relay or monitor process used per message sent (from
+``/proc``); with ``--lockstep`` the ROS 2 source sends the next message only once it heard
+the last one at the path's end, so that figure does not depend on how far the machine's
+load let a relay fall behind (one that fell behind takes the piled-up messages at once,
+which costs less per message). What follows describes ROS 1.
 
 Needs Debian's ROS 1 (``make test`` installs it as root): a roscore on a free port of
 127.0.0.1 (the live tests' harness, ``tests/live/harness.py``), rospy nodes under
@@ -231,7 +236,7 @@ def run_rounds(
     """Every path at every rate, ``rounds`` times, interleaved (every other round in the
     reverse order, so that no path always runs last)."""
     results: Results = {
-        (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": []}
+        (rate, path): {"received": 0, "sent": 0, "latencies": [], "rounds": [], "cpu": 0.0}
         for rate in rates
         for path in paths
     }
@@ -243,6 +248,7 @@ def run_rounds(
                 total["received"] += run["received"]
                 total["sent"] += run["sent"]
                 total["latencies"] += run["latencies"]
+                total["cpu"] += run.get("cpu", math.nan)
                 total["rounds"].append(
                     float(np.median(run["latencies"])) if run["latencies"] else math.nan
                 )
@@ -289,6 +295,7 @@ def bench_ros2(
     load = os.getloadavg()[0]
     (folder / "ros2").mkdir()
     ros2 = Ros2Bench(folder / "ros2", python, document, folder / "rows.npy")
+    ros2.lockstep = args.lockstep
     paths = (*PATHS, NUMPY_MONITOR) if args.numpy_too else PATHS
     results = run_rounds(
         rates,
@@ -310,6 +317,7 @@ def bench_ros2(
         f"relayed topic; {args.rounds} x {args.seconds:g} s per path and rate after "
         f"{WARMUP:g} s of warm-up; latency = receipt - header.stamp; load average {load:.1f} "
         f"before, {os.getloadavg()[0]:.1f} after; the monitor's checks {compiled}"
+        + ("; lockstep (a message once the last one arrived)" if args.lockstep else "")
     )
     report(results)
 
@@ -327,6 +335,11 @@ def main() -> None:
         "--numpy-too",
         action="store_true",
         help=f"ROS 2: also the path {NUMPY_MONITOR!r}, the same monitor with IMROSC_NUMBA=0",
+    )
+    parser.add_argument(
+        "--lockstep",
+        action="store_true",
+        help="ROS 2: the source sends the next message once the last one arrived",
     )
     args = parser.parse_args()
     chosen = [m.strip() for m in args.middleware.split(",") if m.strip()]
@@ -369,8 +382,12 @@ def checks_compiled() -> str:
 
 
 def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
-    """The table: per rate and path, messages, median and p99; monitor / plain relay."""
-    print(f"{'rate':>8}  {'path':<12} {'received':>13}  {'median ms':>9}  {'p99 ms':>8}")
+    """The table: per rate and path, messages, median and p99, and (ROS 2) the CPU time the
+    relay or monitor process used per message sent; monitor / plain relay."""
+    print(
+        f"{'rate':>8}  {'path':<12} {'received':>13}  {'median ms':>9}  {'p99 ms':>8}"
+        f"  {'CPU us/msg':>10}"
+    )
     figures: dict[tuple[float, str], tuple[float, float]] = {}
     for (rate, path), total in results.items():
         values = np.array(total["latencies"])
@@ -381,7 +398,9 @@ def report(results: dict[tuple[float, str], dict[str, Any]]) -> None:
         )
         figures[(rate, path)] = median, p99
         received = f"{total['received']}/{total['sent']}"
-        print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}")
+        cpu = total["cpu"] / total["sent"] * 1e6 if total["sent"] else math.nan
+        shown_cpu = "" if math.isnan(cpu) else f"{cpu:>10.0f}"
+        print(f"{rate:>6g}Hz  {path:<12} {received:>13}  {median:>9.3f}  {p99:>8.3f}  {shown_cpu}")
         if path in ("monitor", NUMPY_MONITOR):
             for baseline, note in (("plain relay", "  (target: within 1.2x)"), ("raw relay", "")):
                 base_median, base_p99 = figures[(rate, baseline)]

@@ -278,10 +278,14 @@ def wait(what, timeout=30.0):
         time.sleep(0.05)
     return False
 
+# the command publisher's own side of the match (the graph may list the monitor's
+# subscription before this writer matched it, and a volatile writer drops what it
+# publishes before), and both of the monitor's publishers on /m/a/cmd in the graph: the
+# relay and action f's
 out["ready"] = wait(
-    lambda: node.count_subscribers("/a/cmd") > 0 and node.count_publishers("/m/a/cmd") > 0, 60
+    lambda: cmd.get_subscription_count() > 0 and node.count_publishers("/m/a/cmd") >= 2, 60
 )
-time.sleep(1.0)  # matching both ways
+time.sleep(1.0)  # their side of the match with this node's subscription
 for value in (1, 2, 9):
     cmd.publish(UInt8(data=value))
     time.sleep(0.3)

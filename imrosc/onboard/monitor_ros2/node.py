@@ -88,10 +88,14 @@ except ImportError:  # pragma: no cover - exercised on ROS 2 systems only
 
 QUEUE = plumbing.QUEUE
 THREADS = 4
-"""Executor threads of a node that relays services: checks run in one mutually exclusive
-group (messages are checked and relayed in order); relayed service calls wait for the real
-service in the others. A node that relays no service spins one thread (:func:`executor_for`)."""
+"""Executor threads of a node that relays services: the timer, ``/m/clear_inv`` (and the
+topics' messages before Humble: in order) run in one mutually exclusive group; relayed
+service calls wait for the real service in the others. A node that relays no service spins
+one thread (:func:`executor_for`)."""
 SERVICE_TIMEOUT = 10.0
+WAIT = 0.5
+"""Seconds the thread that takes the topics' messages waits at most before it looks
+whether the node still runs (closing it wakes it at once)."""
 Flatten = Callable[[Any], List[Any]]
 
 
@@ -176,6 +180,17 @@ class Monitor(common.Checking):
             t["name"]: Topic(t["name"], t.get("ros2_type"), self.topic_relays.get(t["name"]))
             for t in spec["topics"]
         }
+        self.waiter: Optional[plumbing.Waiter] = None
+        """Where the topics' messages are waited for and taken, in a thread of their own
+        (:meth:`take_messages`); ``None`` where rclpy cannot (before Humble): the executor
+        runs the subscriptions' callbacks then."""
+        self.by_the_waiter: Any = None
+        if plumbing.Waiter.available():
+            self.waiter = plumbing.Waiter(node.context)
+            self.by_the_waiter = plumbing.NotByTheExecutor()
+        self.endpoints = threading.Lock()
+        """Held while a topic's subscription or relay is replaced and while its messages are
+        checked and relayed: no message is relayed on a publisher being destroyed."""
         self.services: Dict[str, Tuple[Any, Any]] = {}
         self.action_out: Dict[str, Tuple[Any, Any]] = {}
         self.action_clients: Dict[str, Tuple[Any, Any]] = {}
@@ -199,6 +214,12 @@ class Monitor(common.Checking):
         self.timer = node.create_timer(
             self.period, self.checked("the timer", self.tick), callback_group=self.checks
         )
+        self.taking: Optional[threading.Thread] = None
+        if self.waiter is not None:
+            self.taking = threading.Thread(
+                target=self.take_messages, name="imrosc-messages", daemon=True
+            )
+            self.taking.start()
 
     def checked(self, where: str, callback: Callable[..., Any]) -> Callable[..., Any]:
         """``callback`` under the guard: the first exception stops the node (:meth:`stop`).
@@ -280,29 +301,41 @@ class Monitor(common.Checking):
                 topic.read = cdr.reader(topic.message_class, layout, plumbing.message_class)
         publishers = logic.publisher_qos(view, topic.name, self.own)
         wanted = logic.qos_update(topic.qos, publishers, topic.msgtype)
-        if wanted is not None:
-            if topic.subscription is not None:
-                self.node.destroy_subscription(topic.subscription)
-            topic.qos = wanted
-            topic.subscription = self.node.create_subscription(
-                topic.message_class,
-                topic.name,
-                self.checked(f"message on {topic.name}", self.on_message_of(topic)),
-                plumbing.profile(wanted, plumbing.TOPIC_DEPTH),
-                callback_group=self.checks,
-                raw=topic.relay_name is not None,
-            )
-            topic.take = plumbing.taker(topic.subscription)
-        if topic.relay_name is None:
+        offer = None
+        if topic.relay_name is not None:
+            offer = logic.qos_update(topic.relay_qos, publishers, topic.msgtype, logic.relay_qos)
+        if wanted is None and offer is None:
             return
-        offer = logic.qos_update(topic.relay_qos, publishers, topic.msgtype, logic.relay_qos)
-        if offer is not None:
-            if topic.relay is not None:
-                self.node.destroy_publisher(topic.relay)
-            topic.relay_qos = offer
-            topic.relay = self.node.create_publisher(
-                topic.message_class, topic.relay_name, plumbing.profile(offer, plumbing.TOPIC_DEPTH)
-            )
+        with self.endpoints:
+            if wanted is not None:
+                self.subscribe(topic, wanted)
+            if offer is not None:
+                if topic.relay is not None:
+                    self.node.destroy_publisher(topic.relay)
+                topic.relay_qos = offer
+                topic.relay = self.node.create_publisher(
+                    topic.message_class,
+                    topic.relay_name,
+                    plumbing.profile(offer, plumbing.TOPIC_DEPTH),
+                )
+
+    def subscribe(self, topic: Topic, qos: logic.Qos) -> None:
+        """(Re)subscribe to ``topic`` with ``qos``: taken by :attr:`waiter` where it can,
+        else in the executor's checks group."""
+        if topic.subscription is not None:
+            self.node.destroy_subscription(topic.subscription)
+        topic.qos = qos
+        topic.subscription = self.node.create_subscription(
+            topic.message_class,
+            topic.name,
+            self.checked(f"message on {topic.name}", self.on_message_of(topic)),
+            plumbing.profile(qos, plumbing.TOPIC_DEPTH),
+            callback_group=self.checks if self.waiter is None else self.by_the_waiter,
+            raw=topic.relay_name is not None,
+        )
+        topic.take = plumbing.taker(topic.subscription)
+        if self.waiter is not None:
+            self.waiter.put(topic.name, topic.subscription)
 
     def connect_action(self, ident: str, view: logic.GraphView) -> None:
         """The publisher and message of a topic action, the client of a service action."""
@@ -338,13 +371,45 @@ class Monitor(common.Checking):
 
     # -- what happens -----------------------------------------------------------------------
 
+    def take_messages(self) -> None:
+        """The thread that waits for the topics' messages (:class:`plumbing.Waiter`) and
+        checks and relays them, each topic's in order, while the node runs."""
+        waiter = self.waiter
+        assert waiter is not None
+        takers = {name: self.checked(f"message on {name}", self.take_all) for name in self.topics}
+        while rclpy.ok() and self.guard.failure is None and not waiter.closed:
+            for name in waiter.wait(WAIT):
+                takers[name](self.topics[name])
+
+    def take_all(self, topic: Topic) -> None:
+        """Check and relay the messages waiting on ``topic``, in order, up to :data:`QUEUE`
+        of them (the others' turn comes after)."""
+        flatten = self.flatteners.get(topic.name)
+        with self.endpoints:
+            take = topic.take
+            if take is None:
+                return
+            for _ in range(QUEUE):
+                message = take()
+                if message is None:
+                    return
+                self.check_message(topic, flatten, message)
+
+    def stop_taking(self) -> None:
+        """End the thread of :meth:`take_messages` (the node is being destroyed)."""
+        if self.waiter is not None:
+            self.waiter.close()
+        if self.taking is not None:
+            self.taking.join(timeout=2.0)
+
     def on_message_of(self, topic: Topic) -> Callable[[Any], None]:
-        """The subscription callback of ``topic``: a message object, or the bytes of a
-        blocked topic's message (relayed as they are). The messages that arrived meanwhile
-        are then taken in the same callback, in order, up to :data:`QUEUE` of them
-        (:func:`plumbing.taker`): rclpy's executor rebuilds its wait set and makes a task for
-        every message it hands over, which costs more than the checks, so a node that fell
-        behind (a loaded machine) catches up at the cost of the checks alone."""
+        """The subscription callback of ``topic`` where the executor takes its messages
+        (no :attr:`waiter`): a message object, or the bytes of a blocked topic's message
+        (relayed as they are). The messages that arrived meanwhile are then taken in the
+        same callback, in order, up to :data:`QUEUE` of them (:func:`plumbing.taker`):
+        rclpy's executor rebuilds its wait set and makes a task for every message it hands
+        over, which costs more than the checks, so a node that fell behind (a loaded
+        machine) catches up at the cost of the checks alone."""
         flatten = self.flatteners.get(topic.name)
 
         def on_message(message: Any) -> None:
@@ -569,7 +634,9 @@ def executor_for(monitor: Monitor) -> Any:
     every callback to a worker thread through a future and rebuilds its wait set for each,
     which at 1 kHz cost several times the checks (bench/monitor_latency.py); without relayed
     services nothing waits in a callback (actions run in their own thread, parameters are
-    asked asynchronously), and one thread keeps messages in order as the exclusive group did."""
+    asked asynchronously). The topics' messages are taken by the node's own thread
+    (:meth:`Monitor.take_messages`) where rclpy allows it, else by this executor, in order
+    (one thread, or the exclusive group)."""
     if monitor.service_relays:
         return MultiThreadedExecutor(num_threads=THREADS)
     return SingleThreadedExecutor()
@@ -615,6 +682,6 @@ def main(
         threading.Thread(
             target=monitor.compile, args=(compiler,), name="imrosc-compile", daemon=True
         ).start()
-    plumbing.spin_until_stopped(executor, node)
+    plumbing.spin_until_stopped(executor, node, monitor.stop_taking)
     if monitor.guard.failure is not None:
         sys.exit(1)  # the launch reports the exit

@@ -11,6 +11,7 @@ timeout (:func:`call`) and a callback that logs instead of killing the executor
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import threading
 from typing import Any, Callable, Dict, List, Optional, Sequence, Set, Tuple
@@ -38,11 +39,31 @@ except ImportError:  # Foxy, Galactic (and no ROS 2 at all)
     ExternalShutdownException = KeyboardInterrupt
 SPIN_ENDED = (KeyboardInterrupt, ExternalShutdownException)
 """What ends an executor's ``spin()`` on Ctrl-C or SIGINT, in every ROS 2 release."""
+try:  # Humble and later: the wait set of rclpy's executors, for :class:`Waiter`
+    from rclpy.callback_groups import (  # type: ignore[import-not-found, unused-ignore]
+        CallbackGroup,
+    )
+    from rclpy.guard_condition import (  # type: ignore[import-not-found, unused-ignore]
+        GuardCondition,
+    )
+    from rclpy.impl.implementation_singleton import (  # type: ignore[import-not-found, unused-ignore]
+        rclpy_implementation as _rclpy,
+    )
+
+    WAIT_SET: Any = getattr(_rclpy, "WaitSet", None)
+    if not hasattr(getattr(_rclpy, "Subscription", None), "take_message"):
+        WAIT_SET = None  # nothing to take a message with outside the executor
+except ImportError:  # no ROS 2, or a release without them: the executor takes every message
+    CallbackGroup = object
+    WAIT_SET = None
 
 
-def spin_until_stopped(executor: Any, node: Any) -> None:
-    """Spin ``executor`` until Ctrl-C (either way it ends the spin), then shut it, ``node``
-    and rclpy down."""
+def spin_until_stopped(
+    executor: Any, node: Any, before_destroy: Optional[Callable[[], None]] = None
+) -> None:
+    """Spin ``executor`` until Ctrl-C (either way it ends the spin), then shut it down,
+    call ``before_destroy`` (threads that use the node's endpoints end there), and shut
+    ``node`` and rclpy down."""
     import rclpy  # type: ignore[import-not-found, unused-ignore]
 
     try:
@@ -51,6 +72,8 @@ def spin_until_stopped(executor: Any, node: Any) -> None:
         pass
     finally:
         executor.shutdown()
+        if before_destroy is not None:
+            before_destroy()
         node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
@@ -132,6 +155,87 @@ def taker(subscription: Any) -> Optional[Callable[[], Any]]:
         return None if taken is None else taken[0]
 
     return next_message
+
+
+class NotByTheExecutor(CallbackGroup):  # type: ignore[misc, valid-type, unused-ignore]
+    """A callback group no executor runs, nor waits on (``can_execute`` is false): the
+    subscriptions in it are waited on and taken by a :class:`Waiter`."""
+
+    def can_execute(self, entity: Any) -> bool:
+        return False
+
+    def beginning_execution(self, entity: Any) -> bool:
+        return False
+
+    def ending_execution(self, entity: Any) -> None:
+        return None
+
+
+class Waiter:
+    """Waits for messages on a set of subscriptions (made in a :class:`NotByTheExecutor`
+    group) outside the executor, in the thread that calls :meth:`wait`. rclpy's executor
+    rebuilds its wait set from every entity of the node in Python each time it wakes, and
+    makes a task of each callback: at 1 kHz that cost more than the monitor's checks
+    (``bench/monitor_latency.py``). A wait here is one wait set of the subscriptions and a
+    guard condition that :meth:`put`, :meth:`remove` and :meth:`close` trigger."""
+
+    def __init__(self, context: Any) -> None:
+        self.context = context
+        self.wake = GuardCondition(None, None, context=context)
+        self.lock = threading.Lock()
+        self.subscriptions: Dict[str, Any] = {}
+        self.closed = False
+
+    @staticmethod
+    def available() -> bool:
+        """Whether this rclpy has the wait set and the take of a subscription (Humble on)."""
+        return WAIT_SET is not None
+
+    def put(self, key: str, subscription: Any) -> None:
+        """Wait on ``subscription`` under ``key`` (in place of the one there)."""
+        with self.lock:
+            self.subscriptions[key] = subscription
+        self.wake.trigger()
+
+    def close(self) -> None:
+        """End :meth:`wait`: it returns nothing from now on."""
+        self.closed = True
+        with contextlib.suppress(Exception):
+            self.wake.trigger()
+
+    def wait(self, timeout: float) -> List[str]:
+        """The keys of the subscriptions with a message waiting, once one has one or after
+        ``timeout`` seconds (none then); none once closed or once the context shut down."""
+        with self.lock:
+            waited = list(self.subscriptions.items())
+        if self.closed:
+            return []
+        with contextlib.ExitStack() as held:  # none is destroyed while it is waited on
+            handles = []
+            for key, subscription in waited:
+                try:
+                    held.enter_context(subscription.handle)
+                except Exception:  # destroyed meanwhile: the next wait has its successor
+                    continue
+                handles.append((key, subscription.handle))
+            try:
+                held.enter_context(self.wake.handle)
+                held.enter_context(self.context.handle)
+                wait_set = WAIT_SET(len(handles), 1, 0, 0, 0, 0, self.context.handle)
+            except Exception:  # the context shut down
+                return []
+            wait_set.clear_entities()
+            for _, handle in handles:
+                wait_set.add_subscription(handle)
+            wait_set.add_guard_condition(self.wake.handle)
+            try:
+                wait_set.wait(int(timeout * 1e9))
+            except Exception:  # the context shut down while waiting
+                return []
+            if self.closed or not self.context.ok():
+                return []
+            ready = wait_set.get_ready_entities("subscription")
+            return [key for key, handle in handles if handle.pointer in ready]
 
 
 def get_param(node: Any, name: str, default: Any) -> Any:
