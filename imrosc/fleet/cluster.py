@@ -28,7 +28,6 @@ pass runs once more with that bag left out.
 from __future__ import annotations
 
 import importlib
-import math
 import threading
 import uuid
 from collections import OrderedDict
@@ -131,32 +130,58 @@ def _failed_run(bag: Path) -> dict[str, Any]:
 
 
 _replayers = threading.local()
-"""Per worker thread, the replayers of the last folds it replayed (by the fold's key)."""
-REPLAYERS = 8
+"""Per worker thread and kind of run, the engine of the last document it replayed."""
+REPLAYERS = 1
+"""Engines a worker thread keeps per kind of run: the stages send one document at a time,
+and an engine holds tens of MB (its polygons' tables)."""
 
 
 def _replay(
     document: Mapping[str, Any],
-    fold_key: str,
     bags: list[tuple[Path, list[tuple[float, float] | None], Path]],
     fold: int,
 ) -> list[HeldOut]:
     """A calibration task: some bags' held-out units of a fold replayed, each bag
-    ``(path, spans, name)`` (the fold's engine built once per worker thread)."""
-    cache: OrderedDict[str, Any] | None = getattr(_replayers, "cache", None)
-    if cache is None:
-        cache = _replayers.cache = OrderedDict()
-    replayer = cache.get(fold_key)
-    if replayer is None:
-        replayer = cache[fold_key] = held_out_replayer(document)
-        while len(cache) > REPLAYERS:
-            cache.popitem(last=False)
+    ``(path, spans, name)``, with the fold's engine built for the task and dropped after
+    (a worker's tasks are consecutive slices of the folds: :func:`shares`)."""
+    replayer = held_out_replayer(document)
     found = []
     for bag, spans, name in bags:
         units = held_out(replayer, bag, spans, fold)
         for unit in units:
             unit.bag = str(name)
         found += units
+    return found
+
+
+Slice = tuple[int, int, int]
+"""A fold's bags ``first:stop``, as ``(fold, first, stop)``."""
+
+
+def shares(sizes: Sequence[int], parts: int) -> list[list[Slice]]:
+    """The folds' bags (``sizes`` of them per fold) in ``parts`` consecutive shares of as
+    many bags as can be (the first ones a bag more), each share the slices of the folds it
+    spans: a worker that replays a share builds the engines of those folds only (a fold's
+    engine is built by at most the workers that share it), and the shares' bags differ by
+    one at most.
+
+    >>> shares([4, 4, 4], 2)
+    [[(0, 0, 4), (1, 0, 2)], [(1, 2, 4), (2, 0, 4)]]
+    """
+    total = sum(sizes)
+    parts = max(1, min(parts, total))
+    found: list[list[Slice]] = [[] for _ in range(parts)]
+    share, taken = 0, 0  # the share being filled, the bags it has
+    for fold, size in enumerate(sizes):
+        first = 0
+        while first < size:
+            room = total // parts + (share < total % parts) - taken
+            stop = min(size, first + room)
+            found[share].append((fold, first, stop))
+            taken += stop - first
+            first = stop
+            if taken == total // parts + (share < total % parts):
+                share, taken = share + 1, 0
     return found
 
 
@@ -382,46 +407,63 @@ class Fleet:
         return merged
 
     def replay_held_out(self, jobs: Sequence[Job]) -> list[list[HeldOut]]:
-        """Calibration's held-out replays: per fold, its bags in as many consecutive groups
-        as it takes to give every worker one (one task each, the fold's document sent
-        once); the answers in the order of the folds and their bags."""
+        """Calibration's held-out replays: the folds' bags cut in one consecutive share per
+        worker (:func:`shares`), each share's slices of folds a task suggested to its
+        worker; each fold's document sent once and released, with the answers, as soon as
+        its tasks are done. The answers in the order of the folds and their bags."""
         client = self.client
+        distributed = _distributed()
         token = uuid.uuid4().hex[:12]
-        parts = max(1, math.ceil(self.workers / max(len(jobs), 1)))
-        tasks = []
+        folds = [
+            [(bag.absolute(), spans, bag) for bag, spans in bags.items()] for _, bags, _ in jobs
+        ]
+        workers = sorted(client.scheduler_info().get("workers", {})) or [None]
+        found: list[list[list[HeldOut]]] = [[] for _ in jobs]
+        learnt: dict[int, Any] = {}
+        tasks: dict[Any, tuple[int, int]] = {}
+        left = [0] * len(jobs)
         try:
-            keys = [f"imrosc-fold-{token}-{fold}" for fold in range(len(jobs))]
-            learnt = [
-                client.submit(_same, job[0], key=key, priority=JOIN_PRIORITY)
-                for job, key in zip(jobs, keys, strict=True)
-            ]
-            # on every worker: else the scheduler keeps a fold's tasks beside its document
-            client.replicate(learnt)
-            for fold, (_, bags, number) in enumerate(jobs):
-                every = [(bag.absolute(), spans, bag) for bag, spans in bags.items()]
-                size = max(1, math.ceil(len(every) / parts))
-                tasks.append(
-                    [
-                        client.submit(
-                            _replay,
-                            learnt[fold],
-                            keys[fold],
-                            every[first : first + size],
-                            number,
-                            key=f"imrosc-replay-{token}-{fold}-{first}",
-                            retries=RETRIES,
+            order = 0
+            cut = shares([len(bags) for bags in folds], len(workers))
+            for worker, share in zip(workers, cut, strict=False):  # fewer bags than workers: shares
+                where = {} if worker is None else {"workers": [worker], "allow_other_workers": True}
+                for fold, first, stop in share:
+                    if fold not in learnt:
+                        # a task, not scattered data: computed again if its workers die
+                        learnt[fold] = client.submit(
+                            _same, jobs[fold][0], key=f"imrosc-fold-{token}-{fold}", **where
                         )
-                        for first in range(0, len(every), size)
-                    ]
-                )
-            answers = client.gather(tasks)
-        except _distributed().KilledWorker as killed:
+                    task = client.submit(
+                        _replay,
+                        learnt[fold],
+                        folds[fold][first:stop],
+                        jobs[fold][2],
+                        key=f"imrosc-replay-{token}-{fold}-{first}",
+                        retries=RETRIES,
+                        priority=-order,  # a worker's slices in the folds' order
+                        **where,
+                    )
+                    order += 1
+                    tasks[task] = (fold, len(found[fold]))
+                    found[fold].append([])
+                    left[fold] += 1
+            for task in distributed.as_completed(list(tasks), loop=client.loop):
+                fold, index = tasks.pop(task)
+                found[fold][index] = task.result()
+                task.release()
+                left[fold] -= 1
+                if not left[fold]:
+                    learnt.pop(fold).release()
+        except distributed.KilledWorker as killed:
             raise FleetError(
                 f"{self.address}: the Dask workers died replaying held-out bags ({killed})"
             ) from None
         except (OSError, TimeoutError) as error:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
-        return [[unit for found in fold for unit in found] for fold in answers]
+        finally:
+            for future in [*tasks, *learnt.values()]:
+                future.release()
+        return [[unit for part in fold for unit in part] for fold in found]
 
     def replay_runs(
         self,

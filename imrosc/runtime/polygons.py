@@ -90,6 +90,9 @@ convert the whole sample to a list once."""
 _FINE_RUNS = 1 << 16
 """Fine cells whose run of edges is remembered (a dictionary cleared when full: a miss
 only costs a look at the codes)."""
+_BLOCK = 1 << 18
+"""Edge-cell pairs whose float64 worst corners a table build holds at once (2 MiB per
+array): all edges at once, a hull of 1,400 edges took 86 MB to build 12 MB of tables."""
 _ALL = 255
 _NONE = np.empty(0, dtype=np.int64)
 """No candidates (shared, never written)."""
@@ -500,8 +503,14 @@ def _codes(edges: Sequence[Edge], box_x: Any, box_y: Any) -> Any:
     # and so is its float64 evaluation (rounding is monotone)
     x_worst = np.where(a[:, None] >= 0, box_x[1], box_x[0]) * a[:, None]
     y_worst = np.where(b[:, None] >= 0, box_y[1], box_y[0]) * b[:, None]
-    may = (x_worst[:, :, None] + y_worst[:, None, :]) > c[:, None, None]  # (edges, gx, gy)
     m, grid = len(edges), box_x.shape[1]
+    may = np.empty((m, grid, grid), dtype=bool)  # (edges, gx, gy)
+    step = max(1, _BLOCK // (grid * grid))
+    for start in range(0, m, step):  # the float64 sums of a few edges at a time
+        part = slice(start, start + step)
+        np.greater(
+            x_worst[part, :, None] + y_worst[part, None, :], c[part, None, None], out=may[part]
+        )
     codes = np.zeros((grid, grid), dtype=np.uint8)
     near = may.any(axis=0)
     if not near.any():
@@ -535,7 +544,13 @@ def _near(edges: Sequence[Edge], box_x: Any, box_y: Any, coarse: Any) -> Any:
     xs, ys = np.repeat(np.repeat(coarse, 1 << _SPLIT, axis=0), 1 << _SPLIT, axis=1).nonzero()
     if not len(xs):
         return near
-    x_worst = np.where(a[:, None] >= 0, box_x[1][xs], box_x[0][xs]) * a[:, None]
-    y_worst = np.where(b[:, None] >= 0, box_y[1][ys], box_y[0][ys]) * b[:, None]
-    near[xs, ys] = ((x_worst + y_worst) > c[:, None]).any(axis=0)
+    low_x, high_x, low_y, high_y = box_x[0][xs], box_x[1][xs], box_y[0][ys], box_y[1][ys]
+    hit = np.zeros(len(xs), dtype=bool)
+    step = max(1, _BLOCK // len(xs))
+    for start in range(0, len(a), step):  # a few edges at a time: (edges, cells) arrays
+        part = slice(start, start + step)
+        x_worst = np.where(a[part, None] >= 0, high_x, low_x) * a[part, None]
+        y_worst = np.where(b[part, None] >= 0, high_y, low_y) * b[part, None]
+        hit |= ((x_worst + y_worst) > c[part, None]).any(axis=0)
+    near[xs, ys] = hit
     return near

@@ -1,4 +1,5 @@
-"""The ordered tree reduction: any arrival order gives the left fold in position order."""
+"""The ordered tree reduction: any arrival order gives the left fold in position order; the
+held-out replays' shares of the folds."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from imrosc.fleet.cluster import shares
 from imrosc.fleet.tree import OrderedTree
 
 
@@ -54,3 +56,21 @@ def test_a_missing_or_foreign_value_is_an_error() -> None:
         tree.add(3, 1)
     with pytest.raises(ValueError):
         OrderedTree(0, lambda a, b: a + b)
+
+
+@given(st.lists(st.integers(0, 12), min_size=1, max_size=8), st.integers(1, 10))
+def test_held_out_shares_are_consecutive_slices_of_even_size(sizes: list[int], parts: int) -> None:
+    """Calibration's held-out replays: every fold's bags once, in order, in shares whose
+    bags differ by one at most; a share holds one slice per fold it spans."""
+    cut = shares(sizes, parts)
+    every = [
+        (fold, bag) for share in cut for fold, first, stop in share for bag in range(first, stop)
+    ]
+    assert every == [(fold, bag) for fold, size in enumerate(sizes) for bag in range(size)]
+    counts = [sum(stop - first for _, first, stop in share) for share in cut]
+    assert len(cut) == max(1, min(parts, sum(sizes)))
+    assert max(counts) - min(counts) <= 1
+    for share in cut:
+        folds = [fold for fold, _, _ in share]
+        assert folds == sorted(set(folds))
+        assert all(first < stop for _, first, stop in share)

@@ -234,3 +234,26 @@ def test_lazy_tables_are_built_at_first_use_and_answer_alike() -> None:
 
 def _json(value: Any) -> str:
     return json.dumps(value, default=lambda array: np.asarray(array).tolist())
+
+
+@pytest.mark.parametrize("block", [1, 7, 4096])
+def test_tables_built_a_few_edges_at_a_time_are_those_built_at_once(
+    monkeypatch: pytest.MonkeyPatch, block: int
+) -> None:
+    """The worst corners are summed for a block of edges at a time (:data:`_BLOCK`), so a
+    hull of a thousand edges does not take tens of MB to build: the codes and the bits are
+    those of every edge at once (block 1: one edge; 4096: one row of coarse cells)."""
+    angle = np.linspace(0, 2 * np.pi, 1200, endpoint=False)
+    circle = np.stack([np.cos(angle), 3 * np.sin(angle)], axis=1) + 2
+    rng = np.random.default_rng(3)
+    clouds, _ = clouds_over(rng, 4, 300, "walk")
+    clouds[(4, 5)] = circle
+    invariants, edges, _ = hull_polygons(clouds)
+    assert max(len(inv["params"]["A"]) for inv in invariants) == 1200
+    monkeypatch.setattr(module, "_BLOCK", 1 << 40)  # every edge at once
+    whole = PolygonChecks(invariants, edges)
+    monkeypatch.setattr(module, "_BLOCK", block)
+    parts = PolygonChecks(invariants, edges)
+    assert np.array_equal(parts.table, whole.table)
+    assert np.array_equal(parts.bits, whole.bits)
+    assert whole.bits.any() and (whole.table != 0).any()
