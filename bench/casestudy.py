@@ -260,7 +260,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
     parser.add_argument("--nominal", type=int, default=20, help="recorded normal runs")
     parser.add_argument("--fail-runs", type=int, default=1, help="recorded runs per fault")
-    parser.add_argument("--speed", type=float, default=3.0, help="times real time")
+    parser.add_argument(
+        "--speed", type=float, default=0.0, help="at most times real time (0: as fast as the lockstep goes)"
+    )
     parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it")
     parser.add_argument(

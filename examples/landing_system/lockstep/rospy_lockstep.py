@@ -50,7 +50,10 @@ from typing import Any
 
 REPORT_TOPIC = "/lockstep/report"
 GO_TOPIC = "/lockstep/go"
-UNCOUNTED = frozenset({REPORT_TOPIC, "/rosout", "/rosout_agg"})
+UNLINKED = frozenset({REPORT_TOPIC, "/rosout", "/rosout_agg"})
+"""Topics whose connections time need not wait for (the reports are latched)."""
+UNCOUNTED = UNLINKED | {GO_TOPIC}
+"""Not counted: the release is awaited through the reports of the processes it wakes."""
 CLOCK = "/clock"
 
 
@@ -80,7 +83,12 @@ class Process:
         """The node's set-up is done (it spins, or a thread sleeps on ROS time)."""
         self.publisher: Any = None
         self.sequence = 0
+        self.version = 0
+        """Bumped on every change of the counts or the activity."""
+        self.links_version = 0
+        """Bumped when a publisher of this process gains a connection."""
         self.last: Any = None
+        self.last_links = -1
         self.report_lock = threading.Lock()
         self.string: Any = None
         self.listeners: list[Any] = []
@@ -110,6 +118,7 @@ class Process:
         return self.holding == 0 or self.timers_pending(now)
 
     def changed(self) -> None:
+        self.version += 1
         self.cond.notify_all()
         for listener in self.listeners:
             listener()
@@ -178,40 +187,44 @@ class Process:
         manager = self.rospy.impl.registration.get_topic_manager()
         found = []
         for topic, impl in list(getattr(manager, "pubs", {}).items()):
-            if topic not in UNCOUNTED:
+            if topic not in UNLINKED:
                 found.extend(f"{topic}>{c.endpoint_id}" for c in list(impl.connections))
         return sorted(found)
 
-    def state(self, bye: bool = False) -> dict[str, Any] | None:
-        """What this process reports, when it is idle (or leaving)."""
-        with self.cond:
-            now = self.now()
-            if not bye and not self.idle():
-                return None
-            return {
-                "node": self.rospy.get_caller_id(),
-                "pid": os.getpid(),
-                "time": now,
-                "sim": not self.rospy.rostime.is_wallclock(),
-                "ready": self.ready,
-                "bye": bye,
-                "sent": dict(self.sent),
-                "received": dict(self.received),
-                "calls": dict(self.calls),
-                "served": dict(self.served),
-                "links": self.links(),
-            }
-
     def report(self, bye: bool = False) -> None:
+        """Publish this process's state if it is idle (or leaving) and changed since the
+        last report (its publishers' connections only when they changed)."""
         if self.publisher is None:
             return
         with self.report_lock:
-            state = self.state(bye)
-            if state is None or state == self.last:
-                return
-            self.last = state
-            self.sequence += 1
-            text = json.dumps({**state, "seq": self.sequence}, separators=(",", ":"))
+            with self.cond:
+                now = self.now()
+                if not bye and not self.idle():
+                    return
+                key = (now, self.ready, self.version, self.links_version, bye)
+                if key == self.last:
+                    return
+                self.last = key
+                self.sequence += 1
+                state: dict[str, Any] = {
+                    "node": self.rospy.get_caller_id(),
+                    "seq": self.sequence,
+                    "pid": os.getpid(),
+                    "time": now,
+                    "sim": not self.rospy.rostime.is_wallclock(),
+                    "ready": self.ready,
+                    "bye": bye,
+                    "released": self.released,
+                    "next": min((d for d in self.sleepers.values() if d is not None), default=None),
+                    "sent": self.sent,
+                    "received": self.received,
+                    "calls": self.calls,
+                    "served": self.served,
+                }
+                if self.links_version != self.last_links:
+                    self.last_links = self.links_version
+                    state["links"] = self.links()
+                text = json.dumps(state, separators=(",", ":"))
             with contextlib.suppress(Exception):
                 self.publisher.publish(self.string(text))
 
@@ -221,7 +234,7 @@ class Process:
         with cond:
             with self.cond:
                 self.released = max(self.released, int(message.clock.to_nsec()))
-                self.changed()
+                self.cond.notify_all()  # no report of its own: a woken timer's sleep makes one
             cond.notify_all()
 
     def start(self) -> None:
@@ -329,6 +342,8 @@ def install(rospy: Any) -> Process:
 
     def add_connection(impl: Any, connection: Any) -> Any:
         added = original_add_connection(impl, connection)
+        with state.cond:
+            state.links_version += 1
         state.report()  # a new link: the simulator's start waits for them
         return added
 
@@ -420,7 +435,8 @@ class Coordinator:
     """The simulator's half: waits until the graph has reacted to the current step.
 
     Participants are the processes that report; :meth:`start` also waits for the nodes the
-    same ``roslaunch`` started (its other Python children) to be ready and connected.
+    same ``roslaunch`` started (its other Python children) to be ready and connected. The
+    channels' balance is kept up to date report by report (a step brings a few dozen).
     """
 
     def __init__(self, state: Process) -> None:
@@ -431,7 +447,15 @@ class Coordinator:
         self.go = state.rospy.Publisher(GO_TOPIC, Clock, queue_size=None)
         self.state = state
         self.name = state.rospy.get_caller_id()
+        self.inbox: list[dict[str, Any]] = []
         self.reports: dict[str, dict[str, Any]] = {}
+        """The latest report of each participant but the simulator (``links`` kept)."""
+        self.sent: dict[tuple[str, str, str], int] = {}
+        self.received: dict[tuple[str, str, str], int] = {}
+        self.services: dict[str, dict[str, tuple[int, int]]] = {}
+        """Per node, per service: (calls made, calls served)."""
+        self.unbalanced: set[tuple[str, str, str]] = set()
+        self.own_version = -1
         self.stalls = 0
         state.publisher = None  # nobody needs the simulator's own reports
         state.listeners.append(self.wake)
@@ -443,60 +467,105 @@ class Coordinator:
 
     def on_report(self, message: Any) -> None:
         report = json.loads(message.data)
+        if report["node"] == self.name:
+            return
         with self.state.cond:
-            name = report["node"]
-            if name == self.name:
-                return
-            if report["bye"]:
-                self.reports.pop(name, None)
-            elif report["seq"] > self.reports.get(name, {}).get("seq", 0):
-                self.reports[name] = report
+            self.inbox.append(report)
             self.state.cond.notify_all()
 
-    def own(self) -> dict[str, Any]:
-        with self.state.cond:
-            return {
-                "node": self.state.rospy.get_caller_id(),
-                "sent": dict(self.state.sent),
-                "received": dict(self.state.received),
-                "calls": dict(self.state.calls),
-                "served": dict(self.state.served),
-                "links": self.state.links(),
-            }
+    # ----- the balance (called with the condition held)
+    def participants(self) -> set[str]:
+        return {self.name, *self.reports}
 
-    def unsettled(self, now: int) -> list[str]:
-        """Why the graph has not settled at ``now`` (ns); empty when it has. Called with
-        the condition held."""
+    def check(self, channel: tuple[str, str, str], members: set[str]) -> None:
+        if (
+            channel[1] in members
+            and channel[2] in members
+            and self.sent.get(channel, 0) != self.received.get(channel, 0)
+        ):
+            self.unbalanced.add(channel)
+        else:
+            self.unbalanced.discard(channel)
+
+    def apply(self, node: str, report: dict[str, Any]) -> None:
+        """Take a node's counts in place of its last ones."""
+        members = self.participants()
+        touched = []
+        for key, n in report["sent"].items():
+            topic, _, to = key.rpartition(">")
+            channel = (topic, node, to)
+            if self.sent.get(channel) != n:
+                self.sent[channel] = n
+                touched.append(channel)
+        for key, n in report["received"].items():
+            topic, _, source = key.rpartition("<")
+            channel = (topic, source, node)
+            if self.received.get(channel) != n:
+                self.received[channel] = n
+                touched.append(channel)
+        calls, served = report["calls"], report["served"]
+        self.services[node] = {s: (calls.get(s, 0), served.get(s, 0)) for s in {*calls, *served}}
+        for channel in touched:
+            self.check(channel, members)
+
+    def recheck(self) -> None:
+        members = self.participants()
+        self.unbalanced.clear()
+        for channel in {*self.sent, *self.received}:
+            self.check(channel, members)
+
+    def take_reports(self) -> None:
+        joined = False
+        for report in self.inbox:
+            name = report["node"]
+            if report["bye"]:
+                if self.reports.pop(name, None) is not None:
+                    self.services.pop(name, None)
+                    joined = True
+                continue
+            last = self.reports.get(name)
+            if last is not None and report["seq"] <= last["seq"]:
+                continue
+            if "links" not in report:
+                report["links"] = last["links"] if last is not None else []
+            joined = joined or last is None
+            self.reports[name] = report
+            self.apply(name, report)
+        self.inbox.clear()
+        if self.state.version != self.own_version:
+            self.own_version = self.state.version
+            own = self.state
+            self.apply(
+                self.name,
+                {"sent": own.sent, "received": own.received, "calls": own.calls, "served": own.served},
+            )
+        if joined:
+            self.recheck()
+
+    def unsettled(self, now: int, released: bool = False) -> list[str]:
+        """Why the graph has not settled at ``now`` (ns), before or after the step's
+        release; empty when it has. Called with the condition held."""
+        self.take_reports()
         why = []
         if self.state.busy:
             why.append("the simulator's callbacks run")
-        mine = self.own()
-        everyone = {mine["node"]: mine}
         for name, report in self.reports.items():
             if report["sim"] and report["time"] < now:
                 why.append(f"{name} is at {report['time'] / 1e9:.2f} s")
-            everyone[name] = report
-        sent: dict[tuple[str, str, str], int] = {}
-        received: dict[tuple[str, str, str], int] = {}
-        for name, report in everyone.items():
-            for key, n in report["sent"].items():
-                topic, _, to = key.rpartition(">")
-                sent[(topic, name, to)] = n
-            for key, n in report["received"].items():
-                topic, _, source = key.rpartition("<")
-                received[(topic, source, name)] = n
-        for channel in set(sent) | set(received):
-            if channel[1] in everyone and channel[2] in everyone:
-                if sent.get(channel, 0) != received.get(channel, 0):
-                    why.append(
-                        f"{channel[0]} {channel[1]} -> {channel[2]}: sent "
-                        f"{sent.get(channel, 0)}, received {received.get(channel, 0)}"
-                    )
-        for service in {s for r in everyone.values() for s in (*r["calls"], *r["served"])}:
-            made = sum(r["calls"].get(service, 0) for r in everyone.values())
-            done = sum(r["served"].get(service, 0) for r in everyone.values())
-            if made != done:
-                why.append(f"service {service}: {made} calls, {done} served")
+            elif released and report["released"] < now and (report["next"] or now + 1) <= now:
+                why.append(f"{name}'s timers have not run")
+        if why:
+            return why
+        for topic, source, to in sorted(self.unbalanced)[:4]:
+            sent, got = self.sent.get((topic, source, to), 0), self.received.get((topic, source, to), 0)
+            why.append(f"{topic} {source} -> {to}: sent {sent}, received {got}")
+        totals: dict[str, list[int]] = {}
+        for per_node in self.services.values():
+            for service, (made, done) in per_node.items():
+                total = totals.setdefault(service, [0, 0])
+                total[0] += made
+                total[1] += done
+        why.extend(f"service {s}: {m} calls, {d} served" for s, (m, d) in totals.items() if m != d)
         return why
 
     def step(self, stamp: Any) -> None:
@@ -506,23 +575,25 @@ class Coordinator:
         now = int(stamp.to_nsec())
         self.settle(now)
         self.go.publish(self.clock(clock=stamp))
-        self.settle(now)
+        self.settle(now, released=True)
 
-    def settle(self, now: int, timeout: float = 30.0) -> bool:
+    def settle(self, now: int, released: bool = False, timeout: float = 30.0) -> bool:
         """Wait until the graph has reacted to time ``now`` (ns). False (and a warning) when
         it did not within ``timeout`` wall seconds: the step goes on (counted in
         :attr:`stalls`)."""
         deadline = time.monotonic() + timeout
         with self.state.cond:
             while True:
-                why = self.unsettled(now)
+                why = self.unsettled(now, released)
                 if not why or self.state.rospy.is_shutdown():
                     return True
                 left = deadline - time.monotonic()
                 if left <= 0:
                     self.stalls += 1
                     self.forget_the_dead()
-                    self.state.rospy.logwarn("lockstep: not settled at %.2f s: %s", now / 1e9, why[:4])
+                    self.state.rospy.logwarn(
+                        "lockstep: not settled at %.2f s: %s", now / 1e9, why[:4]
+                    )
                     return False
                 self.state.cond.wait(min(left, 1.0))
 
@@ -532,6 +603,8 @@ class Coordinator:
                 os.kill(int(report["pid"]), 0)
             except OSError:
                 self.reports.pop(name, None)
+                self.services.pop(name, None)
+        self.recheck()
 
     def start(self, timeout: float = 60.0) -> bool:
         """Before time starts: wait until the Python processes the same ``roslaunch``
@@ -542,10 +615,12 @@ class Coordinator:
         why = ""
         while time.monotonic() < deadline and not self.state.rospy.is_shutdown():
             with self.state.cond:
-                reports = dict(self.reports)
+                self.take_reports()
+                reports = {name: dict(report) for name, report in self.reports.items()}
             pids = {int(r["pid"]) for r in reports.values() if r["ready"]}
             missing = siblings() - pids - {os.getpid()}
-            why = f"processes {sorted(missing)} not ready" if missing else self.connected(master, reports)
+            why = f"processes {sorted(missing)} not ready" if missing else ""
+            why = why or self.connected(master, reports)
             if not why:
                 return True
             time.sleep(0.05)
@@ -557,18 +632,17 @@ class Coordinator:
         code, _, system = master.getSystemState()
         if code != 1:
             return "the master did not answer"
-        mine = self.own()
-        everyone = {mine["node"]: mine, **reports}
+        everyone = {name: set(r["links"]) for name, r in reports.items()}
+        everyone[self.name] = set(self.state.links())
         subscribers = {topic: set(nodes) for topic, nodes in system[1]}
         for topic, publishers in system[0]:
-            if topic in UNCOUNTED:
+            if topic in UNLINKED:
                 continue
             for publisher in publishers:
                 if publisher not in everyone:
                     continue
-                links = set(everyone[publisher]["links"])
                 for subscriber in subscribers.get(topic, ()):
-                    if subscriber in everyone and f"{topic}>{subscriber}" not in links:
+                    if subscriber in everyone and f"{topic}>{subscriber}" not in everyone[publisher]:
                         return f"{publisher} is not connected to {subscriber} on {topic}"
         return ""
 
