@@ -141,6 +141,7 @@ def record(
     ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over; its outcome and
     bag (in ``bags/recording``)."""
     env = {**os.environ, **ros.env}
+    env.pop("LANDING_LOCKSTEP", None)  # the recorder is no part of the robot: not in lockstep
     # the ROS graph's PYTHONPATH (the generated service types) and this tree's imrosc
     env["PYTHONPATH"] = os.pathsep.join(
         p for p in (ros.env.get("PYTHONPATH"), str(ROOT), os.environ.get("PYTHONPATH")) if p
@@ -261,7 +262,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--nominal", type=int, default=20, help="recorded normal runs")
     parser.add_argument("--fail-runs", type=int, default=1, help="recorded runs per fault")
     parser.add_argument(
-        "--speed", type=float, default=0.0, help="at most times real time (0: as fast as the lockstep goes)"
+        "--speed",
+        type=float,
+        default=0.0,
+        help="at most times real time (0: as fast as the lockstep goes)",
     )
     parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it")

@@ -7,13 +7,17 @@ nodes around it). This module gives every rospy process the node-side half, by p
 rospy when it is imported (``sitecustomize.py``), with no change to the nodes' code:
 
 * **Counting** (distributed termination detection): each process counts the messages it
-  wrote to each subscriber (``topic>subscriber``), those whose callbacks it finished per
-  publisher (``topic<publisher``), the service calls it made and served. When it is idle it
+  wrote to each subscriber (``topic>subscriber``), those it received per publisher
+  (``topic<publisher``), the service calls it made that were answered and those its
+  handlers answered (summed over the services: a relay outside the lockstep serves one
+  name and calls another; a call refused or failed is counted by neither side). When it is idle it
   publishes its counts and its ``/clock`` time on ``/lockstep/report``. The simulator
   (:class:`Coordinator`) advances only when every process reports idle at the current time
   and every channel between them balances (sent = received): then no message is in flight
   and no callback runs anywhere (a process whose report is stale has received something
-  after it, which its sender counted: the counts cannot balance).
+  after it, which its sender counted: the counts cannot balance). The release of a step
+  (below) is not counted: the simulator waits for a report after it from each process
+  whose timers it wakes (its last report said one was due).
 * **Idle**: no callback or service handler runs, and every thread that sleeps on ROS time
   (``rospy.sleep``, ``Rate``, ``Timer``) is back asleep with a deadline after the current
   time. Threads that wait on the wall clock (a heartbeat) are not tracked: what they
@@ -24,15 +28,19 @@ rospy when it is imported (``sitecustomize.py``), with no change to the nodes' c
   release passed its deadline. So no message a timer sends at time t can reach a process
   that still lives at the time before (the release follows every process's clock).
 * **Synchronous ticks**: a message (but the simulator's) that arrives while a timer of its
-  subscriber is due is
-  handed to its callback only once that timer ran, so every timer at time t sees what was
-  published before t, never what another node's timer published at t (which would depend
-  on which process the scheduler ran first).
+  subscriber is pending at the current time is handed to its callback only once that timer
+  ran, so every timer at time t sees what was published before t and the simulator's
+  messages of t, never what another node's timer published at t (which would depend on
+  which process the scheduler ran first).
 * Publishers write synchronously (no queue, nothing dropped), subscribers queue without
   bound and ask for ``TCP_NODELAY`` (Nagle's delayed small writes would stall every step).
 
 Messages of ``/rosout`` and the reports themselves are not counted; nor are channels to or
-from processes without this module (``rosbag record``): they do not hold the clock.
+from processes without this module (``rosbag record``): they do not hold the clock. Two
+things stay outside the lockstep: the order in which one subscriber gets messages that two
+publishers sent in the same step (the stealing scenario's two sources of ``/a/car_pose``),
+and what a thread that waits on something else than ROS time publishes (the monitor's
+actions, taken by a worker thread after an alarm): the step that carries it may vary.
 """
 
 from __future__ import annotations
@@ -251,25 +259,25 @@ class Process:
         self.report()
 
 
-PROCESS: Process | None = None
+_INSTALLED: list[Process] = []
+"""This process's lockstep, once rospy was patched."""
 
 
 def process() -> Process | None:
     """This process's lockstep, when rospy was patched."""
-    return PROCESS
+    return _INSTALLED[0] if _INSTALLED else None
 
 
 def install(rospy: Any) -> Process:
     """Patch an imported rospy (once)."""
-    global PROCESS
-    if PROCESS is not None:
-        return PROCESS
+    if _INSTALLED:
+        return _INSTALLED[0]
     import genpy  # type: ignore[import-not-found]
     from rospy import rostime, timer, topics  # type: ignore[import-not-found]
     from rospy.impl import tcpros_service  # type: ignore[import-not-found]
 
     state = Process(rospy)
-    PROCESS = state
+    _INSTALLED.append(state)
 
     def sleep(duration: Any) -> None:
         if rostime.is_wallclock():
@@ -385,18 +393,34 @@ def install(rospy: Any) -> Process:
     original_call = tcpros_service.ServiceProxy.call
 
     def call(proxy: Any, *args: Any, **kwargs: Any) -> Any:
-        state.count(state.calls, [proxy.resolved_name])
-        return original_call(proxy, *args, **kwargs)
+        answer = original_call(proxy, *args, **kwargs)
+        state.count(state.calls, [proxy.resolved_name])  # answered: a handler ran to its end
+        return answer
 
     tcpros_service.ServiceProxy.call = call
     original_handle = tcpros_service.ServiceImpl._handle_request
+    handled = threading.local()
 
     def handle_request(service: Any, transport: Any, request: Any) -> None:
+        if not getattr(service, "lockstep_counted", False):
+            inner = service.handler
+
+            def counted(request: Any) -> Any:
+                answer = inner(request)
+                handled.ok = True
+                return answer
+
+            service.handler = counted
+            service.lockstep_counted = True
+        handled.ok = False
         state.begin(False)
         try:
             original_handle(service, transport, request)
-        finally:
-            state.end(state.served, service.resolved_name)
+        finally:  # a call the handler refused (raised) is counted by neither side
+            if handled.ok:
+                state.end(state.served, service.resolved_name)
+            else:
+                state.end()
 
     tcpros_service.ServiceImpl._handle_request = handle_request
     return state
@@ -453,7 +477,9 @@ class Coordinator:
         self.sent: dict[tuple[str, str, str], int] = {}
         self.received: dict[tuple[str, str, str], int] = {}
         self.services: dict[str, dict[str, tuple[int, int]]] = {}
-        """Per node, per service: (calls made, calls served)."""
+        """Per node, per service: (calls answered, calls served). Summed over the services:
+        a relay outside the lockstep (``imrosc record``'s) serves one name and calls
+        another."""
         self.unbalanced: set[tuple[str, str, str]] = set()
         self.own_version = -1
         self.stalls = 0
@@ -537,7 +563,12 @@ class Coordinator:
             own = self.state
             self.apply(
                 self.name,
-                {"sent": own.sent, "received": own.received, "calls": own.calls, "served": own.served},
+                {
+                    "sent": own.sent,
+                    "received": own.received,
+                    "calls": own.calls,
+                    "served": own.served,
+                },
             )
         if joined:
             self.recheck()
@@ -557,15 +588,15 @@ class Coordinator:
         if why:
             return why
         for topic, source, to in sorted(self.unbalanced)[:4]:
-            sent, got = self.sent.get((topic, source, to), 0), self.received.get((topic, source, to), 0)
+            sent, got = (
+                self.sent.get((topic, source, to), 0),
+                self.received.get((topic, source, to), 0),
+            )
             why.append(f"{topic} {source} -> {to}: sent {sent}, received {got}")
-        totals: dict[str, list[int]] = {}
-        for per_node in self.services.values():
-            for service, (made, done) in per_node.items():
-                total = totals.setdefault(service, [0, 0])
-                total[0] += made
-                total[1] += done
-        why.extend(f"service {s}: {m} calls, {d} served" for s, (m, d) in totals.items() if m != d)
+        made = sum(m for per_node in self.services.values() for m, _ in per_node.values())
+        done = sum(d for per_node in self.services.values() for _, d in per_node.values())
+        if made != done:
+            why.append(f"services: {made} calls answered, {done} served")
         return why
 
     def step(self, stamp: Any) -> None:
@@ -642,7 +673,10 @@ class Coordinator:
                 if publisher not in everyone:
                     continue
                 for subscriber in subscribers.get(topic, ()):
-                    if subscriber in everyone and f"{topic}>{subscriber}" not in everyone[publisher]:
+                    if (
+                        subscriber in everyone
+                        and f"{topic}>{subscriber}" not in everyone[publisher]
+                    ):
                         return f"{publisher} is not connected to {subscriber} on {topic}"
         return ""
 

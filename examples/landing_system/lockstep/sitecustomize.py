@@ -11,6 +11,11 @@ from __future__ import annotations
 import os
 
 if os.environ.get("LANDING_LOCKSTEP") == "1":
+    import faulthandler
+    import signal
+
     import rospy_lockstep
+
+    faulthandler.register(signal.SIGUSR2)  # a stuck process tells where: kill -USR2 <pid>
 
     rospy_lockstep.patch_on_import()

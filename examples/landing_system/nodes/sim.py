@@ -1,15 +1,16 @@
 #!/usr/bin/python3
 """``/vicon``: the world of the landing system and its motion capture, on simulated time.
 
-Steps :class:`landing_core.World` at 100 Hz of simulated time and publishes ``/clock``, the platform's pose on ``/vicon/car`` and the UAV's on
-``/vicon/uav`` (``geometry_msgs/TransformStamped``, 100 Hz, 1 mm of noise; no ``/vicon/car``
-in the false-airport scenario: there is no vehicle). It takes the UAV's command from
+Steps :class:`landing_core.World` at 100 Hz of simulated time and publishes ``/clock``, the
+platform's pose on ``/vicon/car`` and the UAV's on ``/vicon/uav``
+(``geometry_msgs/TransformStamped``, 100 Hz, 1 mm of noise; no ``/vicon/car`` in the
+false-airport scenario: there is no vehicle). It takes the UAV's command from
 ``/a/cmd_attitude`` (``geometry_msgs/Twist``: angular.x roll, angular.y pitch, linear.z
 thrust in m/s^2, linear.x > 0.5 motors on) and the platform's drive from ``/a/car_drive``
 (``std_msgs/UInt8``, a task id: 3 stops it). When the run is over (Table 5.1's criteria) it
 writes the outcome as JSON to ``~outcome`` (a file; ``~trace``, a file too, gets each step's
-command and UAV state), publishes it on ``/landing/outcome``
-(latched) and exits, which ends the launch (the node is ``required``).
+command and UAV state), publishes it on ``/landing/outcome`` (latched) and exits, which
+ends the launch (the node is ``required``).
 
 **Lockstep**: when the graph's processes run with ``rospy_lockstep`` (``LANDING_LOCKSTEP=1``
 and ``../lockstep`` on ``PYTHONPATH``), time starts once every node of the launch is ready
