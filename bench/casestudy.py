@@ -2,11 +2,12 @@
 its generated monitor.
 
     python bench/casestudy.py [--trials 10] [--scenarios normal,wind,...] [--nominal 20]
-                              [--speed 3] [--timeout 120] [--keep DIR]
+                              [--speed 0] [--timeout 120] [--keep DIR]
 
 The pipeline, as a user runs it, on the live ROS 1 system of ``examples/landing_system``
-(real roscore on a free port, rospy nodes on simulated time, ``--speed`` times faster than
-real time; ``tests/live/landing_system.py`` starts it):
+(real roscore on a free port, rospy nodes on simulated time in lockstep with the simulator,
+so that a seed gives the same run on a loaded machine; ``--speed`` caps the pace, 0: none;
+``tests/live/landing_system.py`` starts it):
 
 1. ``imrosc record`` of ``--nominal`` runs of the normal scenario (seeds 1000, 1001, ...),
    each through the ``--launch`` copy it writes (the servers remapped so it can relay their
