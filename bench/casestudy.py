@@ -391,6 +391,12 @@ def report(
         print(f"  {count:5d}x {text}")
     total_off = [o for s in scenarios for o in rows[(s, False)].outcomes]
     total_on = [o for s in scenarios for o in rows[(s, True)].outcomes]
+    every = total_off + total_on
+    print(
+        f"lockstep: {sum(o.stalls for o in every)} steps went on unsettled in {len(every)} "
+        f"trials; {sum(o.wall for o in every) / max(len(every), 1):.1f} s per trial "
+        "(wall, start-up included)"
+    )
     with_ = 100.0 * sum(o.success for o in total_on) / max(len(total_on), 1)
     without = 100.0 * sum(o.success for o in total_off) / max(len(total_off), 1)
     print(f"overall success: with monitor {with_:.1f} %, without {without:.1f} %")
