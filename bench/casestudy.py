@@ -2,11 +2,12 @@
 its generated monitor.
 
     python bench/casestudy.py [--trials 10] [--scenarios normal,wind,...] [--nominal 20]
-                              [--speed 3] [--timeout 120] [--keep DIR]
+                              [--speed 0] [--timeout 120] [--keep DIR]
 
 The pipeline, as a user runs it, on the live ROS 1 system of ``examples/landing_system``
-(real roscore on a free port, rospy nodes on simulated time, ``--speed`` times faster than
-real time; ``tests/live/landing_system.py`` starts it):
+(real roscore on a free port, rospy nodes on simulated time in lockstep with the simulator,
+so that a seed gives the same run on a loaded machine; ``--speed`` caps the pace, 0: none;
+``tests/live/landing_system.py`` starts it):
 
 1. ``imrosc record`` of ``--nominal`` runs of the normal scenario (seeds 1000, 1001, ...),
    each through the ``--launch`` copy it writes (the servers remapped so it can relay their
@@ -141,6 +142,7 @@ def record(
     ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over; its outcome and
     bag (in ``bags/recording``)."""
     env = {**os.environ, **ros.env}
+    env.pop("LANDING_LOCKSTEP", None)  # the recorder is no part of the robot: not in lockstep
     # the ROS graph's PYTHONPATH (the generated service types) and this tree's imrosc
     env["PYTHONPATH"] = os.pathsep.join(
         p for p in (ros.env.get("PYTHONPATH"), str(ROOT), os.environ.get("PYTHONPATH")) if p
@@ -260,7 +262,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
     parser.add_argument("--nominal", type=int, default=20, help="recorded normal runs")
     parser.add_argument("--fail-runs", type=int, default=1, help="recorded runs per fault")
-    parser.add_argument("--speed", type=float, default=3.0, help="times real time")
+    parser.add_argument(
+        "--speed",
+        type=float,
+        default=0.0,
+        help="at most times real time (0: as fast as the lockstep goes)",
+    )
     parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it")
     parser.add_argument(
@@ -384,6 +391,12 @@ def report(
         print(f"  {count:5d}x {text}")
     total_off = [o for s in scenarios for o in rows[(s, False)].outcomes]
     total_on = [o for s in scenarios for o in rows[(s, True)].outcomes]
+    every = total_off + total_on
+    print(
+        f"lockstep: {sum(o.stalls for o in every)} steps went on unsettled in {len(every)} "
+        f"trials; {sum(o.wall for o in every) / max(len(every), 1):.1f} s per trial "
+        "(wall, start-up included)"
+    )
     with_ = 100.0 * sum(o.success for o in total_on) / max(len(total_on), 1)
     without = 100.0 * sum(o.success for o in total_off) / max(len(total_off), 1)
     print(f"overall success: with monitor {with_:.1f} %, without {without:.1f} %")

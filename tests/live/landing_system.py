@@ -10,6 +10,7 @@ rewrote to put the monitor in) and returns the outcome ``/vicon`` wrote.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import time
 from dataclasses import dataclass
@@ -23,6 +24,8 @@ ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
 PACKAGE = EXAMPLES / "landing_system"
 LAUNCH = EXAMPLES / "launch" / "landing.launch"
+LOCKSTEP = PACKAGE / "lockstep"
+"""``rospy_lockstep`` and the ``sitecustomize`` that loads it into every rospy process."""
 GENSRV = Path("/usr/lib/genpy/gensrv_py.py")
 SCENARIOS: tuple[str, ...] = landing_core.SCENARIOS  # type: ignore[attr-defined]
 """Table 5.1's scenarios, s1 to s7."""
@@ -41,10 +44,16 @@ def generate_services(out: Path) -> Path:
     return out
 
 
-def prepare(ros: Ros) -> None:
-    """Let ``ros`` start the landing system (before its first process that needs it)."""
+def prepare(ros: Ros, lockstep: bool = True) -> None:
+    """Let ``ros`` start the landing system (before its first process that needs it); with
+    ``lockstep``, its processes run in lockstep with the simulator (``LOCKSTEP``)."""
     generated = generate_services(ros.home / "generated")
-    ros.env["PYTHONPATH"] = str(generated)
+    paths = [str(generated), *([str(LOCKSTEP)] if lockstep else [])]
+    ros.env["PYTHONPATH"] = os.pathsep.join(paths)
+    if lockstep:
+        ros.env["LANDING_LOCKSTEP"] = "1"
+    else:
+        ros.env.pop("LANDING_LOCKSTEP", None)
     ros.add_package_path(EXAMPLES)
 
 
@@ -62,6 +71,8 @@ class Outcome:
     wall: float
     onset: float | None = None
     """When the fault first acted (simulated s; ``landing_core.World.onset``)."""
+    stalls: int = 0
+    """Steps at which the lockstep went on without the graph settled (0: deterministic)."""
 
     @classmethod
     def of(cls, data: dict[str, Any], wall: float) -> Outcome:
@@ -75,6 +86,7 @@ class Outcome:
             int(data["reinitiated"]),
             wall,
             None if data.get("onset") is None else float(data["onset"]),
+            int(data.get("stalls", 0)),
         )
 
 
@@ -101,7 +113,8 @@ def trial(
         outcome=str(out),
         **args,
     )
-    limit = started + 30.0 + 3.0 * timeout / speed
+    # lockstep runs as fast as the graph goes, so a loaded machine slows it down
+    limit = started + 60.0 + 4.0 * timeout + (timeout / speed if speed > 0 else 0.0)
     while proc.alive and time.monotonic() < limit:
         time.sleep(0.2)
     if proc.alive:

@@ -10,7 +10,6 @@ import contextlib
 import math
 import signal
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -101,15 +100,10 @@ def seed() -> int:
     return int(rospy.get_param("/landing/seed", 0))
 
 
-def wait_for_clock() -> None:
-    """Block until simulated time runs (``/clock`` published)."""
-    while not rospy.is_shutdown() and rospy.get_time() == 0.0:
-        time.sleep(0.01)
-
-
 def every(hz: float, work: Callable[[float], None]) -> None:
-    """Once simulated time runs, call ``work(now)`` at ``hz`` of it until shutdown."""
-    wait_for_clock()
+    """Once simulated time runs, call ``work(now)`` at ``hz`` of it until shutdown (the first
+    call at the first time ``/clock`` gives)."""
+    rospy.sleep(0.0)  # returns once time runs; a sleep on ROS time, which lockstep follows
     rate = rospy.Rate(hz)
     while not rospy.is_shutdown():
         work(rospy.get_time())

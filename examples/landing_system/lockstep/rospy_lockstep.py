@@ -1,0 +1,708 @@
+"""Lockstep for a rospy graph on simulated time: the simulator advances ``/clock`` only when
+every node has reacted to the last step, so a run's outcome does not depend on how loaded
+the machine is.
+
+ROS 1 has no lockstep of its own (Gazebo's covers the systems inside its process, not the
+nodes around it). This module gives every rospy process the node-side half, by patching
+rospy when it is imported (``sitecustomize.py``), with no change to the nodes' code:
+
+* **Counting** (distributed termination detection): each process counts the messages it
+  wrote to each subscriber (``topic>subscriber``), those it received per publisher
+  (``topic<publisher``), the service calls it made that were answered and those its
+  handlers answered (summed over the services: a relay outside the lockstep serves one
+  name and calls another; a call refused or failed is counted by neither side). When it is idle it
+  publishes its counts and its ``/clock`` time on ``/lockstep/report``. The simulator
+  (:class:`Coordinator`) advances only when every process reports idle at the current time
+  and every channel between them balances (sent = received): then no message is in flight
+  and no callback runs anywhere (a process whose report is stale has received something
+  after it, which its sender counted: the counts cannot balance). The release of a step
+  (below) is not counted: the simulator waits for a report after it from each process
+  whose timers it wakes (its last report said one was due).
+* **Idle**: no callback or service handler runs, and every thread that sleeps on ROS time
+  (``rospy.sleep``, ``Rate``, ``Timer``) is back asleep with a deadline after the current
+  time. Threads that wait on the wall clock (a heartbeat) are not tracked: what they
+  publish is counted, which holds the step until their subscribers have it.
+* **Two phases per step**: the simulator publishes ``/clock`` (and its sensors' messages)
+  and waits until every process has them; only then does it release the step's timers
+  (``/lockstep/go``): a thread sleeping on ROS time wakes once both the clock and the
+  release passed its deadline. So no message a timer sends at time t can reach a process
+  that still lives at the time before (the release follows every process's clock).
+* **Synchronous ticks**: a message (but the simulator's) that arrives while a timer of its
+  subscriber is pending at the current time is handed to its callback only once that timer
+  ran, so every timer at time t sees what was published before t and the simulator's
+  messages of t, never what another node's timer published at t (which would depend on
+  which process the scheduler ran first).
+* Publishers write synchronously (no queue, nothing dropped), subscribers queue without
+  bound and ask for ``TCP_NODELAY`` (Nagle's delayed small writes would stall every step).
+
+Messages of ``/rosout`` and the reports themselves are not counted; nor are channels to or
+from processes without this module (``rosbag record``): they do not hold the clock. Two
+things stay outside the lockstep: the order in which one subscriber gets messages that two
+publishers sent in the same step (the stealing scenario's two sources of ``/a/car_pose``),
+and what a thread that waits on something else than ROS time publishes (the monitor's
+actions, taken by a worker thread after an alarm): the step that carries it may vary.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.abc
+import importlib.util
+import json
+import os
+import sys
+import threading
+import time
+from collections.abc import Iterable
+from typing import Any
+
+REPORT_TOPIC = "/lockstep/report"
+GO_TOPIC = "/lockstep/go"
+UNLINKED = frozenset({REPORT_TOPIC, "/rosout", "/rosout_agg"})
+"""Topics whose connections time need not wait for (the reports are latched)."""
+UNCOUNTED = UNLINKED | {GO_TOPIC}
+"""Not counted: the release is awaited through the reports of the processes it wakes."""
+CLOCK = "/clock"
+
+
+class Process:
+    """This process's half of the lockstep: its counts, its activity, its reports."""
+
+    def __init__(self, rospy: Any) -> None:
+        self.rospy = rospy
+        self.cond = threading.Condition()
+        self.sent: dict[str, int] = {}
+        self.received: dict[str, int] = {}
+        self.calls: dict[str, int] = {}
+        self.served: dict[str, int] = {}
+        self.busy = 0
+        """Callbacks and service handlers running."""
+        self.simulator = ""
+        """The node that publishes ``/clock``."""
+        self.holding = 0
+        """Callbacks waiting for this process's pending timers (``begin``)."""
+        self.sleepers: dict[int, int | None] = {}
+        """Threads asleep on ROS time and their deadline (ns; None: until time starts)."""
+        self.awake: set[int] = set()
+        """Threads that slept on ROS time and are out of that sleep now."""
+        self.released = 0
+        """The time (ns) up to which timers may run (``/lockstep/go``)."""
+        self.ready = False
+        """The node's set-up is done (it spins, or a thread sleeps on ROS time)."""
+        self.publisher: Any = None
+        self.sequence = 0
+        self.version = 0
+        """Bumped on every change of the counts or the activity."""
+        self.links_version = 0
+        """Bumped when a publisher of this process gains a connection."""
+        self.last: Any = None
+        self.last_links = -1
+        self.report_lock = threading.Lock()
+        self.string: Any = None
+        self.listeners: list[Any] = []
+        """Called (no arguments) on every change: the coordinator in the simulator."""
+
+    def now(self) -> int:
+        return int(self.rospy.rostime.get_rostime().to_nsec())
+
+    # ----- activity (called with self.cond held)
+    def timers_pending(self, until: int) -> bool:
+        """A thread sleeping on ROS time is due at or before ``until`` (ns), or awake."""
+        self.awake &= {t.ident for t in threading.enumerate()}
+        if self.awake:
+            return True
+        started = self.now() > 0
+        for deadline in self.sleepers.values():
+            if (deadline is None and started) or (deadline is not None and deadline <= until):
+                return True
+        return False
+
+    def idle(self) -> bool:
+        """No callback runs, no timer released to run, and no held message about to be
+        handed over (one held for a timer still waiting for its release is idle)."""
+        now = self.now()
+        if self.busy or self.timers_pending(min(now, self.released)):
+            return False
+        return self.holding == 0 or self.timers_pending(now)
+
+    def changed(self) -> None:
+        self.version += 1
+        self.cond.notify_all()
+        for listener in self.listeners:
+            listener()
+
+    # ----- hooks
+    def begin(self, hold: bool, counts: dict[str, int] | None = None, key: str = "") -> None:
+        """A callback starts, its message counted as received at once; with ``hold``, it
+        waits until no timer of this process is pending at the current time."""
+        with self.cond:
+            if counts is not None:
+                counts[key] = counts.get(key, 0) + 1
+            held = hold and self.timers_pending(self.now())
+            if held:
+                self.holding += 1
+                self.changed()
+            else:
+                self.busy += 1
+        if not held:
+            return
+        self.report()  # idle while the timer waits for its release: the clock may settle
+        with self.cond:
+            while self.timers_pending(self.now()) and not self.rospy.is_shutdown():
+                self.cond.wait(0.2)
+            self.holding -= 1
+            self.busy += 1
+
+    def end(self, counts: dict[str, int] | None = None, key: str = "") -> None:
+        with self.cond:
+            self.busy -= 1
+            if counts is not None:
+                counts[key] = counts.get(key, 0) + 1
+            self.changed()
+        self.report()
+
+    def count(self, counts: dict[str, int], keys: Iterable[str]) -> None:
+        with self.cond:
+            for key in keys:
+                counts[key] = counts.get(key, 0) + 1
+            self.changed()
+        self.report()
+
+    def enter_sleep(self, deadline: int | None) -> None:
+        ident = threading.get_ident()
+        with self.cond:
+            self.awake.discard(ident)
+            self.sleepers[ident] = deadline
+            self.ready = True
+            self.changed()
+        self.report()
+
+    def leave_sleep(self) -> None:
+        ident = threading.get_ident()
+        with self.cond:
+            self.sleepers.pop(ident, None)
+            self.awake.add(ident)
+
+    def spinning(self) -> None:
+        with self.cond:
+            self.ready = True
+            self.changed()
+        self.report()
+
+    # ----- reports
+    def links(self) -> list[str]:
+        """``topic>subscriber`` of every connection of this process's publishers."""
+        manager = self.rospy.impl.registration.get_topic_manager()
+        found = []
+        for topic, impl in list(getattr(manager, "pubs", {}).items()):
+            if topic not in UNLINKED:
+                found.extend(f"{topic}>{c.endpoint_id}" for c in list(impl.connections))
+        return sorted(found)
+
+    def report(self, bye: bool = False) -> None:
+        """Publish this process's state if it is idle (or leaving) and changed since the
+        last report (its publishers' connections only when they changed)."""
+        if self.publisher is None:
+            return
+        with self.report_lock:
+            with self.cond:
+                now = self.now()
+                if not bye and not self.idle():
+                    return
+                key = (now, self.ready, self.version, self.links_version, bye)
+                if key == self.last:
+                    return
+                self.last = key
+                self.sequence += 1
+                state: dict[str, Any] = {
+                    "node": self.rospy.get_caller_id(),
+                    "seq": self.sequence,
+                    "pid": os.getpid(),
+                    "time": now,
+                    "sim": not self.rospy.rostime.is_wallclock(),
+                    "ready": self.ready,
+                    "bye": bye,
+                    "released": self.released,
+                    "next": min((d for d in self.sleepers.values() if d is not None), default=None),
+                    "sent": self.sent,
+                    "received": self.received,
+                    "calls": self.calls,
+                    "served": self.served,
+                }
+                if self.links_version != self.last_links:
+                    self.last_links = self.links_version
+                    state["links"] = self.links()
+                text = json.dumps(state, separators=(",", ":"))
+            with contextlib.suppress(Exception):
+                self.publisher.publish(self.string(text))
+
+    def release(self, message: Any) -> None:
+        """``/lockstep/go``: timers up to its time may run."""
+        cond = self.rospy.rostime.get_rostime_cond()
+        with cond:
+            with self.cond:
+                self.released = max(self.released, int(message.clock.to_nsec()))
+                self.cond.notify_all()  # no report of its own: a woken timer's sleep makes one
+            cond.notify_all()
+
+    def start(self) -> None:
+        """After ``init_node``: the report topic, and a last report at shutdown."""
+        from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
+        from std_msgs.msg import String  # type: ignore[import-not-found]
+
+        self.rospy.Subscriber(GO_TOPIC, Clock, self.release)
+
+        self.string = String
+        # latched: the simulator, connecting later, still hears the last report
+        self.publisher = self.rospy.Publisher(REPORT_TOPIC, String, queue_size=None, latch=True)
+        self.rospy.on_shutdown(lambda: self.report(bye=True))
+        self.report()
+
+
+_INSTALLED: list[Process] = []
+"""This process's lockstep, once rospy was patched."""
+
+
+def process() -> Process | None:
+    """This process's lockstep, when rospy was patched."""
+    return _INSTALLED[0] if _INSTALLED else None
+
+
+def install(rospy: Any) -> Process:
+    """Patch an imported rospy (once)."""
+    if _INSTALLED:
+        return _INSTALLED[0]
+    import genpy  # type: ignore[import-not-found]
+    from rospy import rostime, timer, topics  # type: ignore[import-not-found]
+    from rospy.impl import tcpros_service  # type: ignore[import-not-found]
+
+    state = Process(rospy)
+    _INSTALLED.append(state)
+
+    def sleep(duration: Any) -> None:
+        if rostime.is_wallclock():
+            return original_sleep(duration)
+        if not isinstance(duration, genpy.Duration):
+            duration = genpy.Duration.from_sec(duration)
+        cond = rostime.get_rostime_cond()
+        zero = genpy.Time(0)
+        initial = rostime.get_rostime()
+        try:
+            if initial == zero:
+                state.enter_sleep(None)
+                with cond:
+                    while rostime.get_rostime() == zero and not rospy.is_shutdown():
+                        cond.wait(0.3)
+                initial = rostime.get_rostime()
+            deadline = initial + duration
+            state.enter_sleep(deadline.to_nsec())
+            with cond:  # the check under the lock: no notification lost
+                while not rospy.is_shutdown() and (
+                    initial <= rostime.get_rostime() < deadline
+                    or (rostime.get_rostime() >= initial and state.released < deadline.to_nsec())
+                ):
+                    cond.wait(0.5)
+        finally:
+            state.leave_sleep()
+        if rostime.get_rostime() < initial:
+            back = (initial - rostime.get_rostime()).to_sec()
+            raise rospy.exceptions.ROSTimeMovedBackwardsException(back)
+        if rospy.is_shutdown():
+            raise rospy.exceptions.ROSInterruptException("ROS shutdown request")
+        return None
+
+    original_sleep = timer.sleep
+    timer.sleep = sleep
+    rospy.sleep = sleep
+
+    original_init = rospy.init_node
+
+    def init_node(*args: Any, **kwargs: Any) -> Any:
+        result = original_init(*args, **kwargs)
+        state.start()
+        return result
+
+    rospy.init_node = init_node
+
+    original_spin = rospy.spin
+
+    def spin() -> Any:
+        state.spinning()
+        return original_spin()
+
+    rospy.spin = spin
+
+    # publishers: synchronous, counted per subscriber
+    topics._PublisherImpl.set_queue_size = lambda impl, size: None
+    original_publish = topics._PublisherImpl.publish
+
+    def publish(impl: Any, message: Any, connection_override: Any = None) -> Any:
+        topic = impl.resolved_name
+        if topic in UNCOUNTED or impl.closed:
+            return original_publish(impl, message, connection_override)
+        targets = [connection_override] if connection_override else list(impl.connections)
+        if targets:
+            state.count(state.sent, [f"{topic}>{c.endpoint_id}" for c in targets])
+        return original_publish(impl, message, connection_override)
+
+    topics._PublisherImpl.publish = publish
+    original_add_connection = topics._PublisherImpl.add_connection
+
+    def add_connection(impl: Any, connection: Any) -> Any:
+        added = original_add_connection(impl, connection)
+        with state.cond:
+            state.links_version += 1
+        state.report()  # a new link: the simulator's start waits for them
+        return added
+
+    topics._PublisherImpl.add_connection = add_connection
+
+    # subscribers: unbounded queue, TCP_NODELAY, counted per publisher, held while a timer is due
+    topics._SubscriberImpl.set_queue_size = lambda impl, size: setattr(impl, "queue_size", None)
+    original_subscriber = topics.Subscriber.__init__
+
+    def subscriber(self: Any, *args: Any, **kwargs: Any) -> None:
+        kwargs["tcp_nodelay"] = True
+        original_subscriber(self, *args, **kwargs)
+
+    topics.Subscriber.__init__ = subscriber
+    original_receive = topics._SubscriberImpl.receive_callback
+
+    def receive_callback(impl: Any, msgs: Any, connection: Any) -> None:
+        topic = impl.resolved_name
+        if topic in UNCOUNTED:
+            return original_receive(impl, msgs, connection)
+        source = connection.callerid_pub
+        if topic == CLOCK:
+            state.simulator = source
+        key = f"{topic}<{source}"
+        # the simulator's messages (the clock, the release, sensors) are the step's inputs,
+        # all delivered before the release: never held
+        hold = source != state.simulator
+        for msg in msgs:  # one by one: each message held and counted on its own
+            state.begin(hold, state.received, key)
+            try:
+                original_receive(impl, [msg], connection)
+            finally:
+                state.end()
+        return None
+
+    topics._SubscriberImpl.receive_callback = receive_callback
+
+    # services: calls counted per service name, made and served
+    original_call = tcpros_service.ServiceProxy.call
+
+    def call(proxy: Any, *args: Any, **kwargs: Any) -> Any:
+        answer = original_call(proxy, *args, **kwargs)
+        state.count(state.calls, [proxy.resolved_name])  # answered: a handler ran to its end
+        return answer
+
+    tcpros_service.ServiceProxy.call = call
+    original_handle = tcpros_service.ServiceImpl._handle_request
+    handled = threading.local()
+
+    def handle_request(service: Any, transport: Any, request: Any) -> None:
+        if not getattr(service, "lockstep_counted", False):
+            inner = service.handler
+
+            def counted(request: Any) -> Any:
+                answer = inner(request)
+                handled.ok = True
+                return answer
+
+            service.handler = counted
+            service.lockstep_counted = True
+        handled.ok = False
+        state.begin(False)
+        try:
+            original_handle(service, transport, request)
+        finally:  # a call the handler refused (raised) is counted by neither side
+            if handled.ok:
+                state.end(state.served, service.resolved_name)
+            else:
+                state.end()
+
+    tcpros_service.ServiceImpl._handle_request = handle_request
+    return state
+
+
+class _Hook(importlib.abc.MetaPathFinder):
+    """Patches rospy right after its import."""
+
+    def find_spec(self, name: str, path: Any, target: Any = None) -> Any:
+        if name != "rospy":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec("rospy")
+        if spec is None or spec.loader is None:
+            return spec
+        loader = spec.loader
+        execute = loader.exec_module
+
+        def exec_module(module: Any) -> None:
+            execute(module)
+            install(module)
+
+        loader.exec_module = exec_module  # type: ignore[method-assign]
+        return spec
+
+
+def patch_on_import() -> None:
+    """Patch rospy when (if ever) this process imports it."""
+    if "rospy" in sys.modules:
+        install(sys.modules["rospy"])
+    else:
+        sys.meta_path.insert(0, _Hook())
+
+
+class Coordinator:
+    """The simulator's half: waits until the graph has reacted to the current step.
+
+    Participants are the processes that report; :meth:`start` also waits for the nodes the
+    same ``roslaunch`` started (its other Python children) to be ready and connected. The
+    channels' balance is kept up to date report by report (a step brings a few dozen).
+    """
+
+    def __init__(self, state: Process) -> None:
+        from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
+        from std_msgs.msg import String  # type: ignore[import-not-found]
+
+        self.clock = Clock
+        self.go = state.rospy.Publisher(GO_TOPIC, Clock, queue_size=None)
+        self.state = state
+        self.name = state.rospy.get_caller_id()
+        self.inbox: list[dict[str, Any]] = []
+        self.reports: dict[str, dict[str, Any]] = {}
+        """The latest report of each participant but the simulator (``links`` kept)."""
+        self.sent: dict[tuple[str, str, str], int] = {}
+        self.received: dict[tuple[str, str, str], int] = {}
+        self.services: dict[str, dict[str, tuple[int, int]]] = {}
+        """Per node, per service: (calls answered, calls served). Summed over the services:
+        a relay outside the lockstep (``imrosc record``'s) serves one name and calls
+        another."""
+        self.unbalanced: set[tuple[str, str, str]] = set()
+        self.own_version = -1
+        self.stalls = 0
+        state.publisher = None  # nobody needs the simulator's own reports
+        state.listeners.append(self.wake)
+        state.rospy.Subscriber(REPORT_TOPIC, String, self.on_report)
+
+    def wake(self) -> None:
+        with self.state.cond:
+            self.state.cond.notify_all()
+
+    def on_report(self, message: Any) -> None:
+        report = json.loads(message.data)
+        if report["node"] == self.name:
+            return
+        with self.state.cond:
+            self.inbox.append(report)
+            self.state.cond.notify_all()
+
+    # ----- the balance (called with the condition held)
+    def participants(self) -> set[str]:
+        return {self.name, *self.reports}
+
+    def check(self, channel: tuple[str, str, str], members: set[str]) -> None:
+        if (
+            channel[1] in members
+            and channel[2] in members
+            and self.sent.get(channel, 0) != self.received.get(channel, 0)
+        ):
+            self.unbalanced.add(channel)
+        else:
+            self.unbalanced.discard(channel)
+
+    def apply(self, node: str, report: dict[str, Any]) -> None:
+        """Take a node's counts in place of its last ones."""
+        members = self.participants()
+        touched = []
+        for key, n in report["sent"].items():
+            topic, _, to = key.rpartition(">")
+            channel = (topic, node, to)
+            if self.sent.get(channel) != n:
+                self.sent[channel] = n
+                touched.append(channel)
+        for key, n in report["received"].items():
+            topic, _, source = key.rpartition("<")
+            channel = (topic, source, node)
+            if self.received.get(channel) != n:
+                self.received[channel] = n
+                touched.append(channel)
+        calls, served = report["calls"], report["served"]
+        self.services[node] = {s: (calls.get(s, 0), served.get(s, 0)) for s in {*calls, *served}}
+        for channel in touched:
+            self.check(channel, members)
+
+    def recheck(self) -> None:
+        members = self.participants()
+        self.unbalanced.clear()
+        for channel in {*self.sent, *self.received}:
+            self.check(channel, members)
+
+    def take_reports(self) -> None:
+        joined = False
+        for report in self.inbox:
+            name = report["node"]
+            if report["bye"]:
+                if self.reports.pop(name, None) is not None:
+                    self.services.pop(name, None)
+                    joined = True
+                continue
+            last = self.reports.get(name)
+            if last is not None and report["seq"] <= last["seq"]:
+                continue
+            if "links" not in report:
+                report["links"] = last["links"] if last is not None else []
+            joined = joined or last is None
+            self.reports[name] = report
+            self.apply(name, report)
+        self.inbox.clear()
+        if self.state.version != self.own_version:
+            self.own_version = self.state.version
+            own = self.state
+            self.apply(
+                self.name,
+                {
+                    "sent": own.sent,
+                    "received": own.received,
+                    "calls": own.calls,
+                    "served": own.served,
+                },
+            )
+        if joined:
+            self.recheck()
+
+    def unsettled(self, now: int, released: bool = False) -> list[str]:
+        """Why the graph has not settled at ``now`` (ns), before or after the step's
+        release; empty when it has. Called with the condition held."""
+        self.take_reports()
+        why = []
+        if self.state.busy:
+            why.append("the simulator's callbacks run")
+        for name, report in self.reports.items():
+            if report["sim"] and report["time"] < now:
+                why.append(f"{name} is at {report['time'] / 1e9:.2f} s")
+            elif released and report["released"] < now and (report["next"] or now + 1) <= now:
+                why.append(f"{name}'s timers have not run")
+        if why:
+            return why
+        for topic, source, to in sorted(self.unbalanced)[:4]:
+            sent, got = (
+                self.sent.get((topic, source, to), 0),
+                self.received.get((topic, source, to), 0),
+            )
+            why.append(f"{topic} {source} -> {to}: sent {sent}, received {got}")
+        made = sum(m for per_node in self.services.values() for m, _ in per_node.values())
+        done = sum(d for per_node in self.services.values() for _, d in per_node.values())
+        if made != done:
+            why.append(f"services: {made} calls answered, {done} served")
+        return why
+
+    def step(self, stamp: Any) -> None:
+        """The step at ``stamp`` (a ``rospy.Time``), once its ``/clock`` and sensor messages
+        are published: wait until every process has them, release the step's timers, wait
+        until the graph has reacted."""
+        now = int(stamp.to_nsec())
+        self.settle(now)
+        self.go.publish(self.clock(clock=stamp))
+        self.settle(now, released=True)
+
+    def settle(self, now: int, released: bool = False, timeout: float = 30.0) -> bool:
+        """Wait until the graph has reacted to time ``now`` (ns). False (and a warning) when
+        it did not within ``timeout`` wall seconds: the step goes on (counted in
+        :attr:`stalls`)."""
+        deadline = time.monotonic() + timeout
+        with self.state.cond:
+            while True:
+                why = self.unsettled(now, released)
+                if not why or self.state.rospy.is_shutdown():
+                    return True
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    self.stalls += 1
+                    self.forget_the_dead()
+                    self.state.rospy.logwarn(
+                        "lockstep: not settled at %.2f s: %s", now / 1e9, why[:4]
+                    )
+                    return False
+                self.state.cond.wait(min(left, 1.0))
+
+    def forget_the_dead(self) -> None:
+        for name, report in list(self.reports.items()):
+            try:
+                os.kill(int(report["pid"]), 0)
+            except OSError:
+                self.reports.pop(name, None)
+                self.services.pop(name, None)
+        self.recheck()
+
+    def start(self, timeout: float = 60.0) -> bool:
+        """Before time starts: wait until the Python processes the same ``roslaunch``
+        started have all reported ready, and every publisher among the participants is
+        connected to every subscriber the master knows. False after ``timeout``."""
+        master = self.state.rospy.get_master()
+        deadline = time.monotonic() + timeout
+        why = ""
+        while time.monotonic() < deadline and not self.state.rospy.is_shutdown():
+            with self.state.cond:
+                self.take_reports()
+                reports = {name: dict(report) for name, report in self.reports.items()}
+            pids = {int(r["pid"]) for r in reports.values() if r["ready"]}
+            missing = siblings() - pids - {os.getpid()}
+            why = f"processes {sorted(missing)} not ready" if missing else ""
+            why = why or self.connected(master, reports)
+            if not why:
+                return True
+            time.sleep(0.05)
+        self.state.rospy.logwarn("lockstep: time starts although %s", why)
+        return False
+
+    def connected(self, master: Any, reports: dict[str, dict[str, Any]]) -> str:
+        """Why not every publisher is connected to its subscribers yet ("" when it is)."""
+        code, _, system = master.getSystemState()
+        if code != 1:
+            return "the master did not answer"
+        everyone = {name: set(r["links"]) for name, r in reports.items()}
+        everyone[self.name] = set(self.state.links())
+        subscribers = {topic: set(nodes) for topic, nodes in system[1]}
+        for topic, publishers in system[0]:
+            if topic in UNLINKED:
+                continue
+            for publisher in publishers:
+                if publisher not in everyone:
+                    continue
+                for subscriber in subscribers.get(topic, ()):
+                    if (
+                        subscriber in everyone
+                        and f"{topic}>{subscriber}" not in everyone[publisher]
+                    ):
+                        return f"{publisher} is not connected to {subscriber} on {topic}"
+        return ""
+
+
+def siblings() -> set[int]:
+    """The other Python processes of this process's parent when it is ``roslaunch``."""
+    parent = os.getppid()
+    try:
+        with open(f"/proc/{parent}/cmdline", "rb") as handle:
+            if b"roslaunch" not in handle.read():
+                return set()
+    except OSError:
+        return set()
+    found = set()
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", encoding="utf-8") as handle:
+                fields = handle.read().rsplit(")", 1)[1].split()
+            if int(fields[1]) != parent:
+                continue
+            with open(f"/proc/{entry}/cmdline", "rb") as handle:
+                command = handle.read().split(b"\0")
+        except (OSError, IndexError, ValueError):
+            continue
+        if command and b"python" in os.path.basename(command[0]):
+            found.add(int(entry))
+    return found
