@@ -96,6 +96,9 @@ SERVICE_TIMEOUT = 10.0
 WAIT = 0.5
 """Seconds the thread that takes the topics' messages waits at most before it looks
 whether the node still runs (closing it wakes it at once)."""
+STOP_TAKING = 30.0
+"""Seconds the node's shutdown waits for its message thread to end (it ends within one
+:data:`WAIT` and :data:`QUEUE` messages, which a loaded machine stretches)."""
 Flatten = Callable[[Any], List[Any]]
 
 
@@ -396,11 +399,17 @@ class Monitor(common.Checking):
                 self.check_message(topic, flatten, message)
 
     def stop_taking(self) -> None:
-        """End the thread of :meth:`take_messages` (the node is being destroyed)."""
+        """End the thread of :meth:`take_messages` before the node is destroyed: it wakes at
+        once (:meth:`plumbing.Waiter.close`) and takes at most :data:`QUEUE` messages more,
+        so it ends; waiting for it to end, however long a loaded machine makes that, keeps
+        the node's endpoints, and the interpreter, from being torn down under it (a daemon
+        thread still inside rclpy at the interpreter's exit crashes the process)."""
         if self.waiter is not None:
             self.waiter.close()
         if self.taking is not None:
-            self.taking.join(timeout=2.0)
+            self.taking.join(timeout=STOP_TAKING)
+            if self.taking.is_alive():
+                self.log.warning(f"imrosc: the message thread did not end within {STOP_TAKING:g} s")
 
     def on_message_of(self, topic: Topic) -> Callable[[Any], None]:
         """The subscription callback of ``topic`` where the executor takes its messages
