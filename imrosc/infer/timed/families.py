@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import weakref
+from abc import ABC, abstractmethod
 from collections.abc import Collection, Sequence
 from typing import Any
 
@@ -58,28 +59,38 @@ def stacked(samples: Samples, names: tuple[str, ...]) -> FloatArray:
     return values
 
 
-_last_moments: tuple[FloatArray, IntArray, IntArray, tuple[FloatArray, FloatArray]] | None = None
+_last_moments: (
+    tuple[weakref.ref[Samples], tuple[str, ...], IntArray, IntArray, tuple[FloatArray, FloatArray]]
+    | None
+) = None
 
 
 def moments(
-    values: FloatArray, starts: IntArray, length: IntArray
+    samples: Samples,
+    names: tuple[str, ...],
+    values: FloatArray,
+    starts: IntArray,
+    length: IntArray,
 ) -> tuple[FloatArray, FloatArray]:
-    """:func:`windowed_moments` of the windows, computed once for variance and mean.
+    """:func:`windowed_moments` of the windows ``values[starts : starts + length]``, computed
+    once for variance and mean.
 
-    Both families of a point carry the same window over the same chunks, so the second
-    asks for the very windows of the very values: the last answer is kept for them.
+    Both families of a point carry the same window over the same chunks (each its own
+    tracker, so each its own copy of the carried rows): the second asks for the very windows
+    of the very chunk ``samples`` and columns ``names``, and gets the first one's answer.
     """
     global _last_moments  # noqa: PLW0603
     last = _last_moments
     if (
         last is not None
-        and last[0] is values
-        and np.array_equal(last[1], starts)
-        and np.array_equal(last[2], length)
+        and last[0]() is samples
+        and last[1] == names
+        and np.array_equal(last[2], starts)
+        and np.array_equal(last[3], length)
     ):
-        return last[3]
+        return last[4]
     found = windowed_moments(values, starts, length)
-    _last_moments = (values, starts, length, found)
+    _last_moments = (weakref.ref(samples), names, starts, length, found)
     return found
 
 
@@ -103,7 +114,7 @@ def trigger_topic(variables: Sequence[Variable]) -> str:
     return ""
 
 
-class TimedState:
+class TimedState(ABC):
     """Shared machinery: the window carried across chunks, the extremes, finalize."""
 
     family = ""
@@ -115,9 +126,9 @@ class TimedState:
         self.tracker = WindowTracker(self.window, len(self.names))
         self.extremes = Extremes(max(len(self.names), 1))
 
+    @abstractmethod
     def update(self, samples: Samples) -> None:
         """Add the windows of a chunk of the point's samples (each family its statistic)."""
-        raise NotImplementedError
 
     def end_run(self) -> None:
         """Windows never span runs."""
@@ -206,7 +217,7 @@ class MomentState(TimedState):
         )
         length = ends - starts + 1
         keep = length >= 2
-        found = moments(values, starts[keep], length[keep])[self.moment]
+        found = moments(samples, self.names, values, starts[keep], length[keep])[self.moment]
         self.extremes.add(found, np.isfinite(found))
 
 
