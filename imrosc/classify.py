@@ -37,7 +37,6 @@ import numpy as np
 
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, alarms_under, covered, held_out_runs
-from imrosc.check import load_checked
 from imrosc.detectors import (
     FOLDS,
     Learnt,
@@ -49,11 +48,11 @@ from imrosc.detectors import (
 )
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.folds import blocked
+from imrosc.frontend import lowered
 from imrosc.infer.engine import default_workers
 from imrosc.infer.registry import group_of
 from imrosc.invariants import InvariantsFileError, load
 from imrosc.ir import Check, Onset, Project
-from imrosc.lower import lower
 from imrosc.outputs import INVARIANTS, REPORT, mark
 from imrosc.progress import Progress, ProgressFactory, bag_done
 from imrosc.remote import bag_path
@@ -135,11 +134,10 @@ class Score:
 
 
 def load_project(config_path: Path) -> tuple[Project | None, list[Diagnostic]]:
-    """Read, check and lower a configuration."""
-    config, problems = load_checked(config_path)
-    if config is None:
-        return None, finalize(problems)
-    return lower(config), finalize(problems)
+    """Read, check and lower a configuration (:func:`imrosc.frontend.lowered`), its
+    diagnostics finalized."""
+    project, problems = lowered(config_path)
+    return project, finalize(problems)
 
 
 def bags_of(base: Path, entries: Sequence[str]) -> tuple[list[Path], list[Diagnostic]]:
