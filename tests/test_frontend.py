@@ -7,6 +7,7 @@ from pathlib import Path
 
 from imrosc import frontend
 from imrosc.build import build
+from imrosc.classify import load_project
 from imrosc.diagnostics import has_errors
 from imrosc.graph.file import load_graph_file
 from imrosc.passes.pipeline import PASSES
@@ -33,6 +34,7 @@ def test_the_two_steps_are_compile_config() -> None:
     assert lowered is not None and lowered.passes == ()
     project, found = frontend.passed(lowered, None)
     assert frontend.compile_config(config, None) == (project, problems, found)
+    assert load_project(config)[0] == lowered  # classify and stability: the points as written
 
 
 def test_a_configuration_with_errors_goes_no_further(tmp_path: Path) -> None:
