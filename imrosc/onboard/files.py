@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Dict, List, Mapping, Optional, TypedDict, Union
+from typing import Any, Dict, List, Mapping, Optional, TypedDict, Union, cast
 
 SPEC_FILE = "spec.json"
 """The monitor spec of a package (what the monitor node watches and does)."""
@@ -88,6 +88,12 @@ def load_spec(directory: Optional[str] = None, name: str = SPEC_FILE) -> Dict[st
     with open(os.path.join(directory or package_folder(), name), encoding="utf-8") as stream:
         spec: Dict[str, Any] = json.load(stream)
     return spec
+
+
+def load_monitor_spec(directory: Optional[str] = None) -> SpecDocument:
+    """The package's monitor spec (``spec.json`` in ``directory``, default
+    :func:`package_folder`), as the monitor backend wrote it."""
+    return cast(SpecDocument, load_spec(directory))
 
 
 def load_invariants(path: str) -> Dict[str, Any]:

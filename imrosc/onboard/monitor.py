@@ -49,6 +49,7 @@ from typing import (
 
 from ..runtime import families
 from ..runtime.violation import json_safe
+from .files import SpecDocument
 
 WARM = 0.002
 """Default ``~warm`` (the launch file's ``warm``): seconds between rehearsals of the latest
@@ -351,7 +352,7 @@ class Checking:
 
     def __init__(
         self,
-        spec: Mapping[str, Any],
+        spec: SpecDocument,
         document: Mapping[str, Any],
         engine_class: Callable[..., Any],
         namespace: str,

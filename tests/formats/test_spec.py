@@ -42,3 +42,8 @@ def test_the_spec_a_backend_writes_follows_the_schema(backend: str, tmp_path: Pa
     jsonschema.validate(spec, SCHEMA)
     assert spec["actions"] and spec["services"] and spec["alarms"] == {"persist": 2}
     assert any(topic["relay"] for topic in spec["topics"])
+    # what the monitor and watchdog nodes read: every key their typed dictionary names
+    (tmp_path / "package").mkdir()
+    (tmp_path / "package" / files.SPEC_FILE).write_bytes(result.files[name])
+    loaded = files.load_monitor_spec(str(tmp_path / "package"))
+    assert loaded == spec and set(loaded) == set(files.SpecDocument.__annotations__)

@@ -82,7 +82,7 @@ class Monitor(common.Checking):
 
     def __init__(
         self,
-        spec: Mapping[str, Any],
+        spec: files.SpecDocument,
         document: Mapping[str, Any],
         engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
@@ -462,7 +462,7 @@ def main(
     rospy.init_node(package)
     path = rospy.get_param("~invariants", "") or default_invariants(package)
     try:
-        spec = files.load_spec()
+        spec = files.load_monitor_spec()
         document = files.load_invariants(path)
     except (OSError, ValueError) as error:
         rospy.logfatal(f"imrosc monitor: {error}")

@@ -19,7 +19,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from typing import Any, Callable, Dict, List, Mapping, Optional, Set
+from typing import Any, Callable, List, Mapping, Optional, Set
 
 from .. import files
 from .. import monitor as common
@@ -37,7 +37,7 @@ except ImportError:  # pragma: no cover - exercised on robots only
 class Watchdog:
     """Relays blocked topics and services while the monitor's heartbeat is silent."""
 
-    def __init__(self, spec: Mapping[str, Any]) -> None:
+    def __init__(self, spec: files.SpecDocument) -> None:
         self.spec = spec
         self.namespace: str = rospy.get_param("~namespace", spec["namespace"])
         period = float(rospy.get_param("~period", spec["period"]))
@@ -161,6 +161,5 @@ def main(package: str) -> None:
     if rospy is None:
         sys.exit("imrosc watchdog: rospy is not importable; run it on a ROS 1 system")
     rospy.init_node(package + "_watchdog")
-    spec: Dict[str, Any] = files.load_spec()
-    Watchdog(spec)
+    Watchdog(files.load_monitor_spec())
     rospy.spin()

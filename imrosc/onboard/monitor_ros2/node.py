@@ -143,7 +143,7 @@ class Monitor(common.Checking):
     def __init__(
         self,
         node: Any,
-        spec: Mapping[str, Any],
+        spec: files.SpecDocument,
         document: Mapping[str, Any],
         engine_class: Callable[..., Any],
         flatteners: Mapping[str, Flatten],
@@ -669,7 +669,7 @@ def main(
     )
     path = str(plumbing.get_param(node, "invariants", "") or default_invariants(package))
     try:
-        spec = files.load_spec()
+        spec = files.load_monitor_spec()
         document = files.load_invariants(path)
     except (OSError, ValueError) as error:
         node.get_logger().fatal(f"imrosc monitor: {error}")

@@ -67,7 +67,7 @@ class Relay:
 class Watchdog:
     """Relays blocked topics and services while the monitor's heartbeat is silent."""
 
-    def __init__(self, node: Any, spec: Mapping[str, Any]) -> None:
+    def __init__(self, node: Any, spec: files.SpecDocument) -> None:
         self.node = node
         self.log = node.get_logger()
         self.warn = getattr(self.log, "warning", None) or self.log.warn  # Foxy has warn only
@@ -244,7 +244,7 @@ def main(package: str, args: Optional[List[str]] = None) -> None:
         allow_undeclared_parameters=True,
         automatically_declare_parameters_from_overrides=True,
     )
-    Watchdog(node, files.load_spec())
+    Watchdog(node, files.load_monitor_spec())
     executor = MultiThreadedExecutor(num_threads=THREADS)
     executor.add_node(node)
     plumbing.spin_until_stopped(executor, node)
