@@ -177,6 +177,16 @@ def _existing_bags(folder: Path) -> list[Path]:
     )
 
 
+def _refuse_full(output: Path, existing: list[Path], force: bool) -> None:
+    """Refuse an output folder that holds bags already (``existing``) unless ``force``."""
+    if existing and not force:
+        _fail(
+            f"{output} holds a bag already ({existing[0].name}): record into a new folder, "
+            f"or use --force",
+            EXIT_USAGE,
+        )
+
+
 def _parse_servers(values: tuple[str, ...]) -> dict[str, set[str]]:
     from imrosc.schema.names import resolve_name
 
@@ -436,12 +446,7 @@ def _record_ros1(
     if output.exists() and not output.is_dir():
         _fail(f"{output}: exists and is not a folder", EXIT_USAGE)
     existing = _existing_bags(output)
-    if existing and not force:
-        _fail(
-            f"{output} holds a bag already ({existing[0].name}): record into a new folder, "
-            f"or use --force",
-            EXIT_USAGE,
-        )
+    _refuse_full(output, existing, force)
     if launch is not None:
         _write_launch(
             launch, launch_out, scope.services, given, graph, "/rec", force, (config, *graph_files)

@@ -18,6 +18,7 @@ from imrosc.record.command import (
     EXIT_USAGE,
     _existing_bags,
     _fail,
+    _refuse_full,
     _report,
     _scope,
     _summary,
@@ -59,12 +60,7 @@ def _check_output(output: Path, bag: Path, force: bool) -> None:
     if bag.is_symlink() or (bag.exists() and not is_ros2_bag(bag)):
         _fail(f"{bag}: exists and is not a ROS 2 bag; choose another --name", EXIT_USAGE)
     existing = existing_ros2_bags(output)
-    if existing and not force:
-        _fail(
-            f"{output} holds a bag already ({existing[0].name}): record into a new folder, "
-            f"or use --force",
-            EXIT_USAGE,
-        )
+    _refuse_full(output, existing, force)
     if bag.exists():
         try:
             shutil.rmtree(bag)

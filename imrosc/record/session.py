@@ -84,6 +84,49 @@ def run_until(
         stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
 
 
+def wait_for(
+    done: Callable[[], bool],
+    stop: threading.Event,
+    what: str,
+    timeout: float,
+    pump: Callable[[], None],
+    check: Callable[[], None],
+) -> bool:
+    """A recording's start, on either middleware: ``pump`` what its children said and
+    ``check`` they still run, twenty times a second, until ``done()`` (True), ``stop`` is set
+    (False) or ``timeout`` seconds have passed (:class:`RecordError` naming ``what``)."""
+    deadline = time.monotonic() + timeout
+    while not stop.is_set():
+        pump()
+        check()
+        if done():
+            return True
+        if time.monotonic() > deadline:
+            raise RecordError(f"timed out waiting for {what}")
+        stop.wait(0.05)
+    return False
+
+
+def read_events(
+    stream: IO[bytes], log: Path, put: Callable[[dict[str, Any]], None], source: str = ""
+) -> None:
+    """A recorder node's standard output, on either middleware: its events (one JSON object
+    a line, with ``event``) to ``put``, tagged ``from`` ``source`` when one is given; its other
+    lines to the ``log`` file."""
+    with log.open("ab") as written:
+        for line in stream:
+            try:
+                event = json.loads(line)
+            except ValueError:
+                event = None
+            if isinstance(event, dict) and "event" in event:
+                if source:
+                    event["from"] = source
+                put(event)
+            else:
+                written.write(line)
+
+
 class RecordError(Exception):
     """Recording cannot start or did not end well; the message is one line."""
 
@@ -338,9 +381,8 @@ class Recording:
             stdout=subprocess.PIPE,
         )
         assert self.node.popen.stdout is not None
-        self.reader = threading.Thread(
-            target=self._read, args=(self.node.popen.stdout,), daemon=True
-        )
+        events = (self.node.popen.stdout, settings.logs / "recorder.events", self.events.put)
+        self.reader = threading.Thread(target=read_events, args=events, daemon=True)
         self.reader.start()
         if not self._wait(lambda: self.ready, stop, "the recording node"):
             return False
@@ -359,31 +401,10 @@ class Recording:
         return all(self.rosbag_name in state.subscribers.get(topic, ()) for topic in topics)
 
     def _wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
-        deadline = time.monotonic() + self.settings.ready_timeout + 10.0
-        while not stop.is_set():
-            self.pump()
-            self._check_children()
-            if done():
-                return True
-            if time.monotonic() > deadline:
-                raise RecordError(f"timed out waiting for {what}")
-            stop.wait(0.05)
-        return False
+        timeout = self.settings.ready_timeout + 10.0
+        return wait_for(done, stop, what, timeout, self.pump, self._check_children)
 
     # -- while recording --------------------------------------------------------------------
-
-    def _read(self, stream: IO[bytes]) -> None:
-        """The node's standard output: its events, one JSON object a line."""
-        with self.settings.logs.joinpath("recorder.events").open("ab") as log:
-            for line in stream:
-                try:
-                    event = json.loads(line)
-                except ValueError:
-                    event = None
-                if isinstance(event, dict) and "event" in event:
-                    self.events.put(event)
-                else:
-                    log.write(line)
 
     def pump(self) -> None:
         """Handle what the node said since the last call."""

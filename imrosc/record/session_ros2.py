@@ -52,7 +52,9 @@ from imrosc.record.session import (
     _Child,
     link_package,
     probe,
+    read_events,
     run_until,
+    wait_for,
     with_module_path,
 )
 
@@ -252,16 +254,8 @@ class TapRecording:
             self.tap.popen.stdin.flush()
 
     def _wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
-        deadline = time.monotonic() + self.settings.ready_timeout + self.settings.settle
-        while not stop.is_set():
-            self.pump()
-            self._check_children()
-            if done():
-                return True
-            if time.monotonic() > deadline:
-                raise RecordError(f"timed out waiting for {what}")
-            stop.wait(0.05)
-        return False
+        timeout = self.settings.ready_timeout + self.settings.settle
+        return wait_for(done, stop, what, timeout, self.pump, self._check_children)
 
     # -- the children's output --------------------------------------------------------------
 
@@ -305,17 +299,9 @@ class TapRecording:
 
     def _read_lines(self, stream: IO[bytes]) -> None:
         """The recorder's standard output: its events, one JSON object a line."""
-        with stream, self.settings.logs.joinpath("recorder.events").open("ab") as log:
-            for line in stream:
-                try:
-                    event = json.loads(line)
-                except ValueError:
-                    event = None
-                if isinstance(event, dict) and "event" in event:
-                    event["from"] = "recorder"
-                    self.events.put(event)
-                else:
-                    log.write(line)
+        with stream:
+            log = self.settings.logs / "recorder.events"
+            read_events(stream, log, self.events.put, "recorder")
 
     def pump(self) -> None:
         """Handle what the children said since the last call."""
