@@ -39,7 +39,22 @@ from imrosc.infer.timed.windows import windowed_moments
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
 from imrosc.runtime.engine import PARAMS, Engine, _Point
-from imrosc.runtime.families import MEAN, RATE, VARIANCE
+from imrosc.runtime.families import (
+    ARRAY,
+    BOUNDS,
+    EQUALITY,
+    FUNCTION,
+    LINEAR,
+    MEAN,
+    NON_ZERO,
+    ONE_OF,
+    ORDER,
+    POLYGON,
+    RATE,
+    STRING_ONE_OF,
+    TERNARY,
+    VARIANCE,
+)
 from imrosc.runtime.violation import Violation
 
 from .words import RowChecks
@@ -91,10 +106,22 @@ class TopicRows:
         return values
 
 
+VECTORISED = frozenset(
+    {BOUNDS, ARRAY, ONE_OF, NON_ZERO, EQUALITY, ORDER, LINEAR, TERNARY, POLYGON}
+    | {STRING_ONE_OF, FUNCTION}
+)
+"""The value families :meth:`ChunkPoint._may_break` flags and :class:`RowChecks` words; a
+point holding another (a family added to the catalog and the engine's checks only) is
+checked by the engine, per message, never passed over."""
+
+
 def vectorisable(engine: Engine, point: _Point) -> bool:
     """Whether :class:`ChunkPoint` checks ``point`` (else the engine does, per message): a
-    publish point without parameters, learnt detectors or strings read from parameters."""
+    publish point without parameters, learnt detectors, strings read from parameters or
+    value families the vectorised pass does not know (:data:`VECTORISED`)."""
     if point.kind != "publish" or point.params or point.detectors:
+        return False
+    if point.checks.families - VECTORISED:
         return False
     _, _, strings = engine._gather[point.key]
     if any(source in ("", PARAMS) for source, _ in strings):

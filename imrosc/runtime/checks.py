@@ -108,6 +108,12 @@ COLLECTORS: Dict[str, Collector] = {}
 (registered with :func:`collects`; a test holds them to the catalog's value families)."""
 
 
+BESIDE_KERNEL: FrozenSet[str] = frozenset({STRING_ONE_OF, FUNCTION})
+"""The value families :meth:`Checks.check` checks on every sample after the compiled kernel
+(or numpy) answered; every other one is checked in :meth:`Checks._numeric`, which the kernel
+replaces only where the catalog says it knows the family (:attr:`Family.compiled`)."""
+
+
 def collects(*names: str) -> Callable[[Collector], Collector]:
     """Register the decorated function as the collector of the catalog's value families
     ``names``."""
@@ -232,10 +238,15 @@ class Checks:
         self.string_index = strings
         self.cleared: Set[str] = set()
         held = _Held(index, strings, frozenset(stats))
+        collected: Set[str] = set()
         for inv in invariants:
             collect = COLLECTORS.get(inv["family"])
             if collect is not None:
                 collect(held, inv)
+                collected.add(inv["family"])
+        self.families = frozenset(collected)
+        """The value families of the invariants given (a collector may hold none of them:
+        a variable missing from the samples)."""
         self.polygons = held.polygons
         self.string_sets = held.string_sets
         self.functions = held.functions
@@ -318,8 +329,11 @@ class Checks:
         self._tables = Tables(None, None, None)
 
     def compilable(self) -> bool:
-        """Whether numba is importable and knows every family of these checks."""
-        return numba_module() is not None and self.numeric_families() <= COMPILED
+        """Whether numba is importable and knows every family of these checks (a family
+        given to them that the catalog does not mark compiled is checked by numpy, even
+        where :meth:`numeric_families` does not hold it)."""
+        known = self.numeric_families() <= COMPILED and self.families - BESIDE_KERNEL <= COMPILED
+        return numba_module() is not None and known
 
     def compile(self) -> bool:
         """Compile the checks with numba (:func:`.compiled.compile_checks`) unless done:

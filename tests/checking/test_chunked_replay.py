@@ -28,6 +28,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from imrosc import records
+from imrosc.checking import points
 from imrosc.checking import run as chunked_run
 from imrosc.checking.words import RowChecks
 from imrosc.classify import Sampler
@@ -36,6 +37,7 @@ from imrosc.replay import Replayer, RunReplayer, RunResult
 from imrosc.runtime import Engine
 from imrosc.runtime.alarms import alarms_json
 from imrosc.runtime.families import DETECTOR, NAMES
+from tests.runtime.support import alarm_document
 from tests.translate import Msg, msg, write_bag
 
 INT, FLOAT, POINT = "std_msgs/msg/Int32", "std_msgs/msg/Float64", "geometry_msgs/msg/Point"
@@ -362,3 +364,15 @@ def test_row_checks_word_what_the_engine_s_check_words(
                 strings = [t[k] for t in texts]
                 expected = checks.check(times[k], key, values[k].copy(), strings)
                 assert json.dumps(worded, default=repr) == json.dumps(expected, default=repr)
+
+
+def test_a_family_the_vectorised_pass_does_not_know_is_left_to_the_engine(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A point holding a value family :data:`points.VECTORISED` does not name is checked by
+    the engine, per message, rather than by a pass that would not flag its samples."""
+    engine = Engine(alarm_document(None))
+    point = engine.points["x"]
+    assert point.checks.families == {"bounds"} and points.vectorisable(engine, point)
+    monkeypatch.setattr(points, "VECTORISED", points.VECTORISED - {"bounds"})
+    assert not points.vectorisable(engine, point)

@@ -135,3 +135,20 @@ def test_every_inferred_family_has_one_state_builder() -> None:
         builders.builds(families.DETECTOR)
     with pytest.raises(ValueError, match="has a state builder already"):
         builders.builds(families.BOUNDS)(lambda point, tunables, enabled: [])
+
+
+def test_a_family_the_kernel_does_not_know_is_never_compiled_however_held(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A value family added to the catalog and the checks but to none of the held lists
+    :meth:`Checks.numeric_families` reads is still kept from the compiled kernel."""
+    cubic = families.Family("cubic", "default", frozenset({families.PUBLISH}), "value")
+    monkeypatch.setitem(families.FAMILIES, "cubic", cubic)
+    monkeypatch.setitem(checks_module.COLLECTORS, "cubic", lambda held, inv: None)
+    monkeypatch.setattr(checks_module, "numba_module", object)
+    monkeypatch.setattr(checks_module, "compile_checks", lambda tables, size: lambda *a: True)
+    plain = Checks([BOUNDED], {"x": 0}, {})
+    assert plain.families == {families.BOUNDS} and plain.compiled
+    held = Checks([BOUNDED, dict(BOUNDED, id="i2", family="cubic")], {"x": 0}, {})
+    assert held.families == {families.BOUNDS, "cubic"}
+    assert held.numeric_families() == {families.BOUNDS} and not held.compiled
