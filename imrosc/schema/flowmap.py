@@ -1,28 +1,44 @@
 """Action values: the YAML flow mapping of a message or service request (``{data: 3}``).
 
 An ``<action>``'s ``<value>`` is what ``rostopic pub`` would take: a YAML flow mapping such as
-``{linear: {x: 0.5, y: 0}, angular: {z: -0.2}}``. This module parses the subset of YAML that
-such values need with a small recursive-descent parser, without a YAML library:
+``{linear: {x: 0.5, y: 0}, angular: {z: -0.2}}``. ruamel.yaml's parser reads it (its events
+only: nothing is constructed, as in :mod:`imrosc.graph.yamltree`), and this module builds the
+value, refusing what an action value never needs:
 
-* the text is one mapping ``{...}``, with whitespace (line breaks included) around tokens;
+* the text is one mapping ``{...}``, with whitespace (line breaks included) around it;
 * keys are plain or quoted scalars and stay strings; duplicate keys are errors;
 * values are mappings, sequences ``[...]``, quoted strings or plain scalars; a single trailing
-  comma is allowed in a collection, as in YAML;
-* single-quoted strings escape ``'`` as ``''``; double-quoted strings take YAML's backslash
-  escapes (``\\\\ \\" \\/ \\0 \\a \\b \\t \\n \\v \\f \\r \\e \\N \\_ \\L \\P``, a space,
-  ``\\xXX``, ``\\uXXXX``, ``\\UXXXXXXXX``); quoted strings stay on one line;
-* plain scalars end at ``,``, ``]``, ``}``, at ``: `` and at `` #``, are stripped, fold line
-  breaks as YAML does, and are resolved by the YAML 1.2 core schema (null, booleans, decimal,
-  ``0o`` and ``0x`` integers, floats with ``.inf`` and ``.nan``; anything else is a string).
+  comma is allowed in a collection, as in YAML; quoted strings stay on one line;
+* plain scalars are resolved by the YAML 1.2 core schema (null, booleans, decimal, ``0o`` and
+  ``0x`` integers, floats with ``.inf`` and ``.nan``; anything else is a string).
 
-Everything YAML offers beyond that is refused with :class:`FlowMapError`: anchors (``&``),
-aliases (``*``), tags (``!``), comments, block scalars, complex keys (``?``), keys without a
-value and values left empty. Collections nest at most :data:`MAX_NESTING` deep.
+Refused with :class:`FlowMapError`: anchors (``&``), aliases (``*``), tags (``!``), comments,
+complex keys (``?``), keys without a value, values left empty, a lone ``-``, a ``:`` that
+would start a nested mapping without braces (``{a: b: c}``, ``[b: c]``), text before or after
+the mapping, and collections nested more than :data:`MAX_NESTING` deep. So are what YAML
+refuses or ruamel.yaml reads otherwise, each with a way around it: a character YAML does not
+allow in a stream or reads as a line break (U+0085, U+2028, U+2029: an escape in a
+double-quoted string), a tab inside a plain scalar (quote the value), a key on several lines
+or whose ``:`` is on a later line (one line), and a plain key whose ``:`` touches a ``[`` or
+``{`` (a space after the ``:``).
 """
 
 from __future__ import annotations
 
 import re
+
+from ruamel.yaml import YAML
+from ruamel.yaml.error import MarkedYAMLError, YAMLError
+from ruamel.yaml.events import (
+    AliasEvent,
+    CollectionEndEvent,
+    CollectionStartEvent,
+    Event,
+    MappingStartEvent,
+    NodeEvent,
+    ScalarEvent,
+)
+from ruamel.yaml.reader import Reader, ReaderError
 
 __all__ = ["MAX_NESTING", "FlowMapError", "parse_flow_mapping"]
 
@@ -30,8 +46,6 @@ MAX_NESTING = 64
 """The deepest nesting of mappings and sequences a value may have."""
 
 _SPACES = " \t\r\n"
-_FLOW_INDICATORS = ",[]{}"
-_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 _NULL = frozenset({"null", "Null", "NULL", "~"})
 _TRUE = frozenset({"true", "True", "TRUE"})
 _FALSE = frozenset({"false", "False", "FALSE"})
@@ -42,40 +56,16 @@ _FLOAT = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
 _INFINITY = re.compile(r"[-+]?\.(?:inf|Inf|INF)")
 _NAN = frozenset({".nan", ".NaN", ".NAN"})
 _MAX_INT_DIGITS = 4000
-_ESCAPES = {
-    "\\": "\\",
-    '"': '"',
-    "/": "/",
-    " ": " ",
-    "\t": "\t",
-    "0": "\0",
-    "a": "\a",
-    "b": "\b",
-    "t": "\t",
-    "n": "\n",
-    "v": "\v",
-    "f": "\f",
-    "r": "\r",
-    "e": "\x1b",
-    "N": "\x85",
-    "_": "\xa0",
-    "L": "\u2028",
-    "P": "\u2029",
-}
-_HEX_ESCAPES = {"x": 2, "u": 4, "U": 8}
-_HEX_DIGITS = frozenset("0123456789abcdefABCDEF")
-_REFUSED_STARTS = {
-    "&": "anchors ('&') are not supported",
-    "*": "aliases ('*') are not supported",
-    "!": "tags ('!') are not supported",
-    "#": "comments are not supported in an action value",
-    "|": "block scalars ('|') are not supported in a flow mapping",
-    ">": "block scalars ('>') are not supported in a flow mapping",
-    "?": "complex keys ('?') are not supported",
-    "%": "'%' cannot start a plain value; quote it",
-    "@": "'@' cannot start a plain value; quote it",
-    "`": "'`' cannot start a plain value; quote it",
-}
+_UNREADABLE = re.compile("[\x85\u2028\u2029]|" + Reader.NON_PRINTABLE.pattern)
+"""Characters YAML does not allow in a stream, and its line breaks other than CR and LF."""
+_LONG_ESCAPE = re.compile(r"\\U(?:0*1[1-9a-fA-F]|0*[2-9a-fA-F][0-9a-fA-F])[0-9a-fA-F]{4}")
+"""A double-quoted string's escape of a code point above U+10FFFF."""
+_ENDS_PLAIN = ("", *_SPACES, *",[]{}")
+"""What may follow a plain scalar's ':' or lone '-' for them to be indicators."""
+_NESTED = "unexpected ':'; a nested mapping needs braces, e.g. {a: {b: 1}}"
+_COMMENT = "comments are not supported in an action value"
+_BETWEEN = {"#": _COMMENT, "?": "complex keys ('?') are not supported"}
+"""What may stand between two nodes besides spaces, ',' and ':', and why it is refused."""
 
 
 class FlowMapError(ValueError):
@@ -96,243 +86,210 @@ def _show(text: str) -> str:
     return repr(text)
 
 
-class _Parser:
+def _start(event: Event) -> int:
+    return int(event.start_mark.index)
+
+
+def _end(event: Event) -> int:
+    return int(event.end_mark.index)
+
+
+class _Builder:
+    """One pass over the parser's events: the open collections and the finished value."""
+
     def __init__(self, text: str) -> None:
         self.text = text
-        self.position = 0
-        self.depth = 0
+        self.stack: list[tuple[dict[str, object] | list[object], int]] = []
+        self.keys: list[tuple[str, int, int, bool] | None] = []
+        """Per open collection: a mapping's key waiting for its value (text, start, end,
+        whether it is plain)."""
+        self.last = 0
+        """Where the previous event ended: what lies between it and the next is checked."""
+        self.result: dict[str, object] | None = None
 
-    # -- helpers ------------------------------------------------------------------------------
+    def between(self, until: int) -> None:
+        """Refuse a comment or a complex key between the previous event and ``until``, or a
+        tab that ended a plain scalar there."""
+        self.tab(until)
+        gap = self.text[self.last : until]
+        for index, char in enumerate(gap):
+            if char in _BETWEEN:
+                raise FlowMapError(_BETWEEN[char], self.last + index)
 
-    def char(self) -> str:
-        """The current character, or '' at the end."""
-        return self.text[self.position] if self.position < len(self.text) else ""
-
-    def skip_spaces(self) -> None:
-        while self.position < len(self.text) and self.text[self.position] in _SPACES:
-            self.position += 1
-
-    def fail(self, message: str, offset: int | None = None) -> FlowMapError:
-        return FlowMapError(message, self.position if offset is None else offset)
-
-    def describe_here(self) -> str:
-        char = self.char()
-        return "the end of the value" if not char else repr(char)
-
-    # -- grammar ------------------------------------------------------------------------------
-
-    def parse(self) -> dict[str, object]:
-        self.skip_spaces()
-        if not self.char():
-            raise self.fail("the value is empty; expected a mapping such as {data: 3}", 0)
-        if self.char() != "{":
-            raise self.fail("the value must be a mapping in braces, such as {data: 3}")
-        result = self.mapping()
-        self.skip_spaces()
-        if self.char():
-            raise self.fail(f"unexpected {self.describe_here()} after the closing '}}'")
-        return result
-
-    def enter(self) -> None:
-        if self.depth >= MAX_NESTING:
-            raise self.fail(f"collections are nested deeper than {MAX_NESTING} levels")
-        self.depth += 1
-
-    def mapping(self) -> dict[str, object]:
-        opening = self.position
-        self.enter()
-        self.position += 1  # '{'
-        result: dict[str, object] = {}
-        while True:
-            self.skip_spaces()
-            char = self.char()
-            if char == "}":
-                self.position += 1
-                self.depth -= 1
-                return result
-            if not char:
-                raise self.fail("unbalanced '{'", opening)
-            key_offset = self.position
-            key = self.key()
-            if key in result:
-                raise self.fail(f"duplicate key {_show(key)}", key_offset)
-            self.skip_spaces()
-            if self.char() != ":":
-                if ":" in key:
-                    message = f"expected ': ' after a key; put a space after ':' in {_show(key)}"
-                    raise self.fail(message, key_offset + key.index(":"))
-                raise self.fail(f"expected ':' after key {_show(key)}")
-            self.position += 1
-            self.skip_spaces()
-            if self.char() in ("", ",", "}"):
-                raise self.fail(f"key {_show(key)} has no value")
-            result[key] = self.value()
-            self.separator("}", opening, "mapping")
-
-    def sequence(self) -> list[object]:
-        opening = self.position
-        self.enter()
-        self.position += 1  # '['
-        result: list[object] = []
-        while True:
-            self.skip_spaces()
-            char = self.char()
-            if char == "]":
-                self.position += 1
-                self.depth -= 1
-                return result
-            if not char:
-                raise self.fail("unbalanced '['", opening)
-            if char == ",":
-                raise self.fail("empty entry in a sequence")
-            result.append(self.value())
-            self.separator("]", opening, "sequence")
-
-    def separator(self, closing: str, opening: int, what: str) -> None:
-        """After an entry: accept ',' or leave the closing bracket for the caller."""
-        self.skip_spaces()
-        char = self.char()
-        if char == ",":
-            self.position += 1
-            self.skip_spaces()
-            if self.char() == ",":
-                raise self.fail(f"empty entry in a {what}")
+    def tab(self, until: int, *, error: bool = False) -> None:
+        """Refuse a tab right after a plain scalar's text when more text than commas, colons
+        and closing brackets follows it before ``until`` (or the parser failed there):
+        ruamel.yaml ends a plain scalar at a tab, which YAML does not."""
+        tab = self.text.find("\t", self.last, until)
+        if tab <= 0 or self.text[tab - 1] in _SPACES + ",[{:":
             return
-        if char == closing:
-            return
-        if not char:
-            raise self.fail(f"unbalanced '{self.text[opening]}'", opening)
-        if char == ":":
-            raise self.fail("unexpected ':'; a nested mapping needs braces, e.g. {a: {b: 1}}")
-        if char in "]}":
-            raise self.fail(f"{char!r} does not close the {self.text[opening]!r} opened before")
-        raise self.fail(f"expected ',' or {closing!r} but found {self.describe_here()}")
+        if error or self.text[tab:until].strip(_SPACES + ",:]}"):
+            raise FlowMapError("a tab inside a plain value is not supported; quote the value", tab)
 
-    def key(self) -> str:
-        char = self.char()
-        if char in ("'", '"'):
-            return self.quoted()
-        if char in ("{", "["):
-            raise self.fail("keys must be plain or quoted names, not collections")
-        if char == ":":
-            raise self.fail("missing key before ':'")
-        start = self.position
-        raw = self.plain()
-        if not raw:
-            raise self.fail(f"expected a key but found {self.describe_here()}", start)
-        return raw
-
-    def value(self) -> object:
-        char = self.char()
-        if char == "{":
-            return self.mapping()
-        if char == "[":
-            return self.sequence()
-        if char in ("'", '"'):
-            return self.quoted()
-        start = self.position
-        raw = self.plain()
-        if not raw:
-            raise self.fail(f"expected a value but found {self.describe_here()}", start)
-        return self.resolve(raw, start)
-
-    def plain(self) -> str:
-        """Read a plain scalar; return it stripped and folded ('' if there is none)."""
-        start = self.position
-        char = self.char()
-        if char in _REFUSED_STARTS:
-            raise self.fail(_REFUSED_STARTS[char])
-        if char == "-" and self.following_is_space(self.position + 1, flow=True):
-            raise self.fail("a lone '-' is not a value; quote it, or write a sequence as [a, b]")
-        text = self.text
-        while self.position < len(text):
-            char = text[self.position]
-            if char in _FLOW_INDICATORS:
-                break
-            if char == ":" and self.following_is_space(self.position + 1, flow=True):
-                break
-            if char == "#" and self.position > start and text[self.position - 1] in _SPACES:
-                raise self.fail("comments are not supported in an action value")
-            self.position += 1
-        return _fold(text[start : self.position])
-
-    def following_is_space(self, index: int, *, flow: bool = False) -> bool:
-        if index >= len(self.text):
-            return True
-        char = self.text[index]
-        return char in _SPACES or (flow and char in _FLOW_INDICATORS)
-
-    def quoted(self) -> str:
-        quote = self.char()
-        opening = self.position
-        self.position += 1
-        pieces: list[str] = []
-        text = self.text
-        while self.position < len(text):
-            char = text[self.position]
-            if char in "\r\n":
-                raise self.fail("quoted strings must end on the line they start", opening)
-            if char == quote:
-                if quote == "'" and text.startswith("''", self.position):
-                    pieces.append("'")
-                    self.position += 2
-                    continue
-                self.position += 1
-                return "".join(pieces)
-            if char == "\\" and quote == '"':
-                pieces.append(self.escape(opening))
-                continue
-            pieces.append(char)
-            self.position += 1
-        raise self.fail(f"unterminated string starting with {quote}", opening)
-
-    def escape(self, opening: int) -> str:
-        """Decode the escape at the current position of the string that starts at ``opening``."""
-        start = self.position
-        code = self.text[start + 1 : start + 2]
-        if code in _ESCAPES:
-            self.position += 2
-            return _ESCAPES[code]
-        if code in _HEX_ESCAPES:
-            width = _HEX_ESCAPES[code]
-            digits = self.text[start + 2 : start + 2 + width]
-            if len(digits) != width or not all(digit in _HEX_DIGITS for digit in digits):
-                raise self.fail(f"'\\{code}' needs {width} hexadecimal digits", start)
-            point = int(digits, 16)
-            if point > 0x10FFFF:
-                raise self.fail(f"'\\{code}{digits}' is not a unicode character", start)
-            self.position += 2 + width
-            return chr(point)
-        if not code:
-            raise self.fail('unterminated string starting with "', opening)
-        if code in "\r\n":
-            raise self.fail("quoted strings must end on the line they start", start)
-        shown = f"'\\{code}'" if code.isprintable() else repr("\\" + code)
-        raise self.fail(f"unknown escape {shown} in a double-quoted string", start)
-
-    def resolve(self, raw: str, start: int) -> object:
-        """Resolve a plain scalar by the YAML 1.2 core schema."""
-        if raw in _NULL:
-            return None
-        if raw in _TRUE:
-            return True
-        if raw in _FALSE:
+    def feed(self, event: Event) -> bool:
+        """Take one event; True once the outer mapping is complete."""
+        if not isinstance(event, NodeEvent) and not isinstance(event, CollectionEndEvent):
             return False
-        if _DECIMAL.fullmatch(raw):
-            if len(raw) > _MAX_INT_DIGITS:
-                raise self.fail("integer is too long", start)
-            return int(raw)
-        if _OCTAL.fullmatch(raw):
-            return _big_int(raw[2:], 8, start)
-        if _HEXADECIMAL.fullmatch(raw):
-            return _big_int(raw[2:], 16, start)
-        if _FLOAT.fullmatch(raw):
-            return float(raw)
-        if _INFINITY.fullmatch(raw):
-            return float("-inf") if raw.startswith("-") else float("inf")
-        if raw in _NAN:
-            return float("nan")
-        return raw
+        start = _start(event)
+        self.between(start)
+        self.screen(event)
+        if isinstance(event, ScalarEvent):
+            self.scalar(event)
+        elif isinstance(event, CollectionStartEvent):
+            self.open(event)
+        elif isinstance(event, CollectionEndEvent):
+            closed, _ = self.stack.pop()
+            self.keys.pop()
+            self.last = _end(event)
+            if not self.stack:
+                assert isinstance(closed, dict)
+                self.result = closed
+                return True
+            self.add(closed, start, self.last)
+        return False
+
+    def screen(self, event: Event) -> None:
+        start = _start(event)
+        if isinstance(event, AliasEvent):
+            raise FlowMapError("aliases ('*') are not supported", start)
+        if isinstance(event, NodeEvent) and event.anchor is not None:
+            raise FlowMapError("anchors ('&') are not supported", start)
+        if isinstance(event, (ScalarEvent, CollectionStartEvent)) and event.tag is not None:
+            raise FlowMapError("tags ('!') are not supported", start)
+
+    def open(self, event: CollectionStartEvent) -> None:
+        start = _start(event)
+        if self.stack and self.text[start : start + 1] not in ("{", "["):
+            raise FlowMapError(_NESTED, self.text.index(":", start))
+        if self.stack and isinstance(self.stack[-1][0], dict) and self.keys[-1] is None:
+            raise FlowMapError("keys must be plain or quoted names, not collections", start)
+        if len(self.stack) >= MAX_NESTING:
+            raise FlowMapError(f"collections are nested deeper than {MAX_NESTING} levels", start)
+        opened: dict[str, object] | list[object] = (
+            {} if isinstance(event, MappingStartEvent) else []
+        )
+        self.stack.append((opened, start))
+        self.keys.append(None)
+        self.last = _end(event)
+
+    def scalar(self, event: ScalarEvent) -> None:
+        start, end = _start(event), _end(event)
+        value = str(event.value)
+        if event.style is None:
+            if not value:
+                self.empty()
+            after = self.text[end : end + 1]
+            if value == "-" and after in _ENDS_PLAIN:
+                message = "a lone '-' is not a value; quote it, or write a sequence as [a, b]"
+                raise FlowMapError(message, start)
+            if value.endswith(":") and after in _ENDS_PLAIN:
+                if after in ("[", "{") and self.keys[-1] is None:
+                    message = f"expected ': ' after a key; put a space after ':' in {_show(value)}"
+                    raise FlowMapError(message, end - 1)
+                raise FlowMapError(_NESTED, start + self.text[start:end].rindex(":"))
+        elif any(char in "\r\n" for char in self.text[start:end]):
+            raise FlowMapError("quoted strings must end on the line they start", start)
+        self.last = end
+        parent = self.stack[-1][0]
+        if isinstance(parent, dict) and self.keys[-1] is None:
+            if value in parent:
+                raise FlowMapError(f"duplicate key {_show(value)}", start)
+            self.keys[-1] = (value, start, end, event.style is None)
+            return
+        self.add(value if event.style is not None else _resolve(value, start), start, end)
+
+    def empty(self) -> None:
+        """Refuse a missing key or value (the parser's empty scalar after :attr:`last`)."""
+        parent = self.stack[-1][0]
+        key = self.keys[-1]
+        here = self.skip(self.last)
+        if not isinstance(parent, dict):
+            raise FlowMapError("empty entry in a sequence", here)
+        if key is None:
+            raise FlowMapError("missing key before ':'", here)
+        name, start, end, _ = key
+        if self.text.startswith(":", here) and any(c in "\r\n" for c in self.text[start:here]):
+            message = f"key {_show(name)} and its ':' must be on one line"
+            raise FlowMapError(message, here)
+        if self.text.startswith(":", here):
+            raise FlowMapError(f"key {_show(name)} has no value", self.skip(here + 1))
+        if ":" in name:
+            message = f"expected ': ' after a key; put a space after ':' in {_show(name)}"
+            raise FlowMapError(message, start + self.text[start:end].index(":"))
+        raise FlowMapError(f"expected ':' after key {_show(name)}", here)
+
+    def skip(self, offset: int) -> int:
+        """The first offset from ``offset`` on that is not a space."""
+        return len(self.text) - len(self.text[offset:].lstrip(_SPACES))
+
+    def add(self, value: object, start: int, end: int) -> None:
+        """Put a finished value into the open collection."""
+        parent = self.stack[-1][0]
+        if isinstance(parent, list):
+            parent.append(value)
+            return
+        key = self.keys[-1]
+        if key is None:
+            raise FlowMapError("keys must be plain or quoted names, not collections", start)
+        name, _, end, plain = key
+        colon = self.text.index(":", end)
+        if plain and self.text[colon + 1 : colon + 2] not in _ENDS_PLAIN:
+            raise FlowMapError(f"expected ': ' after key {_show(name)}", colon)
+        parent[name] = value
+        self.keys[-1] = None
+
+    def syntax(self, error: Exception) -> FlowMapError:
+        """A parser error as a :class:`FlowMapError` at its place."""
+        offset, message = len(self.text), str(error).split("\n")[0]
+        if isinstance(error, MarkedYAMLError):
+            mark = error.problem_mark or error.context_mark
+            offset = int(mark.index) if mark is not None else offset
+            message = str(error.problem or error.context or message)
+            context = error.context_mark
+            scanned = None if context is None or context.index < self.last else context.index
+            self.tab(offset, error=True)
+            self.between(offset if scanned is None else int(scanned))
+            if "<stream end>" in message and self.stack:
+                opening = self.stack[-1][1]
+                return FlowMapError(f"unbalanced {self.text[opening]!r}", opening)
+            if "end of stream" in message and scanned is not None:
+                quote = self.text[scanned]
+                return FlowMapError(f"unterminated string starting with {quote}", scanned)
+            if message.endswith("got ':'"):
+                return FlowMapError(_NESTED, offset)
+            if message.endswith("found ','") and self.stack:
+                what = "mapping" if isinstance(self.stack[-1][0], dict) else "sequence"
+                return FlowMapError(f"empty entry in a {what}", offset)
+        elif isinstance(error, ReaderError) and isinstance(error.position, int):
+            offset = error.position
+        elif isinstance(error, ValueError):
+            found = _LONG_ESCAPE.search(self.text, self.last)
+            offset = found.start() if found else self.last
+            return FlowMapError("a '\\U' escape that is not a unicode character", offset)
+        return FlowMapError(f"invalid YAML: {message}", min(offset, len(self.text)))
+
+
+def _resolve(raw: str, start: int) -> object:
+    """Resolve a plain scalar by the YAML 1.2 core schema."""
+    if raw in _NULL:
+        return None
+    if raw in _TRUE:
+        return True
+    if raw in _FALSE:
+        return False
+    if _DECIMAL.fullmatch(raw):
+        return _big_int(raw, 10, start)
+    if _OCTAL.fullmatch(raw):
+        return _big_int(raw[2:], 8, start)
+    if _HEXADECIMAL.fullmatch(raw):
+        return _big_int(raw[2:], 16, start)
+    if _FLOAT.fullmatch(raw):
+        return float(raw)
+    if _INFINITY.fullmatch(raw):
+        return float("-inf") if raw.startswith("-") else float("inf")
+    if raw in _NAN:
+        return float("nan")
+    return raw
 
 
 def _big_int(digits: str, base: int, start: int) -> int:
@@ -341,24 +298,36 @@ def _big_int(digits: str, base: int, start: int) -> int:
     return int(digits, base)
 
 
-def _fold(raw: str) -> str:
-    """Strip a plain scalar and fold its line breaks as YAML does."""
-    lines = [line.strip(" \t") for line in _LINE_BREAK.split(raw.strip(_SPACES))]
-    result = lines[0]
-    empty = 0
-    for line in lines[1:]:
-        if not line:
-            empty += 1
-            continue
-        result += ("\n" * empty if empty else " ") + line
-        empty = 0
-    return result
-
-
 def parse_flow_mapping(text: str) -> dict[str, object]:
     """Parse an action value; raise :class:`FlowMapError` with an offset into ``text``.
 
     Returns plain Python data: nested ``dict[str, object]``, ``list``, ``str``, ``int``,
     ``float``, ``bool`` and ``None``.
     """
-    return _Parser(text).parse()
+    first = len(text) - len(text.lstrip(_SPACES))
+    if first == len(text):
+        raise FlowMapError("the value is empty; expected a mapping such as {data: 3}", 0)
+    if text[first] != "{":
+        raise FlowMapError("the value must be a mapping in braces, such as {data: 3}", first)
+    unreadable = _UNREADABLE.search(text)
+    if unreadable:
+        code = f"{ord(unreadable.group()):04X}"
+        message = f'character U+{code} is not allowed; write it as the escape "\\u{code}"'
+        raise FlowMapError(message, unreadable.start())
+    # the spaces around the mapping as plain spaces: YAML refuses a tab where a token could
+    # start outside a collection, as in a value's indentation in the XML
+    source = " " * first + text[first:].rstrip(_SPACES)
+    builder = _Builder(source)
+    try:
+        for event in YAML(typ="safe", pure=True).parse(source):
+            if builder.feed(event):
+                break
+    except FlowMapError:
+        raise
+    except (YAMLError, ValueError) as error:
+        raise builder.syntax(error) from None
+    rest = len(text) - len(text[builder.last :].lstrip(_SPACES))
+    if builder.result is None or rest < len(text):
+        shown = repr(text[rest]) if rest < len(text) else "the end of the value"
+        raise FlowMapError(f"unexpected {shown} after the closing '}}'", rest)
+    return builder.result
