@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from imrosc.schema.names import BAD_NAME, check_graph_name
+from imrosc.schema.positions import OffsetError
 
 __all__ = [
     "ARITHMETIC_OPS",
@@ -79,7 +80,7 @@ _ESCAPES = {"\\": "\\", "'": "'", '"': '"', "n": "\n", "t": "\t", "r": "\r", "0"
 _HEX = frozenset(string.hexdigits)
 
 
-class ExpressionError(ValueError):
+class ExpressionError(OffsetError):
     """An expression that cannot be parsed, converted or evaluated.
 
     ``message`` says what is wrong; ``offset`` is the 0-based index in the text (0 when there
@@ -88,11 +89,6 @@ class ExpressionError(ValueError):
 
     def __init__(self, message: str, offset: int = 0) -> None:
         super().__init__(message, offset)
-        self.message = message
-        self.offset = offset
-
-    def __str__(self) -> str:
-        return f"{self.message} (at offset {self.offset})"
 
 
 @dataclass(frozen=True)

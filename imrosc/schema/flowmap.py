@@ -40,6 +40,8 @@ from ruamel.yaml.events import (
 )
 from ruamel.yaml.reader import Reader, ReaderError
 
+from imrosc.schema.positions import OffsetError
+
 __all__ = ["MAX_NESTING", "FlowMapError", "parse_flow_mapping"]
 
 MAX_NESTING = 64
@@ -68,16 +70,8 @@ _BETWEEN = {"#": _COMMENT, "?": "complex keys ('?') are not supported"}
 """What may stand between two nodes besides spaces, ',' and ':', and why it is refused."""
 
 
-class FlowMapError(ValueError):
+class FlowMapError(OffsetError):
     """An action value that is not a supported flow mapping: a message and a 0-based offset."""
-
-    def __init__(self, message: str, offset: int) -> None:
-        super().__init__(message, offset)
-        self.message = message
-        self.offset = offset
-
-    def __str__(self) -> str:
-        return f"{self.message} (at offset {self.offset})"
 
 
 def _show(text: str) -> str:

@@ -24,6 +24,8 @@ from __future__ import annotations
 import string
 from dataclasses import dataclass
 
+from imrosc.schema.positions import OffsetError
+
 __all__ = [
     "MAX_NESTING",
     "Concat",
@@ -49,16 +51,8 @@ _SPACES = frozenset(" \t\r\n\f\v")
 _STARTS = _LETTERS | {"-", "("}
 
 
-class PatternError(ValueError):
+class PatternError(OffsetError):
     """A pattern that cannot be parsed: a message and the 0-based offset of the problem."""
-
-    def __init__(self, message: str, offset: int) -> None:
-        super().__init__(message, offset)
-        self.message = message
-        self.offset = offset
-
-    def __str__(self) -> str:
-        return f"{self.message} (at offset {self.offset})"
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,19 @@ _SPACE = re.compile(r"\s*")
 _ATTRIBUTE = re.compile(r"([^\s/>=]+)\s*=\s*(?:\"([^\"]*)\"|'([^']*)')")
 
 
+class OffsetError(ValueError):
+    """A problem at a place in a text value (a pattern, an expression, an action value): a
+    message and the 0-based offset of the problem in the text."""
+
+    def __init__(self, message: str, offset: int) -> None:
+        super().__init__(message, offset)
+        self.message = message
+        self.offset = offset
+
+    def __str__(self) -> str:
+        return f"{self.message} (at offset {self.offset})"
+
+
 @dataclass
 class StartTag:
     """One start tag: where it begins, where its content begins, and its attributes.
