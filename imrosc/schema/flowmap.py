@@ -65,6 +65,7 @@ _LONG_ESCAPE = re.compile(r"\\U(?:0*1[1-9a-fA-F]|0*[2-9a-fA-F][0-9a-fA-F])[0-9a-
 _ENDS_PLAIN = ("", *_SPACES, *",[]{}")
 """What may follow a plain scalar's ':' or lone '-' for them to be indicators."""
 _NESTED = "unexpected ':'; a nested mapping needs braces, e.g. {a: {b: 1}}"
+_TAB = "a tab inside a plain value is not supported; quote the value"
 _COMMENT = "comments are not supported in an action value"
 _BETWEEN = {"#": _COMMENT, "?": "complex keys ('?') are not supported"}
 """What may stand between two nodes besides spaces, ',' and ':', and why it is refused."""
@@ -118,7 +119,7 @@ class _Builder:
         if tab <= 0 or self.text[tab - 1] in _SPACES + ",[{:":
             return
         if error or self.text[tab:until].strip(_SPACES + ",:]}"):
-            raise FlowMapError("a tab inside a plain value is not supported; quote the value", tab)
+            raise FlowMapError(_TAB, tab)
 
     def feed(self, event: Event) -> bool:
         """Take one event; True once the outer mapping is complete."""
@@ -207,6 +208,9 @@ class _Builder:
             raise FlowMapError(message, here)
         if self.text.startswith(":", here):
             raise FlowMapError(f"key {_show(name)} has no value", self.skip(here + 1))
+        after = self.skip(end)
+        if "\t" in self.text[end:after] and self.text[after : after + 1] not in ("", ",", "}"):
+            raise FlowMapError(_TAB, self.text.index("\t", end))
         if ":" in name:
             message = f"expected ': ' after a key; put a space after ':' in {_show(name)}"
             raise FlowMapError(message, start + self.text[start:end].index(":"))

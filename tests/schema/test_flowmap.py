@@ -197,6 +197,7 @@ def test_errors_have_messages_and_offsets(text: str, offset: int, message: str) 
         ("{a: \ud800}", 4, "character U+D800 is not allowed"),
         ("{a: m\tn}", 5, "a tab inside a plain value is not supported"),
         ("{a: 1,\tb: x\ty}", 11, "a tab inside a plain value is not supported"),
+        ("{a\tb: 1}", 2, "a tab inside a plain value is not supported"),
         ("{a\n: 1}", 3, "key 'a' and its ':' must be on one line"),
         ("{a\nb: 1}", 4, "key 'a b' and its ':' must be on one line"),
         ("{a:[1]}", 2, "expected ': ' after a key; put a space after ':' in 'a:'"),
