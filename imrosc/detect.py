@@ -96,7 +96,7 @@ class DetectResult:
 def _compile(
     lowered: ir.Project, graph_files: Sequence[Path], catalog: Catalog
 ) -> tuple[ir.Project, PlanDocument, JobDocument, list[Diagnostic]]:
-    graph, found = load_graph(graph_files, catalog.bags)
+    graph, found = load_graph(graph_files, catalog.bags, read=catalog.bag_graphs())
     problems = [d for d in found if d.code != "bag-error"]  # the catalog reported bad bags
     project, found_passes = passed(lowered, graph)
     problems += found_passes

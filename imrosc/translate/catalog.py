@@ -19,6 +19,8 @@ from typing import Any
 from imrosc import records
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag, recovered_diagnostic
 from imrosc.diagnostics import Diagnostic, make
+from imrosc.graph.bags import BagGraphs, graph_of_reader, merge_graphs
+from imrosc.graph.model import Graph
 from imrosc.msgtypes import FieldSpec, flatten
 
 
@@ -65,6 +67,17 @@ class Catalog:
     for topics a configuration uses."""
     messages: dict[Path, int] = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    graphs: dict[Path, Graph] = field(default_factory=dict)
+    """The node graph each bag records (read with its note: the bags are opened once)."""
+    graph_problems: list[Diagnostic] = field(default_factory=list)
+    """What reading the graphs of the bags that could be read found."""
+
+    def bag_graphs(self) -> BagGraphs:
+        """The graph of the catalogued bags, as :func:`~imrosc.graph.bags.read_bag_graphs`
+        reads it from them."""
+        read = tuple(bag for bag in self.bags if bag in self.graphs)
+        graph = merge_graphs([self.graphs[bag] for bag in read])
+        return BagGraphs(graph, tuple(self.graph_problems), read)
 
 
 def _note_records(catalog: Catalog, reader: Any, bag: Path) -> None:
@@ -157,6 +170,9 @@ class BagNote:
     """All its messages (``None``: the bag broke before its connections were all read)."""
     records: Catalog | None = None
     """Its record topics' parameters, services, resources and diagnostics."""
+    graph: Graph | None = None
+    """The node graph it records (``None``: it could not be read)."""
+    graph_problems: list[Diagnostic] = field(default_factory=list)
     error: str | None = None
     """Why the bag cannot be read (a ``bag-error``)."""
 
@@ -203,6 +219,12 @@ def note_bag(bag: Path, name: Path | None = None) -> BagNote:
             note.messages = count
             note.records = Catalog()
             _note_records(note.records, reader, name)
+            try:
+                note.graph, note.graph_problems = graph_of_reader(reader, name)
+            except BagError as error:
+                note.graph_problems = [
+                    make(str(name), 1, 1, "bag-error", _renamed(error, bag, name))
+                ]
     except BagError as error:
         note.error = _renamed(error, bag, name)
     return note
@@ -267,6 +289,10 @@ def merge_note(catalog: Catalog, note: BagNote) -> None:
         catalog.messages.pop(bag, None)
         return
     catalog.bags.append(bag)
+    if bag not in catalog.graphs:  # a bag given twice: read once
+        if note.graph is not None:
+            catalog.graphs[bag] = note.graph
+        catalog.graph_problems += note.graph_problems
 
 
 Noter = Callable[[Sequence[Path]], Iterable[BagNote]]
