@@ -8,16 +8,18 @@ Writes ``--bags`` simulated runs of the landing system (``imrosc.sim``, ROS 1 ba
 detect stage on ``examples/landing_sim.xml``'s configuration over them:
 
 (a) with a ``distributed.LocalCluster`` of 1 and of 2 single-threaded worker processes
-    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the
-    seconds of inference (the client's catalogue of the bags, the two passes over them, the
-    merge) and of calibration (its held-out replays: on the cluster, or in the pool), and
-    the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores. On a shared machine the
-    wall time says little by itself, so each case also prints what the CPUs did during its
-    inference: the CPU seconds of each worker, of this process (the client, the scheduler
-    and the nannies), and the cores other processes took (the machine's busy time from
-    ``/proc/stat`` less ours; 0 on an idle machine, 2 on two cores fully taken). The cases
-    of 1 and 2 workers alternate ``--repeats`` times, so that each pair ran under about the
-    same load; the speed-up is given per pair and as their median.
+    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the seconds of
+    inference (the catalogue of the bags: a task per bag, each bag's note merged by the client;
+    the two passes over them; the merge) and of calibration (its held-out replays: on the
+    cluster, or in the pool), and the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores.
+    On a shared machine the wall time says little by itself, so each case also prints what the
+    CPUs did during its inference: the CPU seconds of each worker, of this process (the client,
+    the scheduler and the nannies), and the cores other processes took (the machine's busy time
+    from ``/proc/stat`` less ours; 0 on an idle machine, 2 on two cores fully taken). The cases
+    of 1 and 2 workers alternate ``--repeats`` times, so that each pair ran under about the same
+    load; the speed-up is given per pair and as their median. Each case gives the catalogue's
+    seconds and the client's CPU seconds in it; ``--client-catalogue`` adds, per pair, 2 workers
+    with the bags catalogued by the client one after another (as before the catalogue's tasks).
 (b) the peak RSS of each worker process (its ``ru_maxrss``) for half the bags and for all of
     them: a worker holds one bag's states at a time, so the peak does not grow with the bags.
 (c) per bag, for three of the bags and one ten times as long: the bag file, the samples made
