@@ -1,22 +1,25 @@
 """Inference on a Dask cluster: speed-up, memory per worker, bytes sent to the client.
 
     python bench/fleet.py [--bags 40] [--duration 30] [--repeats 2] [--folder DIR]
+                          [--client-catalogue] [--no-pool] [--only-speedup]
 
 Writes ``--bags`` simulated runs of the landing system (``imrosc.sim``, ROS 1 bags of
 ``--duration`` s each) into ``DIR/bags`` (kept and reused), then runs ``imrosc infer``'s
 detect stage on ``examples/landing_sim.xml``'s configuration over them:
 
 (a) with a ``distributed.LocalCluster`` of 1 and of 2 single-threaded worker processes
-    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the
-    seconds of inference (the client's catalogue of the bags, the two passes over them, the
-    merge) and of calibration (its held-out replays: on the cluster, or in the pool), and
-    the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores. On a shared machine the
-    wall time says little by itself, so each case also prints what the CPUs did during its
-    inference: the CPU seconds of each worker, of this process (the client, the scheduler
-    and the nannies), and the cores other processes took (the machine's busy time from
-    ``/proc/stat`` less ours; 0 on an idle machine, 2 on two cores fully taken). The cases
-    of 1 and 2 workers alternate ``--repeats`` times, so that each pair ran under about the
-    same load; the speed-up is given per pair and as their median.
+    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the seconds of
+    inference (the catalogue of the bags: a task per bag, each bag's note merged by the client;
+    the two passes over them; the merge) and of calibration (its held-out replays: on the
+    cluster, or in the pool), and the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores.
+    On a shared machine the wall time says little by itself, so each case also prints what the
+    CPUs did during its inference: the CPU seconds of each worker, of this process (the client,
+    the scheduler and the nannies), and the cores other processes took (the machine's busy time
+    from ``/proc/stat`` less ours; 0 on an idle machine, 2 on two cores fully taken). The cases
+    of 1 and 2 workers alternate ``--repeats`` times, so that each pair ran under about the same
+    load; the speed-up is given per pair and as their median. Each case gives the catalogue's
+    seconds and the client's CPU seconds in it; ``--client-catalogue`` adds, per pair, 2 workers
+    with the bags catalogued by the client one after another (as before the catalogue's tasks).
 (b) the peak RSS of each worker process (its ``ru_maxrss``) for half the bags and for all of
     them: a worker holds one bag's states at a time, so the peak does not grow with the bags.
 (c) per bag, for three of the bags and one ten times as long: the bag file, the samples made
@@ -58,6 +61,7 @@ from imrosc.fleet.cluster import _summary as fleet_summary  # noqa: E402
 from imrosc.infer.engine import BagJob, Merged, run_bag, segments_for  # noqa: E402
 from imrosc.invariants import dumps  # noqa: E402
 from imrosc.sim import write_run  # noqa: E402
+from imrosc.translate.catalog import BagNote, note_in_turn  # noqa: E402
 from imrosc.translate.stream import BagTranslator  # noqa: E402
 
 CONFIG = "landing_sim.xml"
@@ -114,6 +118,10 @@ class Cpu:
     """Each worker's CPU seconds."""
     client: float = 0.0
     """This process's: the client, the scheduler and the nannies (threads of it)."""
+    catalogue: float = 0.0
+    """Seconds of the catalogue's pre-pass over the bags (before the first inference task)."""
+    catalogue_client: float = 0.0
+    """This process's CPU seconds during the catalogue."""
     others: float = 0.0
     """The other processes' busy seconds on every core (the machine's less ours)."""
 
@@ -122,17 +130,19 @@ class Cpu:
         cores = self.others / self.wall if self.wall else 0.0
         return (
             f"CPU: workers {workers} s, client {self.client:.1f} s; "
-            f"other processes {cores:.2f} cores"
+            f"other processes {cores:.2f} cores; catalogue {self.catalogue:.1f} s, "
+            f"client {self.catalogue_client:.1f} s CPU in it"
         )
 
 
 def on_cluster(
-    config: Path, bags: Sequence[Path], workers: int
+    config: Path, bags: Sequence[Path], workers: int, catalogue: str = "workers"
 ) -> tuple[DetectResult, list[float], list[float], Cpu]:
     """The detect stage on a fresh LocalCluster of ``workers`` processes, calibration's
-    replays included; the workers' RSS when they started (the least), then each worker's
-    peak RSS (MB) when inference was done (before calibration's replays), then at the end;
-    and what the CPUs did during inference."""
+    replays included, the bags catalogued by the ``catalogue`` (``workers``: a task per bag;
+    ``client``: this process reads them in turn, as before); the workers' RSS when they
+    started (the least), then each worker's peak RSS (MB) when inference was done (before
+    calibration's replays), then at the end; and what the CPUs did during inference."""
     import distributed
 
     with (
@@ -165,7 +175,14 @@ def on_cluster(
             inferred.extend(sorted(client.run(worker_peak_mb).values()))
             return fleet.replay_held_out(jobs)
 
-        result = run_detect(config, bags=list(bags), reducer=fleet, replays=replays)
+        def noter(found: Sequence[Path]) -> list[BagNote]:
+            begun, (_, own) = time.monotonic(), machine_busy()
+            notes = list(fleet.note_bags(found) if catalogue == "workers" else note_in_turn(found))
+            cpu.catalogue = time.monotonic() - begun
+            cpu.catalogue_client = machine_busy()[1] - own
+            return notes
+
+        result = run_detect(config, bags=list(bags), reducer=fleet, replays=replays, noter=noter)
         peaks = [started, *sorted(client.run(worker_peak_mb).values())]
     return result, [started, *inferred], peaks, cpu
 
@@ -247,6 +264,14 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--repeats", type=int, default=2, help="pairs of 1 and 2 workers")
     parser.add_argument("--folder", type=Path, help="where the bags are kept [a temporary one]")
+    parser.add_argument(
+        "--client-catalogue",
+        action="store_true",
+        help="each repeat also runs 2 workers with the bags catalogued by the client in turn "
+        "(as before the catalogue's tasks), to compare the client's CPU",
+    )
+    parser.add_argument("--no-pool", action="store_true", help="skip the -j 2 case")
+    parser.add_argument("--only-speedup", action="store_true", help="(a) only")
     args = parser.parse_args()
     folder = args.folder or Path(tempfile.mkdtemp(prefix="imrosc-fleet-"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -282,8 +307,12 @@ def main() -> None:
         if cpu is not None:
             print(f"    {'':<26}{cpu}")
 
-    result = run_detect(config, bags=bags, workers=2)
-    report("-j 2 (local pool)", result)
+    if not args.no_pool:
+        result = run_detect(config, bags=bags, workers=2)
+        report("-j 2 (local pool)", result)
+    client_cases: list[tuple[float, float, float, float]] = []
+    """Per repeat, 2 workers: the catalogue's seconds and client CPU seconds, the catalogue
+    on the workers, then on the client."""
     pairs: list[tuple[float, float, float, float]] = []
     """Per repeat: the inference seconds of 1 and 2 workers, and with calibration."""
     for repeat in range(args.repeats):
@@ -296,6 +325,18 @@ def main() -> None:
                 peaks[len(bags)] = peak
                 after_inference[len(bags)] = inferred
         pairs.append((*seconds[1], *seconds[2]))
+        if args.client_catalogue:
+            on_workers = cpu
+            result, _, _, cpu = on_cluster(config, bags, 2, catalogue="client")
+            report(f"  the same, client catalogue #{repeat + 1}", result, cpu)
+            client_cases.append(
+                (
+                    on_workers.catalogue,
+                    on_workers.catalogue_client,
+                    cpu.catalogue,
+                    cpu.catalogue_client,
+                )
+            )
     ratios = [one / two for one, _, two, _ in pairs]
     wholes = [one / two for _, one, _, two in pairs]
     print(
@@ -303,6 +344,14 @@ def main() -> None:
         f"(per pair {', '.join(f'{r:.2f}x' for r in ratios)}), "
         f"{statistics.median(wholes):.2f}x with calibration (target >= 1.7x)"
     )
+    for index, (wall, own, wall_before, own_before) in enumerate(client_cases):
+        print(
+            f"    catalogue of {len(bags)} bags, 2 workers #{index + 1}: on the workers "
+            f"{wall:.1f} s ({own:.1f} s client CPU), on the client {wall_before:.1f} s "
+            f"({own_before:.1f} s client CPU)"
+        )
+    if args.only_speedup:
+        return
 
     half = bags[: len(bags) // 2]
     _, after_inference[len(half)], peaks[len(half)], _ = on_cluster(config, half, 2)

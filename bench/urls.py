@@ -91,7 +91,13 @@ def main() -> None:
             fleet = Fleet(client, cluster.scheduler_address)
 
             def on_cluster(named: list[Path]) -> DetectResult:
-                return run_detect(config, bags=named, reducer=fleet, replays=fleet.replay_held_out)
+                return run_detect(
+                    config,
+                    bags=named,
+                    reducer=fleet,
+                    replays=fleet.replay_held_out,
+                    noter=fleet.note_bags,
+                )
 
             timed("cluster of 2, paths", lambda: on_cluster(bags))
             same(local, timed("cluster of 2, http:// URLs", lambda: on_cluster(urls)))

@@ -24,7 +24,7 @@ from imrosc.backends.registry import (
 from imrosc.bags import BagError, discover_bags, open_bag
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
 from imrosc.frontend import lowered, passed
-from imrosc.graph.bags import read_bag_graphs
+from imrosc.graph.bags import BagGraphs, read_bag_graphs
 from imrosc.graph.file import load_graph_file
 from imrosc.graph.model import Graph
 from imrosc.msgtypes import flatten
@@ -50,8 +50,10 @@ def load_graph(
     graph_files: Sequence[Path],
     bags: Sequence[Path],
     progress_factory: ProgressFactory | None = None,
+    read: BagGraphs | None = None,
 ) -> tuple[Graph | None, list[Diagnostic]]:
-    """Merge the graph of every graph file and bag given; None if there is none."""
+    """Merge the graph of every graph file and bag given (``read``: the bags' graphs, read
+    already); None if there is none."""
     graphs: list[Graph] = []
     problems: list[Diagnostic] = []
     for path in graph_files:
@@ -59,8 +61,9 @@ def load_graph(
         problems += found
         if graph is not None:
             graphs.append(graph)
-    if bags:
+    if read is None and bags:
         read = read_bag_graphs(bags, progress_factory)
+    if read is not None:
         problems += read.diagnostics
         if read.graph.nodes:
             graphs.append(read.graph)

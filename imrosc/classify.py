@@ -1250,6 +1250,7 @@ def cross_validated(
             bags=train,
             reducer=cluster,
             replays=cluster.replay_held_out if cluster is not None else None,
+            noter=cluster.note_bags if cluster is not None else None,
         )
         for problem in detected.diagnostics:
             if problem.code.startswith("bag-"):

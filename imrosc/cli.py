@@ -327,6 +327,7 @@ def infer(
                 before_work=before_work,
                 reducer=fleet,
                 replays=fleet.replay_held_out if fleet is not None else None,
+                noter=fleet.note_bags if fleet is not None else None,
             )
     except OutputRefusedError as refused:
         fail("infer", str(refused), EXIT_USAGE)

@@ -38,7 +38,7 @@ from imrosc.invariants import PointInfo, document
 from imrosc.remote import bag_path
 from imrosc.runtime.families import INFERRED_GROUPS
 from imrosc.runtime.points import Filter
-from imrosc.translate.catalog import Catalog, build_catalog
+from imrosc.translate.catalog import Catalog, Noter, build_catalog, note_in_pool
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec, point_specs
 
@@ -96,7 +96,7 @@ class DetectResult:
 def _compile(
     lowered: ir.Project, graph_files: Sequence[Path], catalog: Catalog
 ) -> tuple[ir.Project, PlanDocument, JobDocument, list[Diagnostic]]:
-    graph, found = load_graph(graph_files, catalog.bags)
+    graph, found = load_graph(graph_files, catalog.bags, read=catalog.bag_graphs())
     problems = [d for d in found if d.code != "bag-error"]  # the catalog reported bad bags
     project, found_passes = passed(lowered, graph)
     problems += found_passes
@@ -146,9 +146,14 @@ class Prepared:
 
 
 def prepare(
-    config_path: Path, *, graph_files: Sequence[Path] = (), bags: Sequence[Path] | None = None
+    config_path: Path,
+    *,
+    graph_files: Sequence[Path] = (),
+    bags: Sequence[Path] | None = None,
+    noter: Noter | None = None,
 ) -> tuple[Prepared | None, list[Diagnostic]]:
-    """Check and compile the configuration against its bags (or ``bags``)."""
+    """Check and compile the configuration against its bags (or ``bags``), catalogued by
+    ``noter`` (:func:`~imrosc.translate.catalog.build_catalog`; this process by default)."""
     lowered_project, problems = lowered(config_path)
     if lowered_project is None:
         return None, finalize(problems)
@@ -156,7 +161,7 @@ def prepare(
     detect = lowered_project.detect
     if bags is None:
         bags = [bag_path(b, base) for b in detect.bags] if detect else []
-    catalog = build_catalog(bags)
+    catalog = build_catalog(bags, noter)
     project, plan, job, found = _compile(lowered_project, graph_files, catalog)
     problems = finalize(problems + found + catalog.diagnostics)
     if has_errors(found):
@@ -195,17 +200,23 @@ def run_detect(
     before_work: Callable[[Path, Sequence[Path]], None] | None = None,
     reducer: BagReducer | None = None,
     replays: Replays | None = None,
+    noter: Noter | None = None,
 ) -> DetectResult:
     """Run the detect stage; the invariants document is returned, not yet written.
     ``budget`` overrides the configuration's false-alarm budget (0: no calibration).
     ``before_work`` is called with the default invariants file (``<detect inv>``) and the
     bags, once the configuration is checked and before any bag is read (the command line
     refuses an output there, not after minutes of work). ``reducer`` runs the bags elsewhere
-    (a Dask cluster, :mod:`imrosc.fleet`) instead of ``workers`` local processes, and
-    ``replays`` calibration's held-out replays."""
+    (a Dask cluster, :mod:`imrosc.fleet`) instead of ``workers`` local processes,
+    ``replays`` calibration's held-out replays and ``noter`` the catalogue's pre-pass over
+    the bags (without a reducer, the ``workers`` processes read it too)."""
     started = time.monotonic()
     out = DetectResult()
-    prepared, out.diagnostics = prepare(config_path, graph_files=graph_files, bags=bags)
+    if noter is None and reducer is None:
+        noter = note_in_pool(workers or default_workers())
+    prepared, out.diagnostics = prepare(
+        config_path, graph_files=graph_files, bags=bags, noter=noter
+    )
     if prepared is None:
         return out
     project, catalog, specs, layouts = (

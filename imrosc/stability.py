@@ -88,6 +88,7 @@ def run_stability(
             progress_factory=shared(progress) if progress is not None else None,
             reducer=cluster,
             replays=cluster.replay_held_out if cluster is not None else None,
+            noter=cluster.note_bags if cluster is not None else None,
         )
         for found_problem in detected.diagnostics:
             bag_level = found_problem.code.startswith("bag-")

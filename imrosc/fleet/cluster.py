@@ -1,11 +1,14 @@
 """Bags as tasks on a Dask cluster (``--scheduler ADDRESS`` of ``infer``, ``replay``, ``classify``
 and ``stability``).
 
-The client sends the compiled configuration once (one task whose answer every worker
-fetches once), then one task per bag: its path and run number. A worker reads the bag and
-updates fresh states of every point: the bag's answer, which stays on the cluster. The client
-fetches of each answer only its summary (messages, and for calibration the bag's own
-invariants), and joins the answers of adjacent bags as they complete with join tasks
+Before anything is compiled, the catalogue of the bags (each topic's type, its publishers,
+the record topics) is read by one task per bag (:meth:`Fleet.note_bags`): each bag's note, a
+few KB, goes to the client, which merges the notes in bag order as one process reading the
+bags in turn would. The client then sends the compiled configuration once (one task whose
+answer every worker fetches once), then one task per bag: its path and run number. A worker
+reads the bag and updates fresh states of every point: the bag's answer, which stays on the
+cluster. The client fetches of each answer only its summary (messages, and for calibration
+the bag's own invariants), and joins the answers of adjacent bags as they complete with join tasks
 (:class:`~imrosc.fleet.tree.OrderedTree` over futures: bags 0 and 1, 2 and 3, then 0-1 and
 2-3, ...), the exact merge of ``-j 1`` run on the workers; it fetches the root, the merged
 states of every bag. Samples never leave the worker that read them, and the invariants file
@@ -42,6 +45,7 @@ from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
 from imrosc.progress import bag_done
 from imrosc.replay import RunResult
+from imrosc.translate.catalog import BagNote, note_bag
 
 from .tree import OrderedTree
 
@@ -405,6 +409,46 @@ class Fleet:
             template.release()
         merged.units = [unit for found in units for unit in found]
         return merged
+
+    def note_bags(self, bags: Sequence[Path]) -> list[BagNote]:
+        """The catalogue's pre-pass: each bag's note (:func:`~imrosc.translate.catalog.note_bag`:
+        its topics' types, publishers, record topics) read by a task of its own, the notes in
+        bag order (the client merges them as one process reads the bags in turn). A bag whose
+        workers died on every try is a bag that cannot be read."""
+        if not bags:
+            return []
+        distributed = _distributed()
+        client = self.client
+        token = uuid.uuid4().hex[:12]
+        futures = {
+            client.submit(
+                note_bag,
+                bag.absolute(),  # the workers' own folder may differ from ours
+                bag,
+                key=f"imrosc-note-{token}-{index}",
+                retries=RETRIES,
+                pure=False,
+            ): index
+            for index, bag in enumerate(bags)
+        }
+        notes: list[BagNote | None] = [None] * len(bags)
+        try:
+            for future in distributed.as_completed(list(futures), loop=client.loop):
+                index = futures.pop(future)
+                try:
+                    notes[index] = future.result()
+                except distributed.KilledWorker:
+                    notes[index] = BagNote(bags[index], error=KILLED)
+                finally:
+                    future.release()
+        except distributed.client.FutureCancelledError:
+            raise FleetError(f"{self.address}: lost the Dask scheduler") from None
+        except (OSError, TimeoutError) as error:
+            raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
+        finally:
+            for future in futures:
+                future.release()
+        return [note for note in notes if note is not None]
 
     def replay_held_out(self, jobs: Sequence[Job]) -> list[list[HeldOut]]:
         """Calibration's held-out replays: the folds' bags cut in one consecutive share per

@@ -36,6 +36,8 @@ __all__ = [
     "BagGraphs",
     "PublisherStart",
     "graph_from_bag",
+    "graph_of_reader",
+    "merge_graphs",
     "publisher_starts",
     "read_bag_graphs",
 ]
@@ -139,15 +141,28 @@ def _records(reader: AnyReader, path: Path, found: _BagGraph) -> None:
 
 def graph_from_bag(path: Path) -> tuple[Graph, list[Diagnostic]]:
     """The graph one bag records: raises :class:`imrosc.bags.BagError` if it is unreadable."""
-    found = _BagGraph()
     with open_bag(path) as reader:
-        warning = recovered_diagnostic(path, reader)
-        if warning is not None:
-            found.problems.append(warning)
-        found.callers = _callers(reader)
-        _records(reader, path, found)
+        return graph_of_reader(reader, path)
+
+
+def graph_of_reader(reader: AnyReader, path: Path) -> tuple[Graph, list[Diagnostic]]:
+    """The graph the open bag ``path`` records (:func:`graph_from_bag`)."""
+    found = _BagGraph()
+    warning = recovered_diagnostic(path, reader)
+    if warning is not None:
+        found.problems.append(warning)
+    found.callers = _callers(reader)
+    _records(reader, path, found)
     callers = Graph.build(found.callers, [SOURCE_CALLERID] if found.callers else [], False)
     return Graph.merge(*found.records, callers), found.problems
+
+
+def merge_graphs(graphs: Sequence[Graph]) -> Graph:
+    """The graphs of bags (in bag order) merged: records first in the sources, callerids
+    second."""
+    merged = Graph.merge(*graphs)
+    sources = tuple(s for s in (SOURCE_RECORDS, SOURCE_CALLERID) if s in merged.sources)
+    return replace(merged, sources=sources)
 
 
 @dataclass(frozen=True)
@@ -188,6 +203,4 @@ def read_bag_graphs(
         graphs.append(graph)
         read.append(bag)
         problems += reported
-    merged = Graph.merge(*graphs)
-    sources = tuple(s for s in (SOURCE_RECORDS, SOURCE_CALLERID) if s in merged.sources)
-    return BagGraphs(replace(merged, sources=sources), tuple(problems), tuple(read))
+    return BagGraphs(merge_graphs(graphs), tuple(problems), tuple(read))

@@ -10,7 +10,8 @@ run of a program point then has the same variables, so states merge.
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Mapping, Sequence
+import multiprocessing
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,8 @@ from typing import Any
 from imrosc import records
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag, recovered_diagnostic
 from imrosc.diagnostics import Diagnostic, make
+from imrosc.graph.bags import BagGraphs, graph_of_reader, merge_graphs
+from imrosc.graph.model import Graph
 from imrosc.msgtypes import FieldSpec, flatten
 
 
@@ -64,6 +67,17 @@ class Catalog:
     for topics a configuration uses."""
     messages: dict[Path, int] = field(default_factory=dict)
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    graphs: dict[Path, Graph] = field(default_factory=dict)
+    """The node graph each bag records (read with its note: the bags are opened once)."""
+    graph_problems: list[Diagnostic] = field(default_factory=list)
+    """What reading the graphs of the bags that could be read found."""
+
+    def bag_graphs(self) -> BagGraphs:
+        """The graph of the catalogued bags, as :func:`~imrosc.graph.bags.read_bag_graphs`
+        reads it from them."""
+        read = tuple(bag for bag in self.bags if bag in self.graphs)
+        graph = merge_graphs([self.graphs[bag] for bag in read])
+        return BagGraphs(graph, tuple(self.graph_problems), read)
 
 
 def _note_records(catalog: Catalog, reader: Any, bag: Path) -> None:
@@ -123,64 +137,199 @@ def _observed_lengths(
     )
 
 
-def _note_bag(catalog: Catalog, bag: Path) -> None:
-    with open_bag(bag) as reader:
-        warning = recovered_diagnostic(bag, reader)
-        if warning is not None:
-            catalog.diagnostics.append(warning)
-        count = 0
-        for connection in reader.connections:
-            count += connection.msgcount
-            if connection.topic in records.RECORD_TOPICS:
-                continue
-            known = catalog.types.get(connection.topic)
-            if known is not None and connection.msgtype not in reader.typestore.fielddefs:
-                message = (
-                    f"topic {connection.topic}: unknown message type {connection.msgtype} in "
-                    f"this bag (it stores no definition of it); its messages are skipped"
-                )
-                catalog.diagnostics.append(make(str(bag), 1, 1, "bag-error", message))
-                continue
-            if known is None:
-                try:
-                    fields = flatten(reader.typestore, connection.msgtype)
-                except KeyError as missing:
-                    message = (
-                        f"topic {connection.topic}: unknown message type {missing.args[0]} (the "
-                        f"bag stores no definition of it); the topic is skipped"
-                    )
-                    catalog.unusable.setdefault(connection.topic, (bag, message))
+@dataclass
+class Seen:
+    """One connection of a bag as the catalogue read it, before it is set against the bags
+    noted before (:func:`merge_note`)."""
+
+    topic: str
+    msgtype: str
+    defined: bool
+    """Whether the bag stores the definition of ``msgtype``."""
+    fields: tuple[FieldSpec, ...] | None = None
+    """The type's variables, sequences at their first message's length; read only for the
+    bag's first connections of a topic (up to one whose type is known)."""
+    missing: str | None = None
+    """The type of which the bag stores no definition (``fields`` could not be read)."""
+    failure: str | None = None
+    """How reading the first message broke the bag (only the bag that decides the type
+    reads it: for any other bag this is no error)."""
+    callerid: str | None = None
+
+
+@dataclass
+class BagNote:
+    """What one bag adds to the catalogue, read without the bags before it
+    (:func:`note_bag`, on any process: a cluster's worker), merged in bag order by
+    :func:`merge_note`: the catalogue of every bag then is the one of reading them in turn."""
+
+    bag: Path
+    warning: Diagnostic | None = None
+    connections: list[Seen] = field(default_factory=list)
+    messages: int | None = None
+    """All its messages (``None``: the bag broke before its connections were all read)."""
+    records: Catalog | None = None
+    """Its record topics' parameters, services, resources and diagnostics."""
+    graph: Graph | None = None
+    """The node graph it records (``None``: it could not be read)."""
+    graph_problems: list[Diagnostic] = field(default_factory=list)
+    error: str | None = None
+    """Why the bag cannot be read (a ``bag-error``)."""
+
+
+def _renamed(error: BagError, bag: Path, name: Path) -> str:
+    """The message of ``error`` of the bag read as ``bag``, about the bag as the user
+    names it."""
+    return error.message if bag == name else error.message.replace(str(bag), str(name))
+
+
+def note_bag(bag: Path, name: Path | None = None) -> BagNote:
+    """Read one bag's part of the catalogue; ``name``: the bag as the user names it, in the
+    diagnostics (``bag`` is where this process reads it)."""
+    name = bag if name is None else name
+    note = BagNote(name)
+    try:
+        with open_bag(bag) as reader:
+            note.warning = recovered_diagnostic(name, reader)
+            count = 0
+            decided: set[str] = set()
+            for connection in reader.connections:
+                count += connection.msgcount
+                if connection.topic in records.RECORD_TOPICS:
                     continue
-                fields = _observed_lengths(reader, connection, fields)
-                catalog.types[connection.topic] = (connection.msgtype, fields)
-            elif known[0] != connection.msgtype:
-                message = (
-                    f"topic {connection.topic} has type {connection.msgtype} here but "
-                    f"{known[0]} in an earlier bag; fields are matched by name"
+                seen = Seen(
+                    connection.topic,
+                    connection.msgtype,
+                    connection.msgtype in reader.typestore.fielddefs,
+                    callerid=getattr(connection.ext, "callerid", None) or None,
                 )
-                catalog.drift.setdefault(connection.topic, []).append((bag, message))
-            callerid = getattr(connection.ext, "callerid", None)
-            if callerid:
-                catalog.callerids.setdefault(connection.topic, set()).add(callerid)
-        catalog.messages[bag] = count
-        _note_records(catalog, reader, bag)
-
-
-def build_catalog(paths: Sequence[Path] | Iterable[Path]) -> Catalog:
-    """Open every bag under ``paths`` once; bad bags are reported and left out."""
-    catalog = Catalog()
-    for path in paths:
-        found, problems = discover_bags(path)
-        catalog.diagnostics += problems
-        for bag in found:
+                if connection.topic not in decided:
+                    try:
+                        fields = flatten(reader.typestore, connection.msgtype)
+                    except KeyError as missing:
+                        seen.missing = str(missing.args[0])
+                    else:
+                        try:
+                            seen.fields = _observed_lengths(reader, connection, fields)
+                        except BagError as error:
+                            seen.failure = _renamed(error, bag, name)
+                        else:
+                            decided.add(connection.topic)
+                note.connections.append(seen)
+            note.messages = count
+            note.records = Catalog()
+            _note_records(note.records, reader, name)
             try:
-                _note_bag(catalog, bag)
+                note.graph, note.graph_problems = graph_of_reader(reader, name)
             except BagError as error:
-                catalog.diagnostics.append(error.diagnostic())
-                catalog.has_records.discard(bag)
-                catalog.messages.pop(bag, None)
+                note.graph_problems = [
+                    make(str(name), 1, 1, "bag-error", _renamed(error, bag, name))
+                ]
+    except BagError as error:
+        note.error = _renamed(error, bag, name)
+    return note
+
+
+def merge_note(catalog: Catalog, note: BagNote) -> None:
+    """Add a bag's note to the catalogue of the bags before it: what reading the bag in turn
+    would have added (the first bag of a topic decides its type)."""
+    bag = note.bag
+    if note.warning is not None:
+        catalog.diagnostics.append(note.warning)
+    error = note.error
+    for seen in note.connections:
+        known = catalog.types.get(seen.topic)
+        if known is not None and not seen.defined:
+            message = (
+                f"topic {seen.topic}: unknown message type {seen.msgtype} in "
+                f"this bag (it stores no definition of it); its messages are skipped"
+            )
+            catalog.diagnostics.append(make(str(bag), 1, 1, "bag-error", message))
+            continue
+        if known is None:
+            if seen.missing is not None:
+                message = (
+                    f"topic {seen.topic}: unknown message type {seen.missing} (the "
+                    f"bag stores no definition of it); the topic is skipped"
+                )
+                catalog.unusable.setdefault(seen.topic, (bag, message))
                 continue
-            catalog.bags.append(bag)
+            if seen.failure is not None:  # read in turn, the bag breaks here
+                error = seen.failure
+                break
+            assert seen.fields is not None, f"{bag}: {seen.topic} was not read"
+            catalog.types[seen.topic] = (seen.msgtype, seen.fields)
+        elif known[0] != seen.msgtype:
+            message = (
+                f"topic {seen.topic} has type {seen.msgtype} here but "
+                f"{known[0]} in an earlier bag; fields are matched by name"
+            )
+            catalog.drift.setdefault(seen.topic, []).append((bag, message))
+        if seen.callerid:
+            catalog.callerids.setdefault(seen.topic, set()).add(seen.callerid)
+    else:
+        if note.messages is not None:
+            catalog.messages[bag] = note.messages
+        found = note.records
+        if found is not None:
+            if found.has_records:
+                catalog.has_records.add(bag)
+            for path, kind in found.params.items():
+                catalog.params.setdefault(path, kind)
+            for service, fields in found.services.items():
+                known_fields = catalog.services.setdefault(service, {})
+                for path, kind in fields.items():
+                    known_fields.setdefault(path, kind)
+            for kind, names in found.resources.items():
+                catalog.resources[kind] |= names
+            catalog.diagnostics += found.diagnostics
+    if error is not None:
+        catalog.diagnostics.append(make(str(bag), 1, 1, "bag-error", error))
+        catalog.has_records.discard(bag)
+        catalog.messages.pop(bag, None)
+        return
+    catalog.bags.append(bag)
+    if bag not in catalog.graphs:  # a bag given twice: read once
+        if note.graph is not None:
+            catalog.graphs[bag] = note.graph
+        catalog.graph_problems += note.graph_problems
+
+
+Noter = Callable[[Sequence[Path]], Iterable[BagNote]]
+"""Notes of bags (:func:`note_bag`), in their order: one process reads them in turn, a Dask
+cluster one task per bag (:meth:`imrosc.fleet.Fleet.note_bags`)."""
+
+
+def note_in_turn(bags: Sequence[Path]) -> Iterator[BagNote]:
+    """Each bag's note, read by this process one after the other."""
+    for bag in bags:
+        yield note_bag(bag)
+
+
+def note_in_pool(workers: int) -> Noter:
+    """Notes read by ``workers`` forked processes, a bag at a time, in bag order."""
+
+    def noter(bags: Sequence[Path]) -> Iterator[BagNote]:
+        if workers <= 1 or len(bags) <= 1:
+            yield from note_in_turn(bags)
+            return
+        context = multiprocessing.get_context("fork")
+        with context.Pool(min(workers, len(bags))) as pool:
+            yield from pool.imap(note_bag, bags)
+
+    return noter
+
+
+def build_catalog(paths: Sequence[Path] | Iterable[Path], noter: Noter | None = None) -> Catalog:
+    """Open every bag under ``paths`` once (``noter``: where, this process by default); bad
+    bags are reported and left out."""
+    catalog = Catalog()
+    found = [discover_bags(path) for path in paths]
+    notes = iter((noter or note_in_turn)([bag for bags, _ in found for bag in bags]))
+    for bags, problems in found:  # the diagnostics in the order of reading path by path
+        catalog.diagnostics += problems
+        for _ in bags:
+            merge_note(catalog, next(notes))
     catalog.bags = sorted(dict.fromkeys(catalog.bags))
     return catalog
 
