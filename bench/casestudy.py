@@ -256,6 +256,40 @@ def alarms(ros: Ros) -> collections.Counter[str]:
     return found
 
 
+def record_runs(ros: Ros, work: Path, config: Path, args: argparse.Namespace) -> None:
+    """Record ``--nominal`` normal runs and ``--fail-runs`` runs of each fault, sorted into
+    ``bags/nominal``, ``bags/success`` and ``bags/fail`` (with ``bags/fail_onsets.json``)."""
+    print(
+        f"== recording {args.nominal} normal runs and {args.fail_runs} of each fault "
+        f"(speed {args.speed:g}x) ==",
+        flush=True,
+    )
+    for k in range(args.nominal):
+        seed = NOMINAL_SEED + k
+        outcome, bag = record(ros, work, config, "normal", seed, args.speed, args.timeout)
+        folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
+        keep(bag, work / "bags" / folder)
+        if folder == "fail":  # no fault was injected: its samples cannot be labelled
+            note_onset(work / "bags" / "fail", bag, None)
+        print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
+    for scenario in SCENARIOS[1:]:
+        for k in range(args.fail_runs):
+            seed = FAIL_SEED + k
+            outcome, bag = record(ros, work, config, scenario, seed, args.speed, args.timeout)
+            onset = bag_onset(bag, outcome.onset)
+            if outcome.success and onset is None:  # the fault never acted: not used
+                bag.unlink()
+                print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
+                continue
+            keep(bag, work / "bags" / "fail")
+            note_onset(work / "bags" / "fail", bag, onset)
+            print(
+                f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail "
+                f"(onset {outcome.onset} s simulated, {onset} s into the bag)",
+                flush=True,
+            )
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=10)
@@ -270,6 +304,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it")
+    parser.add_argument(
+        "--reuse",
+        action="store_true",
+        help="with --keep: use the runs an earlier bench recorded there (its bags/) instead "
+        "of recording them again; infer, classify, build and the trials run anew",
+    )
     parser.add_argument(
         "--invariants",
         choices=("refined", "inferred"),
@@ -291,6 +331,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     missing = ros_missing()
     if missing:
         sys.exit(f"the case study needs ROS 1 here: {missing}")
+    if args.reuse and (args.keep is None or not (args.keep / "bags" / "nominal").is_dir()):
+        parser.error("--reuse needs --keep DIR holding an earlier run's bags/nominal")
     work = args.keep or Path(tempfile.mkdtemp(prefix="imrosc-casestudy-"))
     work.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
@@ -299,6 +341,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     onsets.parent.mkdir(parents=True, exist_ok=True)
     if not onsets.exists():
         onsets.write_text("{}\n")
+    if args.reuse:  # the earlier run's logs (its alarms) and monitor package go
+        shutil.rmtree(work / "ros", ignore_errors=True)
+        shutil.rmtree(work / "build", ignore_errors=True)
     ros = Ros(work / "ros")
     prepare(ros)
     ros.start()
@@ -306,35 +351,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     # first launch would stamp its bag with wall time, the later ones with simulated time
     ros.set_param("/use_sim_time", True)
     try:
-        print(
-            f"== recording {args.nominal} normal runs and {args.fail_runs} of each fault "
-            f"(speed {args.speed:g}x) ==",
-            flush=True,
-        )
-        for k in range(args.nominal):
-            seed = NOMINAL_SEED + k
-            outcome, bag = record(ros, work, config, "normal", seed, args.speed, args.timeout)
-            folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
-            keep(bag, work / "bags" / folder)
-            if folder == "fail":  # no fault was injected: its samples cannot be labelled
-                note_onset(work / "bags" / "fail", bag, None)
-            print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
-        for scenario in SCENARIOS[1:]:
-            for k in range(args.fail_runs):
-                seed = FAIL_SEED + k
-                outcome, bag = record(ros, work, config, scenario, seed, args.speed, args.timeout)
-                onset = bag_onset(bag, outcome.onset)
-                if outcome.success and onset is None:  # the fault never acted: not used
-                    bag.unlink()
-                    print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
-                    continue
-                keep(bag, work / "bags" / "fail")
-                note_onset(work / "bags" / "fail", bag, onset)
-                print(
-                    f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail "
-                    f"(onset {outcome.onset} s simulated, {onset} s into the bag)",
-                    flush=True,
-                )
+        if args.reuse:
+            print(f"== reusing the runs recorded in {work / 'bags'} ==", flush=True)
+        else:
+            record_runs(ros, work, config, args)
         print("== imrosc infer, classify, build ==", flush=True)
         print(imrosc("infer", config.name, "-j", "2", cwd=work).strip(), flush=True)
         print(imrosc("classify", config.name, "-j", "2", cwd=work).strip()[-1500:], flush=True)

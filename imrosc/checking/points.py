@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from imrosc.infer.core import condition_restarts
 from imrosc.infer.timed.windows import windowed_moments
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
@@ -150,6 +151,10 @@ class _WindowState:
     times: FloatArray = field(default_factory=lambda: np.empty(0))
     values: FloatArray = field(default_factory=lambda: np.empty((0, 0)))
     silent: bool = False
+    gap: bool = False
+    """The point's condition did not hold at its last sample (the engine's ``gap``)."""
+    restarts: BoolArray | None = None
+    """The chunk's samples where an episode of the condition begins."""
 
 
 @dataclass
@@ -240,7 +245,12 @@ class ChunkPoint:
             values = np.concatenate(parts, axis=1)[:, self.gather]
         texts = [topics[s].strings[k][at[s]] for s, k in self.strings]
         if point.filters:
-            valid &= self._accepted(values, texts, pos, topics)
+            accepted = self._accepted(values, texts, pos, topics)
+            begins, self.window.gap = condition_restarts(accepted[valid], self.window.gap)
+            restarts = np.zeros(len(pos), dtype=bool)
+            restarts[valid] = begins
+            valid &= accepted
+            self.window.restarts = restarts[valid]
         if not valid.all():
             keep = np.flatnonzero(valid)
             return pos[keep], time[keep], values[keep], [t[keep] for t in texts]
@@ -346,9 +356,19 @@ class ChunkPoint:
         cutoff = time - windows.width
         starts = np.searchsorted(all_time, cutoff, side="right").astype(np.int64)
         ends = np.arange(old, len(all_time), dtype=np.int64)
-        size = ends - starts + 1
         assert state.first_time is not None
-        defined = state.first_time <= cutoff
+        restarts = state.restarts
+        begun = -1
+        if restarts is not None and restarts.any():  # the engine resets its windows there
+            since = np.maximum.accumulate(np.where(restarts, ends, -1))
+            first = np.where(since >= 0, all_time[np.maximum(since, 0)], state.first_time)
+            starts = np.maximum(starts, since)
+            defined = first <= cutoff
+            begun = int(since[-1])
+            state.first_time = float(all_time[begun])
+        else:
+            defined = state.first_time <= cutoff
+        size = ends - starts + 1
         frequency = size / windows.window
         out: dict[str, Any] = {"defined": defined, "frequency": frequency}
         families = point.window_checks.arrays
@@ -368,6 +388,7 @@ class ChunkPoint:
             rate[~(dt > 0)] = np.nan
             out[RATE] = rate
         keep = int(np.searchsorted(all_time, all_time[-1] - windows.width, side="right"))
+        keep = max(keep, begun)
         state.times = all_time[keep:].copy()
         state.values = all_values[keep:].copy()
         out["all_time"] = all_time

@@ -80,6 +80,10 @@ class Samples:
     time: FloatArray
     columns: Mapping[str, npt.NDArray[Any]]
     variables: tuple[Variable, ...]
+    restarts: npt.NDArray[np.bool_] | None = None
+    """A conditional point's samples that begin an episode of its condition (it did not
+    hold at the trigger's sample before): time windows restart there, as they do at a run's
+    start (None: none does)."""
 
     def __len__(self) -> int:
         return len(self.time)
@@ -88,15 +92,38 @@ class Samples:
         """The column of the variable called ``name``."""
         return self.columns[name]
 
-    def select(self, mask: npt.NDArray[np.bool_]) -> Samples:
-        """The rows where ``mask`` holds (conditional sub-traces)."""
+    def select(
+        self, mask: npt.NDArray[np.bool_], restarts: npt.NDArray[np.bool_] | None = None
+    ) -> Samples:
+        """The rows where ``mask`` holds (conditional sub-traces); ``restarts`` (of every
+        row, optional) replaces the rows' own."""
+        chosen = self.restarts if restarts is None else restarts
         return Samples(
             self.point,
             self.run,
             self.time[mask],
             {name: column[mask] for name, column in self.columns.items()},
             self.variables,
+            None if chosen is None else chosen[mask],
         )
+
+
+def condition_restarts(
+    held: npt.NDArray[np.bool_], gap: bool, restarts: npt.NDArray[np.bool_] | None = None
+) -> tuple[npt.NDArray[np.bool_], bool]:
+    """Where a condition's episodes begin among a chunk's samples: the rows where it holds
+    and did not at the row before (``gap``: it did not at the chunk before's last row), or
+    where the rows themselves begin one (``restarts``); and whether it does not hold at the
+    chunk's last row (the next chunk's ``gap``)."""
+    if not len(held):
+        return np.zeros(0, dtype=bool), gap
+    before = np.empty(len(held), dtype=bool)
+    before[0] = not gap
+    before[1:] = held[:-1]
+    begins = held & ~before
+    if restarts is not None:
+        begins |= held & restarts
+    return begins, not bool(held[-1])
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,14 @@ from typing import Any
 import numpy as np
 
 from imrosc.bags import BagError
-from imrosc.infer.core import FamilyState, FinalizeContext, Invariant, Samples, Variable
+from imrosc.infer.core import (
+    FamilyState,
+    FinalizeContext,
+    Invariant,
+    Samples,
+    Variable,
+    condition_restarts,
+)
 from imrosc.infer.registry import make_point_states
 from imrosc.ir import Tunables
 from imrosc.progress import bag_done
@@ -349,6 +356,8 @@ def run_bag(job: BagJob) -> BagResult:
     callerids = {k: set(v) for k, v in job.callerids.items()}
     translator = BagTranslator(job.specs, job.layouts, callerids)
     segments = _Segments(job.units, _state_maker(job)) if job.units > 1 else None
+    gaps: dict[str, bool] = {}
+    """Per discovered condition: it did not hold at the point's last sample so far."""
     try:
         for samples in translator.translate(job.bag, job.run):
             if segments is not None:
@@ -359,7 +368,11 @@ def run_bag(job: BagJob) -> BagResult:
                     segments.feed(samples.point, samples)
             for discovered, state in split.get(samples.point, ()):
                 column = samples.column(discovered.variable)
-                chosen = samples.select(column == discovered.value)
+                held = column == discovered.value
+                begins, gaps[discovered.key] = condition_restarts(
+                    held, gaps.get(discovered.key, False), samples.restarts
+                )
+                chosen = samples.select(held, begins)
                 state.update(chosen)
                 if segments is not None:
                     segments.feed(discovered.key, chosen)

@@ -121,6 +121,9 @@ class _Point:
         self.silent = False
         """The timer reported a silence that the frequency has not recovered from yet (its
         lower bounds are not reported again meanwhile)."""
+        self.gap = False
+        """A conditional point's condition did not hold at its last sample: its windows
+        restart at the next sample it accepts (an episode of the condition begins)."""
         self.detectors = [
             Detector(inv, index)
             for inv in invariants
@@ -147,6 +150,7 @@ class _Point:
         for detector in self.detectors:
             detector.reset()
         self.silent = False
+        self.gap = False
         if self.arch is not None:
             self.arch.reset()
         for machine in self.intervals:
@@ -568,8 +572,14 @@ class Engine:
         return self._check(point, time, row, texts)
 
     def _check(self, point: _Point, time: float, row: Any, texts: Sequence[Any]) -> Found:
-        if point.filters and not point.accepts(row, self.latest_named, texts):
-            return []
+        if point.filters:
+            if not point.accepts(row, self.latest_named, texts):
+                point.gap = True
+                return []
+            if point.gap:  # an episode of its condition begins: so do its windows
+                point.gap = False
+                if point.windows is not None:
+                    point.windows.reset()
         point.checked += 1
         broken = point.sample(time, row, texts, self.trace)
         if broken or self.alarms.busy(point.key):

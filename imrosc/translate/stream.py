@@ -24,7 +24,7 @@ import numpy.typing as npt
 from imrosc import records
 from imrosc.bags import MessageError, open_bag
 from imrosc.graph.bags import PublisherStart, publisher_starts
-from imrosc.infer.core import Samples, Variable
+from imrosc.infer.core import Samples, Variable, condition_restarts
 from imrosc.runtime.arch import node_names
 from imrosc.translate.catalog import flatten_json
 from imrosc.translate.columns import Columns, Flattener
@@ -138,10 +138,13 @@ class BagTranslator:
         self.decoders: dict[tuple[str, str], RawDecoder | None] = {}
         self.skipped: dict[str, int] = {}
         self.problems: list[str] = []
+        self._gaps: dict[str, bool] = {}
 
     def translate(self, bag: Path, run: int) -> Iterator[Samples]:
         """Samples of every point from ``bag`` (run number ``run``), chunk after chunk."""
         carry: dict[str, Rows] = {}
+        self._gaps = {}
+        """Per conditional point: its condition did not hold at its last sample so far."""
         with open_bag(bag) as reader:
             self._reader = reader
             self.span = (reader.start_time / 1e9, reader.end_time / 1e9)
@@ -327,8 +330,10 @@ class BagTranslator:
                 safe = np.maximum(index, 0)
                 for name, column in rows.columns.items():
                     columns.setdefault(name, column[safe])
+        restarts = None
         if spec.condition is not None:
             index, rows = self._pair(trigger, spec.condition.topic, data, carry)
+            present = valid.copy()  # the samples a monitor checks the condition of
             valid &= index >= 0
             if rows is not None:
                 safe = np.maximum(index, 0)
@@ -343,6 +348,12 @@ class BagTranslator:
                     )
                 except (ConditionError, KeyError):
                     valid &= False
+            begins, self._gaps[spec.key] = condition_restarts(
+                valid[present], self._gaps.get(spec.key, False)
+            )
+            restarts = np.zeros(len(trigger), dtype=bool)
+            restarts[present] = begins
+            restarts = restarts[valid]
         rows_kept = int(valid.sum())
         variables = spec.variables
         if spec.kind == "arch":  # only the kinds this bag can tell
@@ -351,7 +362,7 @@ class BagTranslator:
             v.name: columns[v.name][valid] if v.name in columns else _missing(v, rows_kept)
             for v in variables
         }
-        return Samples(spec.key, run, trigger.time[valid], out, variables)
+        return Samples(spec.key, run, trigger.time[valid], out, variables, restarts)
 
     def _arch_rows(self, spec: PointSpec, rows: Rows | None) -> Rows | None:
         """One row per architecture sample: the snapshot in force, per kind and resource."""

@@ -37,6 +37,26 @@ def test_a_fragile_platform_tips_when_landed_off_its_safe_quadrant() -> None:
     assert any(r.outcome == "landed" for r in outcomes)  # its safe quadrant holds
 
 
+def test_a_fragile_platform_sags_slowly_and_rights_itself_once_the_uav_lifts_off() -> None:
+    world = L.World("fragile", 0)
+    world.platform.moving = False
+    u = world.uav
+    u.x, u.y = world.platform.x, world.platform.y  # its centre: outside the open quadrant
+    u.z, u.resting = L.PLATFORM_TOP + L.UAV_REST, "platform"
+    world.command = L.Command(thrust=L.GRAVITY * 0.5, motors=True)  # pressing on it
+    for _ in range(40):  # 0.4 s: tipping, not yet steep enough to slide off
+        world.step()
+    assert world.platform.tipping is not None and world.onset is not None
+    tilt = max(abs(world.platform.roll), abs(world.platform.pitch))
+    assert 0.05 < tilt < L.SLIDE_TILT and u.broken is None
+    world.command = L.Command(thrust=L.GRAVITY * 1.5, motors=True)  # lifts off
+    for _ in range(200):
+        world.step()
+    assert u.resting is None and u.broken is None
+    assert world.platform.tipping is None
+    assert world.platform.roll == 0.0 and world.platform.pitch == 0.0
+
+
 def test_the_platform_turns_in_place_at_the_walls() -> None:
     import random
 

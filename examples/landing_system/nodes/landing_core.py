@@ -48,8 +48,11 @@ OBJECT_HALF = 0.2
 OBJECT_HEIGHT = 0.15
 """What occupies the platform in the occupied-landing scenario (m)."""
 TIP_ANGLE = 0.35
-TIP_RATE = 0.8
-"""A fragile platform tips this far (rad), this fast (rad/s)."""
+TIP_RATE = 0.3
+"""A fragile platform sags under a load off its safe quadrant this far (rad), this fast
+(rad/s), and springs back level at the same rate once the load is gone; the UAV slides off
+at :data:`SLIDE_TILT`, about 0.8 s after it began to tip."""
+SLIDE_TILT = 0.25
 UAV_REST = 0.08
 """Height of the UAV's markers above the surface it stands on (m)."""
 UAV_MASS = 0.7
@@ -132,8 +135,8 @@ class Platform:
 
     def step(self, dt: float) -> None:
         self.vx = self.vy = self.yaw_rate = 0.0
-        if self.tipping is not None:
-            goal_roll, goal_pitch = self.tipping
+        if self.tipping is not None or self.roll or self.pitch:
+            goal_roll, goal_pitch = self.tipping if self.tipping is not None else (0.0, 0.0)
             self.roll += clip(goal_roll - self.roll, -TIP_RATE * dt, TIP_RATE * dt)
             self.pitch += clip(goal_pitch - self.pitch, -TIP_RATE * dt, TIP_RATE * dt)
         if not self.moving:
@@ -312,7 +315,7 @@ class Uav:
             self.vx, self.vy, self.vz = vx, vy, 0.0
             if not platform.carries(self.x, self.y):
                 self.broken = "fell off the platform's edge"
-            elif max(abs(platform.roll), abs(platform.pitch)) > 0.25:
+            elif max(abs(platform.roll), abs(platform.pitch)) > SLIDE_TILT:
                 self.broken = "slid off the tipping platform"
         else:
             self.vx = self.vy = self.vz = 0.0
@@ -584,33 +587,40 @@ class World:
         self.uav.step(
             DT, self.command, self.wind.at(self.uav.x, self.uav.y), self.platform, self.occupied
         )
-        if (
-            self.scenario == "fragile"
-            and self.uav.resting == "platform"
-            and self.platform.tipping is None
-        ):
-            u, v = self.platform.local(self.uav.x, self.uav.y)
-            if not (u > 0.0 and v > 0.0):  # only the front-left quadrant is safe
-                self.platform.tipping = (
-                    math.copysign(TIP_ANGLE, -v or 1.0),
-                    math.copysign(TIP_ANGLE, u or 1.0),
-                )
+        if self.scenario == "fragile":
+            self._load_fragile_platform()
         if self.onset is None and self._fault_acts():
             self.onset = self.t
         return self.referee.step(self.t, self.uav, self.command.motors)
 
+    def _load_fragile_platform(self) -> None:
+        """The fragile platform starts to tip when the UAV rests on it outside its safe
+        (front-left) quadrant, towards where it rests, and rights itself once the UAV has
+        lifted off."""
+        platform = self.platform
+        if self.uav.resting != "platform":
+            platform.tipping = None
+        elif platform.tipping is None:
+            u, v = platform.local(self.uav.x, self.uav.y)
+            if not (u > 0.0 and v > 0.0):  # only the front-left quadrant is safe
+                platform.tipping = (
+                    math.copysign(TIP_ANGLE, -v or 1.0),
+                    math.copysign(TIP_ANGLE, u or 1.0),
+                )
+
     def _fault_acts(self) -> bool:
         """Whether the scenario's fault acts on the system now: the first moment it changes
         what the nodes see or what the UAV does, not the moment it is set up. The wind once
-        the UAV is airborne in it; the occupied platform when the UAV touches the object;
+        the UAV is airborne in it; the occupied platform when the UAV touches the object (rests
+        on it or crashes onto it);
         the fragile one when it starts to tip; the slowed link in its first slow stretch
         (``car.py``: 5 s in every 10 s); the thief when the platform enters the upper half
         (``thief.py``); the false airport from the start (its pose is never the vehicle's)."""
         name = self.scenario
         if name == "wind":
             return self.uav.resting is None
-        if name == "occupied":
-            return self.uav.resting == "object"
+        if name == "occupied":  # resting on the object, or broken touching it
+            return self.uav.resting == "object" or "object" in (self.uav.broken or "")
         if name == "fragile":
             return self.platform.tipping is not None
         if name == "slowed":

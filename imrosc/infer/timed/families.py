@@ -193,7 +193,9 @@ class FrequencyState(TimedState):
 
     def update(self, samples: Samples) -> None:
         """Count the messages of every defined window of the chunk."""
-        _, _, ends, starts = self.tracker.advance(np.asarray(samples.time, dtype=np.float64))
+        _, _, ends, starts = self.tracker.advance(
+            np.asarray(samples.time, dtype=np.float64), restarts=samples.restarts
+        )
         freq = ((ends - starts + 1) / self.window)[:, None]
         self.extremes.add(freq, np.ones(freq.shape, bool))
 
@@ -213,7 +215,7 @@ class MomentState(TimedState):
     def update(self, samples: Samples) -> None:
         """Evaluate the statistic of every defined window of at least two messages."""
         _, values, ends, starts = self.tracker.advance(
-            np.asarray(samples.time, dtype=np.float64), self._values(samples)
+            np.asarray(samples.time, dtype=np.float64), self._values(samples), samples.restarts
         )
         length = ends - starts + 1
         keep = length >= 2
@@ -247,7 +249,7 @@ class RateState(TimedState):
     def update(self, samples: Samples) -> None:
         """``(last - first) / (t_last - t_first)`` of every defined window."""
         time, values, ends, starts = self.tracker.advance(
-            np.asarray(samples.time, dtype=np.float64), self._values(samples)
+            np.asarray(samples.time, dtype=np.float64), self._values(samples), samples.restarts
         )
         dt = time[ends] - time[starts]
         keep = dt > 0

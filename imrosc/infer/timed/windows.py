@@ -278,12 +278,18 @@ class WindowTracker:
         self.tail_values: FloatArray = np.empty((0, self.width))
 
     def advance(
-        self, time: FloatArray, values: FloatArray | None = None
+        self,
+        time: FloatArray,
+        values: FloatArray | None = None,
+        restarts: npt.NDArray[np.bool_] | None = None,
     ) -> tuple[FloatArray, FloatArray, IntArray, IntArray]:
         """Append a chunk; return ``(time, values, ends, starts)`` of its defined windows.
 
         ``time`` and ``values`` returned are the carried tail followed by the chunk; each
         defined window is the rows ``starts[w] .. ends[w]`` (inclusive) of them.
+        ``restarts`` (optional) marks the rows where a condition's episode begins: a window
+        holds no row before its episode's first, and is defined once that row has left it,
+        as at a run's start.
         """
         if values is None:
             values = np.empty((len(time), self.width))
@@ -298,8 +304,18 @@ class WindowTracker:
         starts = np.searchsorted(all_time, cutoff, side="right").astype(np.int64)
         ends = np.arange(old, len(all_time), dtype=np.int64)
         assert self.first_time is not None
-        defined = cutoff >= self.first_time
         keep = int(np.searchsorted(all_time, all_time[-1] - self.effective, side="right"))
+        if restarts is not None and restarts.any():
+            begun = np.maximum.accumulate(np.where(restarts, ends, -1))
+            first = np.where(begun >= 0, all_time[np.maximum(begun, 0)], self.first_time).astype(
+                np.float64
+            )
+            starts = np.maximum(starts, begun)
+            defined = cutoff >= first
+            keep = max(keep, int(begun[-1]))
+            self.first_time = float(all_time[begun[-1]])
+        else:
+            defined = cutoff >= self.first_time
         self.tail_time = all_time[keep:].copy()
         self.tail_values = all_values[keep:].copy()
         return all_time, all_values, ends[defined], starts[defined]

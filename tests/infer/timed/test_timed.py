@@ -433,3 +433,38 @@ def test_fold_merge_and_rechunking_agree_exactly(
             assert float(extremes.high[0]) == max(expected)
             assert int(extremes.low_at[0]) == expected.index(min(expected))
             assert int(extremes.high_at[0]) == expected.index(max(expected))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    streams,
+    st.lists(st.integers(0, 200), max_size=5),
+    st.lists(st.integers(0, 200), max_size=8),
+    st.sampled_from([0.25, 0.5, 1.0]),
+)
+def test_a_condition_s_episodes_restart_windows_as_runs_do(
+    stream: list[tuple[float, float]],
+    episode_points: list[int],
+    chunk_points: list[int],
+    window: float,
+) -> None:
+    """Samples marked as restarts (an episode of the point's condition begins) give the
+    windows of one run per episode, however the run is cut into chunks."""
+    time = EPOCH + np.cumsum([g for g, _ in stream])
+    values = np.array([v for _, v in stream])
+    episodes = _cut(len(stream), episode_points)
+    restarts = np.zeros(len(stream), dtype=bool)
+    restarts[[a for a, _ in episodes]] = True
+    restarts[0] = False  # a run's first sample needs none
+    tunables = Tunables(window=window)
+    families = {"frequency", "variance", "rate", "mean"}
+    marked = make_states((X,), tunables, families)
+    for c, d in _cut(len(stream), chunk_points):
+        chunk = samples(time[c:d], x=values[c:d])
+        chunk.restarts = restarts[c:d]
+        for state in marked:
+            state.update(chunk)
+    apart = make_states((X,), tunables, families)
+    run_all(apart, [samples(time[a:b], x=values[a:b]) for a, b in episodes])
+    for one, other in zip(marked, apart, strict=True):
+        assert summary(one) == summary(other)
