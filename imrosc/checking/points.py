@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from imrosc.infer.core import condition_restarts
-from imrosc.infer.timed.windows import windowed_moments
+from imrosc.infer.timed.windows import episode_starts, windowed_moments
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
 from imrosc.runtime.engine import PARAMS, Engine, _Point
@@ -357,17 +357,13 @@ class ChunkPoint:
         starts = np.searchsorted(all_time, cutoff, side="right").astype(np.int64)
         ends = np.arange(old, len(all_time), dtype=np.int64)
         assert state.first_time is not None
-        restarts = state.restarts
-        begun = -1
-        if restarts is not None and restarts.any():  # the engine resets its windows there
-            since = np.maximum.accumulate(np.where(restarts, ends, -1))
-            first = np.where(since >= 0, all_time[np.maximum(since, 0)], state.first_time)
-            starts = np.maximum(starts, since)
-            defined = first <= cutoff
-            begun = int(since[-1])
+        # the engine resets its windows where an episode of the condition begins
+        starts, first, begun = episode_starts(
+            state.restarts, all_time, starts, ends, state.first_time
+        )
+        defined = first <= cutoff
+        if begun >= 0:
             state.first_time = float(all_time[begun])
-        else:
-            defined = state.first_time <= cutoff
         size = ends - starts + 1
         frequency = size / windows.window
         out: dict[str, Any] = {"defined": defined, "frequency": frequency}

@@ -262,6 +262,25 @@ def windowed_variances(values: FloatArray, start: IntArray, length: IntArray) ->
     return windowed_moments(values, start, length)[1]
 
 
+def episode_starts(
+    restarts: npt.NDArray[np.bool_] | None,
+    all_time: FloatArray,
+    starts: IntArray,
+    ends: IntArray,
+    first_time: float,
+) -> tuple[IntArray, FloatArray | float, int]:
+    """The windows ``starts .. ends`` (rows of ``all_time``) when the rows ``restarts``
+    begin episodes of a condition, which restart the windows as a run's start does: each
+    window's start moved up to its episode's first row, the time its episode began (the
+    run's ``first_time`` before any), and the row the last episode began at (-1: no row
+    begins one, and nothing moves)."""
+    if restarts is None or not restarts.any():
+        return starts, first_time, -1
+    begun = np.maximum.accumulate(np.where(restarts, ends, -1))
+    first = np.where(begun >= 0, all_time[np.maximum(begun, 0)], first_time).astype(np.float64)
+    return np.maximum(starts, begun), first, int(begun[-1])
+
+
 class WindowTracker:
     """Carries the open window of the current run from one chunk to the next."""
 
@@ -305,17 +324,11 @@ class WindowTracker:
         ends = np.arange(old, len(all_time), dtype=np.int64)
         assert self.first_time is not None
         keep = int(np.searchsorted(all_time, all_time[-1] - self.effective, side="right"))
-        if restarts is not None and restarts.any():
-            begun = np.maximum.accumulate(np.where(restarts, ends, -1))
-            first = np.where(begun >= 0, all_time[np.maximum(begun, 0)], self.first_time).astype(
-                np.float64
-            )
-            starts = np.maximum(starts, begun)
-            defined = cutoff >= first
-            keep = max(keep, int(begun[-1]))
-            self.first_time = float(all_time[begun[-1]])
-        else:
-            defined = cutoff >= self.first_time
+        starts, first, begun = episode_starts(restarts, all_time, starts, ends, self.first_time)
+        defined = cutoff >= first
+        if begun >= 0:
+            keep = max(keep, begun)
+            self.first_time = float(all_time[begun])
         self.tail_time = all_time[keep:].copy()
         self.tail_values = all_values[keep:].copy()
         return all_time, all_values, ends[defined], starts[defined]
