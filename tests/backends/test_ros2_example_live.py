@@ -164,6 +164,7 @@ finally:
 
 DRIVER = r"""
 import json, os, threading, time
+MONITOR, INPUTS = json.loads(os.environ["IMROSC_TEST_POINT"])
 import rclpy
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
@@ -210,6 +211,17 @@ def count(which, value):
 
 out["relaying"] = wait(lambda: count("good", 3) >= 5 and out["waypoints"] >= 5, 60.0)
 wait(lambda: ask.get_subscription_count() > 0, 30.0)
+
+def hears(topic):
+    return any(
+        i.node_name == MONITOR for i in node.get_subscriptions_info_by_topic(topic)
+    ) and node.count_publishers(topic) > 0
+
+# the monitor relays a command unchecked until it holds a value of every input of point a
+# (a loaded run discovered a stand-in late and relayed 17 bad commands that way): the bad
+# phase begins once it subscribes to all of them, and a second of their messages later
+out["inputs"] = wait(lambda: all(hears(t) for t in INPUTS), 60.0)
+time.sleep(1.0)
 phase[0] = "bad"
 ask.publish(UInt8(data=200))
 wait(lambda: len(out["warnings"]) >= 3, 20.0)
@@ -252,6 +264,13 @@ class Example:
             AMENT_PREFIX_PATH=prefixes,
             PATH=f"{self.venv_bin}{os.pathsep}{os.environ.get('PATH', '')}",
         )
+
+    def inputs(self, point: str) -> list[str]:
+        """The topics besides its trigger whose latest values a sample of ``point`` holds,
+        from the invariants file the monitor package installed."""
+        path = self.root / "src" / PACKAGE / "config" / "invariants.json"
+        document = json.loads(path.read_text(encoding="utf-8"))
+        return list(document["points"][point]["inputs"])
 
     def start(self, command: str, environment: dict[str, str]) -> Reader:
         return Reader(
@@ -339,7 +358,7 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
             launch.wait_for(f"STANDIN {node} up", 60)
         driver = subprocess.run(
             [str(example.venv_bin / "python"), "-c", DRIVER],
-            env=environment,
+            env={**environment, "IMROSC_TEST_POINT": json.dumps([PACKAGE, example.inputs("a")])},
             capture_output=True,
             text=True,
             check=False,
@@ -352,8 +371,13 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
     finally:
         launch.kill()
     out = json.loads(driver.stdout.strip().splitlines()[-1])
-    context = json.dumps(out) + "\n" + launch.output
+    warnings = [json.loads(text) for text in out["warnings"]]
+    summary = "relayed: {}; reports (time, alarm, rule): {}".format(
+        out["relayed"], [(w["time"], w["alarm"], w.get("rule")) for w in warnings]
+    )
+    context = f"{summary}\n{json.dumps(out)}\n{launch.output}\n{summary}"
     assert out["relaying"] and out["recovered"], context  # good commands and waypoints relayed
+    assert out["inputs"], context  # the monitor subscribed to every input of point a
     # only the monitor publishes on the relay (its relay and action f's publisher), and only
     # the stand-in car_ctrl on the command topic
     assert set(out["relay_publishers"]) == {f"/{PACKAGE}"}, context
@@ -364,7 +388,6 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
     assert bad.count(200) <= 2, context
     if 200 in bad:
         assert 3 in bad[bad.index(200) :], context  # action f: {data: 3} to the state machine
-    warnings = [json.loads(text) for text in out["warnings"]]
     assert {w["text"] for w in warnings} == {"cmd_subject_ctrl_state.data <= 6"}, context
     alarmed = [w for w in warnings if w["alarm"]]
     assert alarmed and alarmed[0]["actions"] == ["f"], context
