@@ -119,3 +119,23 @@ def test_a_fault_has_its_onset_when_it_first_acts() -> None:
     seed = next(s for s in range(50) if L.World("stealing", s).platform.y < -0.5)
     world, upper = _onset_after("stealing", seed, 60.0)
     assert upper is not None and world.onset == pytest.approx(upper)  # the thief's first lure
+
+
+def test_the_blower_sweeps_gusts_of_8_to_38_kmh_over_calm_spells() -> None:
+    import random
+
+    wind = L.Wind(random.Random(0), enabled=True)
+    speeds = []
+    for _ in range(int(120 / L.DT)):  # two minutes at the room's centre
+        wind.step(L.DT)
+        speeds.append(math.hypot(*wind.at(0.0, 0.0)))
+    assert max(speeds) <= 10.5 + 1e-9  # 38 km/h
+    assert sum(s >= 2.2 for s in speeds) / len(speeds) > 0.05  # gusts of 8 km/h and more
+    calm = [s < 0.3 for s in speeds]  # under 1 km/h: the jet points elsewhere
+    assert 0.3 < sum(calm) / len(calm) < 0.9
+    longest = run = 0
+    for still in calm:
+        run = run + 1 if still else 0
+        longest = max(longest, run)
+    assert longest * L.DT >= 5.0  # long enough to land in: 1.5 s over the platform, 2 s down
+    assert L.Wind(random.Random(0)).at(0.0, 0.0) == (0.0, 0.0)  # no wind but in its scenario

@@ -35,6 +35,12 @@ rospy when it is imported (``sitecustomize.py``), with no change to the nodes' c
 * Publishers write synchronously (no queue, nothing dropped), subscribers queue without
   bound and ask for ``TCP_NODELAY`` (Nagle's delayed small writes would stall every step).
 
+A subscriber that closes its connection to a publisher (the monitor drops an unknown
+publisher, a node leaves) reports the channel closed, and the simulator stops balancing it:
+a message its publisher counted as sent may have been lost with the connection, and a closed
+channel carries nothing more (a connection opened again later on the same channel is not
+balanced either).
+
 Messages of ``/rosout`` and the reports themselves are not counted; nor are channels to or
 from processes without this module (``rosbag record``): they do not hold the clock. Two
 things stay outside the lockstep: the order in which one subscriber gets messages that two
@@ -75,6 +81,8 @@ class Process:
         self.received: dict[str, int] = {}
         self.calls: dict[str, int] = {}
         self.served: dict[str, int] = {}
+        self.closed: set[str] = set()
+        """``topic<publisher`` of the connections this process's subscribers closed."""
         self.busy = 0
         """Callbacks and service handlers running."""
         self.simulator = ""
@@ -228,6 +236,7 @@ class Process:
                     "received": self.received,
                     "calls": self.calls,
                     "served": self.served,
+                    "closed": sorted(self.closed),
                 }
                 if self.links_version != self.last_links:
                     self.last_links = self.links_version
@@ -388,6 +397,21 @@ def install(rospy: Any) -> Process:
         return None
 
     topics._SubscriberImpl.receive_callback = receive_callback
+    original_remove = topics._SubscriberImpl.remove_connection
+
+    def remove_connection(impl: Any, connection: Any) -> Any:
+        # a closed connection carries nothing more; what was in flight on it is lost, so
+        # the channel no longer balances: report it closed (not the simulator's own)
+        topic, source = impl.resolved_name, getattr(connection, "callerid_pub", None)
+        if topic not in UNCOUNTED and source:
+            with state.cond:
+                state.closed.add(f"{topic}<{source}")
+                state.changed()
+        removed = original_remove(impl, connection)
+        state.report()
+        return removed
+
+    topics._SubscriberImpl.remove_connection = remove_connection
 
     # services: calls counted per service name, made and served
     original_call = tcpros_service.ServiceProxy.call
@@ -481,6 +505,8 @@ class Coordinator:
         a relay outside the lockstep (``imrosc record``'s) serves one name and calls
         another."""
         self.unbalanced: set[tuple[str, str, str]] = set()
+        self.closed: set[tuple[str, str, str]] = set()
+        """Channels whose subscriber closed the connection: no longer balanced."""
         self.own_version = -1
         self.stalls = 0
         state.publisher = None  # nobody needs the simulator's own reports
@@ -507,6 +533,7 @@ class Coordinator:
         if (
             channel[1] in members
             and channel[2] in members
+            and channel not in self.closed
             and self.sent.get(channel, 0) != self.received.get(channel, 0)
         ):
             self.unbalanced.add(channel)
@@ -528,6 +555,12 @@ class Coordinator:
             channel = (topic, source, node)
             if self.received.get(channel) != n:
                 self.received[channel] = n
+                touched.append(channel)
+        for key in report.get("closed", ()):
+            topic, _, source = key.rpartition("<")
+            channel = (topic, source, node)
+            if channel not in self.closed:
+                self.closed.add(channel)
                 touched.append(channel)
         calls, served = report["calls"], report["served"]
         self.services[node] = {s: (calls.get(s, 0), served.get(s, 0)) for s in {*calls, *served}}
@@ -568,6 +601,7 @@ class Coordinator:
                     "received": own.received,
                     "calls": own.calls,
                     "served": own.served,
+                    "closed": sorted(own.closed),
                 },
             )
         if joined:

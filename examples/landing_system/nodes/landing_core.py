@@ -13,7 +13,8 @@ Pure Python (no rospy, no numpy): the rospy nodes of this package run it under D
   the platform (or what occupies it) stop it. Touching down too fast or too tilted is a crash;
   resting on the platform it rides along, and falls off (a crash) when its centre leaves the
   platform or the platform tips.
-* :class:`Wind`: a blower in one corner of the room, 8 to 38 km/h, with gusts.
+* :class:`Wind`: a blower in one corner of the room that sweeps it like an oscillating fan:
+  a point sees gusts of 8 to 38 km/h while the jet passes over it, calm in between.
 * :class:`LandingController`: the controller of Figure 3.6 (``/a/car_ctrl``): states startup,
   launch, hover, task, land, shutdown (0-5); it pursues the platform at 0.6 m above it and
   lands when the UAV has been within 15 cm of its centre for 1.5 s, descending at 0.3 m/s
@@ -53,6 +54,9 @@ TIP_RATE = 0.3
 (rad/s), and springs back level at the same rate once the load is gone; the UAV slides off
 at :data:`SLIDE_TILT`, about 0.8 s after it began to tip."""
 SLIDE_TILT = 0.25
+WIND_PERIOD = 20.0
+WIND_WIDTH = 0.25
+"""The blower's sweep (s, there and back) and its jet's half-width (rad)."""
 UAV_REST = 0.08
 """Height of the UAV's markers above the surface it stands on (m)."""
 UAV_MASS = 0.7
@@ -185,20 +189,42 @@ class Platform:
 
 @dataclass
 class Wind:
-    """A blower in a corner: 38 km/h next to it, about 8 km/h across the room, with gusts."""
+    """A blower in a corner that sweeps the room like an oscillating fan: inside its jet the
+    air moves at 8 to 38 km/h (38 next to the blower, about 8 at the far walls) with
+    turbulence; outside it the air is nearly still. A point of the room thus sees a gust
+    each time the jet sweeps over it, and a calm spell until it comes back."""
 
     rng: random.Random
     enabled: bool = False
     source: tuple[float, float] = (-ROOM_HALF, -ROOM_HALF)
+    period: float = WIND_PERIOD
+    """Seconds for a sweep across the room and back."""
+    width: float = WIND_WIDTH
+    """The jet's angular half-width (rad, the standard deviation of its profile)."""
+    phase: float = 0.0
+    t: float = 0.0
     gust: float = 0.0
     gust_angle: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.phase = self.rng.uniform(0.0, 2.0 * math.pi)
 
     def step(self, dt: float) -> None:
         if not self.enabled:
             return
-        # an Ornstein-Uhlenbeck gust on the speed and the direction, time constant 1 s
+        self.t += dt
+        # turbulence inside the jet: an Ornstein-Uhlenbeck gust on the speed and the
+        # direction, time constant 1 s
         self.gust += -self.gust * dt + 0.6 * math.sqrt(dt) * self.rng.gauss(0.0, 1.0)
         self.gust_angle += -self.gust_angle * dt + 0.4 * math.sqrt(dt) * self.rng.gauss(0.0, 1.0)
+
+    @property
+    def axis(self) -> float:
+        """Where the jet points now (rad): it sweeps the quarter of directions from its
+        corner into the room, a little beyond the walls."""
+        middle = math.atan2(-self.source[1], -self.source[0])
+        swing = math.pi / 4 + 0.15
+        return middle + swing * math.sin(2.0 * math.pi * self.t / self.period + self.phase)
 
     def at(self, x: float, y: float) -> tuple[float, float]:
         """The wind velocity (m/s) at (x, y)."""
@@ -206,8 +232,11 @@ class Wind:
             return 0.0, 0.0
         dx, dy = x - self.source[0], y - self.source[1]
         distance = max(math.hypot(dx, dy), 0.5)
-        speed = clip(10.5 / (1.0 + 0.35 * distance) * (1.0 + self.gust), 2.2, 10.5)
-        angle = math.atan2(dy, dx) + self.gust_angle
+        direction = math.atan2(dy, dx)
+        off = wrap(direction - self.axis) / self.width
+        jet = clip(10.5 / (1.0 + 0.35 * distance) * (1.0 + self.gust), 2.2, 10.5)
+        speed = jet * math.exp(-0.5 * off * off)
+        angle = direction + self.gust_angle
         return speed * math.cos(angle), speed * math.sin(angle)
 
 
@@ -610,15 +639,18 @@ class World:
 
     def _fault_acts(self) -> bool:
         """Whether the scenario's fault acts on the system now: the first moment it changes
-        what the nodes see or what the UAV does, not the moment it is set up. The wind once
-        the UAV is airborne in it; the occupied platform when the UAV touches the object (rests
-        on it or crashes onto it);
-        the fragile one when it starts to tip; the slowed link in its first slow stretch
-        (``car.py``: 5 s in every 10 s); the thief when the platform enters the upper half
-        (``thief.py``); the false airport from the start (its pose is never the vehicle's)."""
+        what the nodes see or what the UAV does, not the moment it is set up. The wind when a
+        gust of 8 km/h or more first blows on the airborne UAV; the occupied platform when
+        the UAV touches the object (rests on it or crashes onto it); the fragile one when it
+        starts to tip; the slowed link in its first slow stretch (``car.py``: 5 s in every
+        10 s); the thief when the platform enters the upper half (``thief.py``); the false
+        airport from the start (its pose is never the vehicle's)."""
         name = self.scenario
-        if name == "wind":
-            return self.uav.resting is None
+        if name == "wind":  # a gust of Table 5.1's 8 km/h or more on the airborne UAV
+            return (
+                self.uav.resting is None
+                and math.hypot(*self.wind.at(self.uav.x, self.uav.y)) >= 2.2
+            )
         if name == "occupied":  # resting on the object, or broken touching it
             return self.uav.resting == "object" or "object" in (self.uav.broken or "")
         if name == "fragile":
