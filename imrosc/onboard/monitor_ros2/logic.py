@@ -441,7 +441,7 @@ NO_MASTER = (
 
 def note(violation: Any) -> Optional[str]:
     """What the warning adds for a violation the ROS 2 node cannot act on as ROS 1 does."""
-    if violation.family == "architecture" and violation.kind == "max_pubs":
+    if common.bounds_publishers(violation.family, violation.kind):
         return NO_MASTER
     return None
 
