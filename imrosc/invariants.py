@@ -27,7 +27,7 @@ from typing import Any, TypedDict
 
 from imrosc.infer.core import Invariant, Variable
 from imrosc.outputs import INVARIANTS, mark
-from imrosc.runtime.families import NAMES
+from imrosc.runtime.families import INTERVAL, NAMES, PATTERN
 from imrosc.runtime.points import Pairing, PairingEntry
 
 FORMAT = "imrosc-invariants"
@@ -135,9 +135,9 @@ def invariant_id(invariant: Invariant) -> str:
     """A stable id: a short hash of what the invariant is about (not of its values)."""
     parts = [invariant.point, invariant.family, invariant.kind, *invariant.variables]
     params = invariant.params
-    if invariant.family == "interval":  # every ordered pair of a point has variables ("event",)
+    if invariant.family == INTERVAL:  # every ordered pair of a point has variables ("event",)
         parts += [str(params["first"]), str(params["second"])]
-    elif invariant.family == "pattern":
+    elif invariant.family == PATTERN:
         parts.append(str(params["pattern"]))
     return hashed_id(parts)
 

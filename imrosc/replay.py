@@ -282,7 +282,7 @@ class PlotTrace:
 
     def __init__(self, document: Mapping[str, Any]) -> None:
         self.wanted = {
-            i["point"] for i in document["invariants"] if i["family"] in ("polygon", "frequency")
+            i["point"] for i in document["invariants"] if i["family"] in (POLYGON, FREQUENCY)
         }
         self.points = document["points"]
         self.reset()
@@ -353,7 +353,7 @@ class PlotTrace:
                 for v in self.points[inv["point"]]["variables"]
                 if v["type"] in ("float", "int", "uint", "bool", "time")
             ]
-            if inv["family"] == "polygon":
+            if inv["family"] == POLYGON:
                 xi, yi = (numeric.index(n) for n in inv["variables"])
                 if inv["point"] not in matrices:  # the point's kept rows, once
                     matrices[inv["point"]] = np.array([r for _, r, _ in samples], np.float64)

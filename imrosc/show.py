@@ -34,6 +34,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from imrosc.infer.polygon.text import polygon_text
+from imrosc.runtime.families import POLYGON
 
 RULE = "=" * 75
 
@@ -100,6 +101,6 @@ def alarm_lines(doc: Mapping[str, Any]) -> list[str]:
 def text(invariant: Mapping[str, Any]) -> str:
     """How the listing shows an invariant: its ``text``, but a polygon with every vertex."""
     params = invariant.get("params") or {}
-    if invariant["family"] == "polygon" and {"x", "y", "vertices"} <= params.keys():
+    if invariant["family"] == POLYGON and {"x", "y", "vertices"} <= params.keys():
         return polygon_text(params["x"], params["y"], params["vertices"], whole=True)
     return str(invariant["text"])

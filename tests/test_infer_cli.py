@@ -4,18 +4,14 @@ from __future__ import annotations
 
 import json
 import shutil
-import sqlite3
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer as Ros2Writer
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from imrosc.cli import main
 from imrosc.detect import run_detect
-from tests.translate import good_run, msg, write_bag
+from tests.translate import good_run, msg, unknown_type_bag, write_bag
 
 FIXTURES = Path(__file__).parent / "fixtures"
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
@@ -30,19 +26,6 @@ CONFIG = """<imROS project="bad">
   </detect>
 </imROS>
 """
-
-
-def unknown_type_bag(path: Path) -> Path:
-    """A ROS 2 bag whose message definitions were lost (as old rosbag2 versions wrote)."""
-    store = get_typestore(Stores.LATEST)
-    store.register(get_types_from_msg("float64 level\n", "my_pkg/msg/Thing"))
-    with Ros2Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
-        connection = writer.add_connection("/out", "my_pkg/msg/Thing", typestore=store)
-        thing = store.types["my_pkg/msg/Thing"](level=1.5)
-        writer.write(connection, 1, bytes(store.serialize_cdr(thing, "my_pkg/msg/Thing")))
-    with sqlite3.connect(next(path.glob("*.db3"))) as database:
-        database.execute("delete from message_definitions")
-    return path
 
 
 @pytest.fixture

@@ -36,7 +36,7 @@ from imrosc.infer.core import (
 from imrosc.infer.registry import make_point_states
 from imrosc.ir import Tunables
 from imrosc.progress import bag_done
-from imrosc.runtime.families import BOUNDS, MEAN, RATE, VARIANCE
+from imrosc.runtime.families import BOUNDS, MEAN, ONE_OF, PATTERN, RATE, STRING_ONE_OF, VARIANCE
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec
 from imrosc.translate.stream import BagTranslator
@@ -162,7 +162,7 @@ def suppress_implied(found: list[Invariant]) -> list[Invariant]:
     constants = {
         invariant.variables[0]
         for invariant in found
-        if invariant.family in ("one-of", "string-one-of")
+        if invariant.family in (ONE_OF, STRING_ONE_OF)
         and len(invariant.params.get("values", ())) == 1
     }
     kept: list[Invariant] = []
@@ -170,7 +170,7 @@ def suppress_implied(found: list[Invariant]) -> list[Invariant]:
     for invariant in found:
         if invariant.family in WINDOW_STATISTICS and set(invariant.variables) <= constants:
             continue
-        if invariant.family == "pattern":  # one language, however its placeholders were bound
+        if invariant.family == PATTERN:  # one language, however its placeholders were bound
             machine = repr((invariant.params.get("transitions"), invariant.params.get("accepting")))
             if machine in languages:
                 continue

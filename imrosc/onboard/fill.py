@@ -1,7 +1,8 @@
 """Checking an action's value against a message field, for both monitor nodes.
 
 An action (``<action><value>{data: 3}</value>``) fills a message the node publishes or a
-request it sends. Each middleware walks its own messages (``monitor_ros1/messages.py``:
+request it sends. The walk over the value's fields is here (:func:`filler`); each middleware
+says what a message's fields are and converts a field's value (``monitor_ros1/messages.py``:
 rospy's ``__slots__`` and ``_slot_types``; ``monitor_ros2/logic.py``: rclpy's
 ``get_fields_and_field_types``); the value of one scalar field is checked here, alike for
 both: an integer in the range of its type, a number, a bool, a string. Python 3.8 syntax,
@@ -14,7 +15,7 @@ standard library only.
 from __future__ import annotations
 
 import json
-from typing import Any, Callable, Mapping, Tuple
+from typing import Any, Callable, Mapping, Protocol, Tuple
 
 INTEGER_RANGES = {
     "int8": (-(2**7), 2**7 - 1),
@@ -33,31 +34,61 @@ class FillError(ValueError):
     """An action value that does not fit its message."""
 
 
-def fill_fields(
-    message: Any,
-    kinds: Mapping[str, str],
-    values: Mapping[str, Any],
-    convert: Callable[[Any, str, Any, str], Any],
-    where: str = "",
-) -> Any:
-    """Set the fields of ``message`` that an action value names (``{data: 3}``); return the
-    message. ``kinds`` are the message's fields and their types, ``convert(current, kind,
-    value, path)`` a field's new value (the middleware's). A field the message lacks raises
-    :class:`FillError`; a ``null`` value leaves the field at its default.
+MessageClass = Callable[[str], Any]
+"""A message type's name -> its class (the middleware's)."""
+Convert = Callable[[Any, str, Any, str, MessageClass], Any]
+"""``(current, kind, value, path, message_class)`` -> a field's new value."""
+
+
+class Fill(Protocol):
+    """A middleware's ``fill``, as :func:`filler` makes it."""
+
+    def __call__(
+        self,
+        message: Any,
+        values: Mapping[str, Any],
+        message_class: MessageClass,
+        where: str = "",
+    ) -> Any: ...
+
+
+def filler(kinds: Callable[[Any], Mapping[str, str]], convert: Convert) -> Fill:
+    """A middleware's ``fill``: ``kinds(message)`` are a message's fields and their types,
+    ``convert(current, kind, value, path, message_class)`` a field's new value (the
+    middleware's; it fills a nested message with the ``fill`` made here).
 
     >>> class M:
     ...     data = 0
-    >>> fill_fields(M(), {"data": "int8"}, {"data": 3.0}, lambda c, k, v, p: integer(k, v, p)).data
+    >>> fill = filler(lambda m: {"data": "int8"}, lambda c, k, v, p, m: integer(k, v, p))
+    >>> fill(M(), {"data": 3.0}, {}.get).data
     3
     """
-    for key, value in values.items():
-        path = where + str(key)
-        if key not in kinds:
-            raise FillError("{}: no such field (fields: {})".format(path, ", ".join(kinds)))
-        if value is None:
-            continue
-        setattr(message, key, convert(getattr(message, key), kinds[key], value, path))
-    return message
+
+    def fill(
+        message: Any,
+        values: Mapping[str, Any],
+        message_class: MessageClass,
+        where: str = "",
+    ) -> Any:
+        """Set the fields of ``message`` that an action value names (``{data: 3}``,
+        ``{linear: {x: 0.5}}``, ``{header: {stamp: 1.5}}``); return the message.
+
+        ``message_class(type_name)`` gives the class of a nested message. A field the
+        message lacks, a value of the wrong kind, out of range or of the wrong length raises
+        :class:`FillError`; a ``null`` value leaves the field at its default.
+        """
+        fields = kinds(message)
+        for key, value in values.items():
+            path = where + str(key)
+            if key not in fields:
+                raise FillError("{}: no such field (fields: {})".format(path, ", ".join(fields)))
+            if value is None:
+                continue
+            current = getattr(message, key)
+            setattr(message, key, convert(current, fields[key], value, path, message_class))
+        return message
+
+    return fill
 
 
 def integer(

@@ -13,6 +13,11 @@ each value on its own as ``make_flattener`` does.
 The node switches numpy's floating-point warnings off (``np.seterr(all="ignore")``), so these
 functions do not wrap their work in ``np.errstate``.
 
+A blocked topic's values read from the bytes it came in (``monitor_ros1/wire.py``,
+``monitor_ros2/cdr.py``) are the flattener's too: both byte readers match the topic's
+variables to the message's fields with :func:`match` and give the values through
+:func:`walker`, with the helpers above.
+
 >>> avg_([1.0, 2.0, 6.0]), len_([]), max_([]) != max_([])
 (3.0, 0.0, True)
 >>> careful(object(), [(lambda m: m.x, False), (lambda m: m.name, True)])
@@ -23,7 +28,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -113,6 +118,49 @@ class UnsupportedError(Exception):
     the ROS 2 CDR reader's): the node decodes the message instead."""
 
 
+Wanted = Tuple[int, Optional[int], Optional[str], bool]
+"""A variable as a byte reader reads it: its leaf, its element's index, its statistic and
+whether it is a string."""
+
+
+def match(
+    variables: Sequence[Mapping[str, Any]], leaves: Sequence[Tuple[str, str]]
+) -> List[Wanted]:
+    """Each variable of a topic's layout as the leaf a byte reader takes it from (the ROS 1
+    wire reader's and the ROS 2 CDR reader's). ``leaves`` are the message's leaves in
+    serialisation order, each its path and its kind: ``scalar`` (a number), ``string``,
+    ``array`` (of numbers: its elements and statistics are variables), or any other kind, from
+    which no variable is read. A variable the leaves do not give raises
+    :class:`UnsupportedError`.
+
+    >>> match([{"path": "values[1]"}, {"path": "frame", "type": "string"}],
+    ...       [("frame", "string"), ("values", "array")])
+    [(1, 1, None, False), (0, None, None, True)]
+    """
+    by_path = {path: k for k, (path, _) in enumerate(leaves)}
+    wanted: List[Wanted] = []
+    for variable in variables:
+        path = str(variable.get("path", ""))
+        found = VARIABLE_PATH.match(path)
+        if found is None or found.group("fields") not in by_path:
+            raise UnsupportedError(f"no field {path!r}")
+        leaf = by_path[found.group("fields")]
+        index = int(found.group("index")) if found.group("index") is not None else None
+        derived = variable.get("derived")
+        text = variable.get("type") == "string"
+        kind = leaves[leaf][1]
+        if derived is not None:
+            if derived not in STATISTICS or index is not None or text or kind != "array":
+                raise UnsupportedError(f"statistic {derived!r} of {kind} {path!r}")
+        elif index is not None:
+            if kind != "array" or text:
+                raise UnsupportedError(f"element of {kind} {path!r}")
+        elif kind != ("string" if text else "scalar"):
+            raise UnsupportedError(f"{kind} {path!r} read as {variable.get('type')}")
+        wanted.append((leaf, index, derived, text))
+    return wanted
+
+
 def converter(index: Optional[int], derived: Optional[str], text: bool) -> Callable[[Any], Any]:
     """What makes a byte reader's raw field a variable's value: its statistic, its element,
     or the field as a string or a number."""
@@ -121,3 +169,33 @@ def converter(index: Optional[int], derived: Optional[str], text: bool) -> Calla
     if index is not None:
         return lambda array: float(at_(array, index))
     return str if text else float
+
+
+Step = Callable[[bytes, int, List[Any]], int]
+"""One step of a byte reader's plan: reads from the bytes at an offset, appends what it keeps,
+returns the next offset."""
+
+
+def walker(
+    steps: Sequence[Step], wanted: Sequence[Wanted], start: Callable[[bytes], int]
+) -> Callable[[bytes], List[Any]]:
+    """A byte reader: walk ``steps`` over a message's bytes from ``start(data)``, then give
+    each variable its value as the generated flattener computes it (``wanted``'s leaf is the
+    variable's slot among the values the steps keep).
+
+    >>> def two(data, offset, got):
+    ...     got.extend(data[offset:offset + 2])
+    ...     return offset + 2
+    >>> walker([two], [(1, None, None, False), (0, None, None, True)], lambda data: 1)(b"xAB")
+    [66.0, '65']
+    """
+    pairs = [(converter(index, derived, text), slot) for slot, index, derived, text in wanted]
+
+    def values(data: bytes) -> List[Any]:
+        got: List[Any] = []
+        offset = start(data)
+        for step in steps:
+            offset = step(data, offset, got)
+        return [make(got[slot]) for make, slot in pairs]
+
+    return values

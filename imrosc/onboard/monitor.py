@@ -503,11 +503,22 @@ rosbag and recording node (``/imrosc_rosbag_<pid>``, ``/imrosc_recorder_<pid>``)
 services it relays): recording machinery, not the robot, so not intruders."""
 
 
+def bounds_publishers(family: object, kind: object) -> bool:
+    """Whether an invariant of ``family`` and ``kind`` (or a violation of one) bounds who
+    publishes on a topic: the architecture invariant ``max_pubs``, whose unknown publisher a
+    ROS 1 node unregisters.
+
+    >>> bounds_publishers("architecture", "max_pubs"), bounds_publishers("bounds", "max_pubs")
+    (True, False)
+    """
+    return family == families.ARCHITECTURE and kind == "max_pubs"
+
+
 def learnt_publishers(invariants: Iterable[Mapping[str, Any]]) -> Dict[str, FrozenSet[str]]:
     """Per topic, the publishers its architecture invariants name (``max_pubs``)."""
     found: Dict[str, Set[str]] = {}
     for inv in invariants:
-        if inv.get("family") != "architecture" or inv.get("kind") != "max_pubs":
+        if not bounds_publishers(inv.get("family"), inv.get("kind")):
             continue
         params = inv.get("params", {})
         resource, nodes = params.get("resource"), params.get("nodes")
@@ -588,7 +599,7 @@ def to_unregister(
         publishers.setdefault(entry[0], set()).update(entry[1])
     found: List[Tuple[str, str]] = []
     for violation in violations:
-        if violation.family != "architecture" or violation.kind != "max_pubs":
+        if not bounds_publishers(violation.family, violation.kind):
             continue
         invariant = invariants.get(violation.invariant)
         if invariant is None:

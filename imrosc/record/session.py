@@ -15,6 +15,10 @@ sessions of their own, so a Ctrl-C in the terminal reaches imrosc only and the o
 if imrosc itself dies they get SIGINT from the kernel (``PR_SET_PDEATHSIG``).
 
 Their output goes to ``<output>/.imrosc/`` (a hidden folder: bag discovery skips it).
+
+What a recording holds and does alike on ROS 1 and ROS 2 (its events, its start-up wait and
+its loop) is :class:`Session`, which :class:`Recording` and ROS 2's
+:class:`~imrosc.record.session_ros2.TapRecording` extend.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ import signal
 import subprocess
 import threading
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +49,7 @@ __all__ = [
     "Outcome",
     "RecordError",
     "Recording",
+    "Session",
     "Settings",
     "find_rosbag_record",
 ]
@@ -62,49 +68,6 @@ _PROBE = (
     "found = p.find_node('rosbag', 'record')\n"
     "print(found[0] if found else '')\n"
 )
-
-
-def run_until(
-    stop: threading.Event,
-    duration: float | None,
-    started: float,
-    pump: Callable[[], None],
-    check: Callable[[], None],
-) -> None:
-    """A recording's loop, on either middleware: ``pump`` what its children said and
-    ``check`` they still run, ten times a second, until ``stop`` is set or ``duration``
-    seconds have passed since ``started`` (monotonic)."""
-    end = None if duration is None else started + duration
-    while not stop.is_set():
-        pump()
-        check()
-        now = time.monotonic()
-        if end is not None and now >= end:
-            return
-        stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
-
-
-def wait_for(
-    done: Callable[[], bool],
-    stop: threading.Event,
-    what: str,
-    timeout: float,
-    pump: Callable[[], None],
-    check: Callable[[], None],
-) -> bool:
-    """A recording's start, on either middleware: ``pump`` what its children said and
-    ``check`` they still run, twenty times a second, until ``done()`` (True), ``stop`` is set
-    (False) or ``timeout`` seconds have passed (:class:`RecordError` naming ``what``)."""
-    deadline = time.monotonic() + timeout
-    while not stop.is_set():
-        pump()
-        check()
-        if done():
-            return True
-        if time.monotonic() > deadline:
-            raise RecordError(f"timed out waiting for {what}")
-        stop.wait(0.05)
-    return False
 
 
 def read_events(
@@ -313,8 +276,85 @@ class _Child:
         return f"{self.name} {how}" + (f": {last}" if last else "")
 
 
-class Recording:
-    """Starts, watches and stops one recording; :meth:`finish` must always be called."""
+class Session(ABC):
+    """What a recording holds and does alike on either middleware: the scope, the
+    environment of its children, the recorder node, the events its children say (queued by
+    their readers' threads, handled by :meth:`pump` on the caller's thread), the failure one
+    of them reported, the outcome, and the loops of its start and of recording, which pump
+    the events and check the children ten or twenty times a second.
+
+    Each middleware handles an event (:meth:`handle`) and checks its children
+    (:meth:`check_children`)."""
+
+    def __init__(
+        self,
+        scope: Scope,
+        env: Mapping[str, str],
+        bag: Path,
+        start_timeout: float,
+        *,
+        say: Callable[[str], None],
+        warn: Callable[[str], None],
+    ) -> None:
+        self.scope = scope
+        self.env = dict(env)
+        self.start_timeout = start_timeout
+        """Seconds the start waits at most for each of its steps."""
+        self.say = say
+        self.warn = warn
+        self.node: _Child | None = None
+        self.events: queue.Queue[dict[str, Any]] = queue.Queue()
+        self.failure: str | None = None
+        self.outcome = Outcome(bag)
+        self.started = 0.0
+
+    @abstractmethod
+    def handle(self, event: dict[str, Any]) -> None:
+        """Handle one event a child said."""
+
+    @abstractmethod
+    def check_children(self) -> None:
+        """:class:`RecordError` when a child stopped or reported a failure."""
+
+    def pump(self) -> None:
+        """Handle what the children said since the last call."""
+        while True:
+            try:
+                event = self.events.get_nowait()
+            except queue.Empty:
+                return
+            self.handle(event)
+
+    def wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
+        """Pump and check the children, twenty times a second, until ``done()`` (True),
+        ``stop`` is set (False) or :attr:`start_timeout` seconds have passed
+        (:class:`RecordError` naming ``what``)."""
+        deadline = time.monotonic() + self.start_timeout
+        while not stop.is_set():
+            self.pump()
+            self.check_children()
+            if done():
+                return True
+            if time.monotonic() > deadline:
+                raise RecordError(f"timed out waiting for {what}")
+            stop.wait(0.05)
+        return False
+
+    def run(self, stop: threading.Event, duration: float | None) -> None:
+        """Record until ``stop`` is set or ``duration`` seconds have passed: pump and check
+        the children ten times a second."""
+        end = None if duration is None else self.started + duration
+        while not stop.is_set():
+            self.pump()
+            self.check_children()
+            now = time.monotonic()
+            if end is not None and now >= end:
+                return
+            stop.wait(0.1 if end is None else min(0.1, max(0.0, end - now)))
+
+
+class Recording(Session):
+    """Starts, watches and stops one ROS 1 recording; :meth:`finish` must always be called."""
 
     def __init__(
         self,
@@ -326,23 +366,17 @@ class Recording:
         say: Callable[[str], None],
         warn: Callable[[str], None],
     ) -> None:
-        self.scope = scope
+        super().__init__(
+            scope, env, settings.bag, settings.ready_timeout + 10.0, say=say, warn=warn
+        )
         self.settings = settings
-        self.env = dict(env)
         self.uri = uri
-        self.say = say
-        self.warn = warn
         tag = os.getpid()
         self.rosbag_name = f"/imrosc_rosbag_{tag}"
         self.node_name = f"/imrosc_recorder_{tag}"
         self.rosbag: _Child | None = None
-        self.node: _Child | None = None
-        self.events: queue.Queue[dict[str, Any]] = queue.Queue()
         self.reader: threading.Thread | None = None
         self.ready = False
-        self.failure: str | None = None
-        self.outcome = Outcome(settings.bag)
-        self.started = 0.0
 
     # -- start ----------------------------------------------------------------------------
 
@@ -360,7 +394,7 @@ class Recording:
         ]
         self.rosbag = _Child("rosbag record", command, self.env, settings.logs / "rosbag.log")
         wanted = () if settings.all_topics else (*self.scope.topics, *records.RECORD_TOPICS)
-        if not self._wait(lambda: self._subscribed(wanted), stop, "rosbag record to subscribe"):
+        if not self.wait(lambda: self._subscribed(wanted), stop, "rosbag record to subscribe"):
             return False
         spec = {
             "node": self.node_name,
@@ -384,7 +418,7 @@ class Recording:
         events = (self.node.popen.stdout, settings.logs / "recorder.events", self.events.put)
         self.reader = threading.Thread(target=read_events, args=events, daemon=True)
         self.reader.start()
-        if not self._wait(lambda: self.ready, stop, "the recording node"):
+        if not self.wait(lambda: self.ready, stop, "the recording node"):
             return False
         self.started = time.monotonic()
         return True
@@ -400,47 +434,34 @@ class Recording:
             raise RecordError(str(error)) from None
         return all(self.rosbag_name in state.subscribers.get(topic, ()) for topic in topics)
 
-    def _wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
-        timeout = self.settings.ready_timeout + 10.0
-        return wait_for(done, stop, what, timeout, self.pump, self._check_children)
-
     # -- while recording --------------------------------------------------------------------
 
-    def pump(self) -> None:
-        """Handle what the node said since the last call."""
-        while True:
-            try:
-                event = self.events.get_nowait()
-            except queue.Empty:
-                return
-            kind = event.get("event")
-            if kind == "ready":
-                self.ready = True
-            elif kind == "warning":
-                self.warn(str(event.get("message", "")))
-            elif kind == "error":
-                self.failure = str(event.get("message", ""))
-            elif kind == "relay":
-                service = str(event.get("service", ""))
-                self.outcome.relayed.add(service)
-                raw = " (raw: its type cannot be imported)" if event.get("raw") else ""
-                self.say(f"relaying {service} ({event.get('type')}) to {event.get('target')}{raw}")
-            elif kind == "unrelay":
-                self.say(f"{event.get('service')}: its server is gone; relay withdrawn")
-            elif kind == "stats":
-                self.outcome.published = dict(event.get("published") or {})
-                self.outcome.calls = dict(event.get("calls") or {})
+    def handle(self, event: dict[str, Any]) -> None:
+        """Handle one event the node said."""
+        kind = event.get("event")
+        if kind == "ready":
+            self.ready = True
+        elif kind == "warning":
+            self.warn(str(event.get("message", "")))
+        elif kind == "error":
+            self.failure = str(event.get("message", ""))
+        elif kind == "relay":
+            service = str(event.get("service", ""))
+            self.outcome.relayed.add(service)
+            raw = " (raw: its type cannot be imported)" if event.get("raw") else ""
+            self.say(f"relaying {service} ({event.get('type')}) to {event.get('target')}{raw}")
+        elif kind == "unrelay":
+            self.say(f"{event.get('service')}: its server is gone; relay withdrawn")
+        elif kind == "stats":
+            self.outcome.published = dict(event.get("published") or {})
+            self.outcome.calls = dict(event.get("calls") or {})
 
-    def _check_children(self) -> None:
+    def check_children(self) -> None:
         for child in (self.rosbag, self.node):
             if child is not None and not child.alive:
                 if child is self.node and self.failure:
                     raise RecordError(f"the recording node stopped: {self.failure}")
                 raise RecordError(child.died())
-
-    def run(self, stop: threading.Event, duration: float | None) -> None:
-        """Record until ``stop`` is set or ``duration`` seconds have passed."""
-        run_until(stop, duration, self.started, self.pump, self._check_children)
 
     # -- stop -----------------------------------------------------------------------------
 

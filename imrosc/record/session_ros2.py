@@ -30,7 +30,6 @@ import contextlib
 import importlib.util
 import json
 import os
-import queue
 import subprocess
 import sys
 import threading
@@ -49,12 +48,11 @@ from imrosc.record.session import (
     STOP_GRACE,
     Outcome,
     RecordError,
+    Session,
     _Child,
     link_package,
     probe,
     read_events,
-    run_until,
-    wait_for,
     with_module_path,
 )
 
@@ -135,7 +133,7 @@ def ros2_environment(environment: Mapping[str, str], path_folder: Path) -> dict[
     return env
 
 
-class TapRecording:
+class TapRecording(Session):
     """Starts, watches and stops one ROS 2 recording; :meth:`finish` must always be
     called. ``choose`` gets the graph the tap saw (an architecture record) and returns the
     topics to record."""
@@ -150,28 +148,21 @@ class TapRecording:
         say: Callable[[str], None],
         warn: Callable[[str], None],
     ) -> None:
-        self.scope = scope
+        timeout = settings.ready_timeout + settings.settle
+        super().__init__(scope, env, settings.bag, timeout, say=say, warn=warn)
         self.settings = settings
-        self.env = dict(env)
         self.choose = choose
-        self.say = say
-        self.warn = warn
         tag = os.getpid()
         self.tap_name = f"_imrosc_bag_{tag}"
         self.node_name = f"imrosc_recorder_{tag}"
         self.tap: _Child | None = None
-        self.node: _Child | None = None
         self.sink: BagSink | None = None
-        self.events: queue.Queue[dict[str, Any]] = queue.Queue()
         self.threads: list[threading.Thread] = []
         self.state: dict[str, Any] = {}
         self.topics: tuple[str, ...] | None = None
         """The topics the tap was told to record (``None`` before the first graph)."""
-        self.failure: str | None = None
         self.received: dict[str, int] = {}
         """What the tap received, by topic (its last words)."""
-        self.outcome = Outcome(settings.bag)
-        self.started = 0.0
 
     # -- start ----------------------------------------------------------------------------
 
@@ -205,10 +196,10 @@ class TapRecording:
         finally:
             os.close(write_end)
         self._thread(self._read_frames, os.fdopen(read_end, "rb"))
-        if not self._wait(lambda: "graph" in self.state, stop, "the bag tap to see the graph"):
+        if not self.wait(lambda: "graph" in self.state, stop, "the bag tap to see the graph"):
             return False
         self._choose(str(self.state["graph"]))
-        if not self._wait(lambda: "tap ready" in self.state, stop, "the bag tap"):
+        if not self.wait(lambda: "tap ready" in self.state, stop, "the bag tap"):
             return False
         recorder = {
             "format": "imrosc-recorder",
@@ -229,7 +220,7 @@ class TapRecording:
         )
         assert self.node.popen.stdout is not None
         self._thread(self._read_lines, self.node.popen.stdout)
-        if not self._wait(lambda: "recorder ready" in self.state, stop, "the recorder node"):
+        if not self.wait(lambda: "recorder ready" in self.state, stop, "the recorder node"):
             return False
         self.started = time.monotonic()
         return True
@@ -252,10 +243,6 @@ class TapRecording:
         with contextlib.suppress(OSError, ValueError):  # a tap that died is found elsewhere
             self.tap.popen.stdin.write(json.dumps(answer).encode() + b"\n")
             self.tap.popen.stdin.flush()
-
-    def _wait(self, done: Callable[[], bool], stop: threading.Event, what: str) -> bool:
-        timeout = self.settings.ready_timeout + self.settings.settle
-        return wait_for(done, stop, what, timeout, self.pump, self._check_children)
 
     # -- the children's output --------------------------------------------------------------
 
@@ -303,41 +290,32 @@ class TapRecording:
             log = self.settings.logs / "recorder.events"
             read_events(stream, log, self.events.put, "recorder")
 
-    def pump(self) -> None:
-        """Handle what the children said since the last call."""
-        while True:
-            try:
-                event = self.events.get_nowait()
-            except queue.Empty:
-                return
-            kind = str(event.get("event"))
-            source = str(event.get("from", ""))
-            if kind == "graph":
-                self.state["graph"] = str(event.get("arch", ""))
-                if self.topics is not None:
-                    self._choose(self.state["graph"])
-            elif kind == "ready":
-                self.state[f"{source} ready"] = True
-            elif kind == "warning":
-                self.warn(str(event.get("message", "")))
-            elif kind == "error":
-                self.failure = self.failure or str(event.get("message", ""))
-            elif kind == "stats" and source == "recorder":
-                self.outcome.published = dict(event.get("published") or {})
-                self.outcome.calls = dict(event.get("calls") or {})
-            elif kind == "stats" and source == "tap":
-                self.received = {str(k): int(v) for k, v in dict(event["received"]).items()}
+    def handle(self, event: dict[str, Any]) -> None:
+        """Handle one event the tap or the recorder said (``from`` names which)."""
+        kind = str(event.get("event"))
+        source = str(event.get("from", ""))
+        if kind == "graph":
+            self.state["graph"] = str(event.get("arch", ""))
+            if self.topics is not None:
+                self._choose(self.state["graph"])
+        elif kind == "ready":
+            self.state[f"{source} ready"] = True
+        elif kind == "warning":
+            self.warn(str(event.get("message", "")))
+        elif kind == "error":
+            self.failure = self.failure or str(event.get("message", ""))
+        elif kind == "stats" and source == "recorder":
+            self.outcome.published = dict(event.get("published") or {})
+            self.outcome.calls = dict(event.get("calls") or {})
+        elif kind == "stats" and source == "tap":
+            self.received = {str(k): int(v) for k, v in dict(event["received"]).items()}
 
-    def _check_children(self) -> None:
+    def check_children(self) -> None:
         if self.failure:
             raise RecordError(self.failure)
         for child in (self.tap, self.node):
             if child is not None and not child.alive:
                 raise RecordError(child.died())
-
-    def run(self, stop: threading.Event, duration: float | None) -> None:
-        """Record until ``stop`` is set or ``duration`` seconds have passed."""
-        run_until(stop, duration, self.started, self.pump, self._check_children)
 
     # -- stop -----------------------------------------------------------------------------
 

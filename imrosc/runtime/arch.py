@@ -23,6 +23,7 @@ from __future__ import annotations
 import re
 from typing import Any, Dict, FrozenSet, Iterable, List, Mapping, Optional, Sequence, Tuple
 
+from .families import ARCHITECTURE
 from .violation import Violation
 
 Snapshot = Mapping[str, Mapping[str, FrozenSet[str]]]
@@ -61,7 +62,7 @@ class ArchChecks:
         self.point = point
         self.items: List[Tuple[str, str, bool, FrozenSet[str], Mapping[str, Any]]] = []
         for inv in invariants:
-            if inv["family"] != "architecture":
+            if inv["family"] != ARCHITECTURE:
                 continue
             bound, _, noun = inv["kind"].partition("_")
             params = inv["params"]

@@ -38,6 +38,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from imrosc.records import ARCH_TOPIC, encode
+from imrosc.runtime.families import (
+    ARCHITECTURE,
+    BOUNDS,
+    FREQUENCY,
+    INTERVAL,
+    POLYGON,
+    RATE,
+    VARIANCE,
+)
 from imrosc.sim import world as w
 from imrosc.sim.recording import (
     POSE_TYPE,
@@ -74,13 +83,13 @@ ScenarioKind = Literal[
 SCENARIO_KINDS: tuple[ScenarioKind, ...] = get_args(ScenarioKind)
 
 FAMILIES: dict[ScenarioKind, tuple[str, ...]] = {
-    "slowed": ("frequency",),
-    "spoofed": ("rate", "bounds", "polygon"),
-    "stuck": ("variance",),
-    "tilt": ("bounds",),
-    "extra_publisher": ("architecture", "frequency"),
-    "missing_subscriber": ("architecture",),
-    "out_of_order": ("interval",),
+    "slowed": (FREQUENCY,),
+    "spoofed": (RATE, BOUNDS, POLYGON),
+    "stuck": (VARIANCE,),
+    "tilt": (BOUNDS,),
+    "extra_publisher": (ARCHITECTURE, FREQUENCY),
+    "missing_subscriber": (ARCHITECTURE,),
+    "out_of_order": (INTERVAL,),
 }
 """The invariant families that see each fault (a spoofed jump also leaves the room's bounds
 when the platform is near a wall; a second publisher doubles /a/car_pose's frequency)."""

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import functools
+import sqlite3
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from rosbags.rosbag1 import Writer
-from rosbags.typesys import Stores, get_typestore
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Ros2Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from imrosc.backends.plan import render_job, render_plan
@@ -105,3 +108,16 @@ def specs_for(config: str, bags: list[Path]) -> tuple[list[PointSpec], Any, Any]
     specs, skipped, layouts = point_specs(render_plan(inputs), render_job(inputs), catalog)
     assert not skipped
     return specs, layouts, catalog
+
+
+def unknown_type_bag(path: Path) -> Path:
+    """A ROS 2 bag whose message definitions were lost (as old rosbag2 versions wrote)."""
+    store = get_typestore(Stores.LATEST)
+    store.register(get_types_from_msg("float64 level\n", "my_pkg/msg/Thing"))
+    with Ros2Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connection = writer.add_connection("/out", "my_pkg/msg/Thing", typestore=store)
+        thing = store.types["my_pkg/msg/Thing"](level=1.5)
+        writer.write(connection, 1, bytes(store.serialize_cdr(thing, "my_pkg/msg/Thing")))
+    with sqlite3.connect(next(path.glob("*.db3"))) as database:
+        database.execute("delete from message_definitions")
+    return path

@@ -30,9 +30,9 @@ from imrosc.translate.catalog import (
     note_bag,
     note_in_pool,
 )
-from tests.test_infer_cli import FIXTURES, unknown_type_bag
-from tests.translate import Msg, msg, write_bag
+from tests.translate import Msg, msg, unknown_type_bag, write_bag
 
+FIXTURES = Path(__file__).parent.parent / "fixtures"
 STRING, FLOATS = "std_msgs/msg/String", "std_msgs/msg/Float32MultiArray"
 
 

@@ -41,7 +41,7 @@ def element_name(variable: Variable) -> str:
 class ArrayState:
     """Mergeable state of the array family at one point."""
 
-    family = "array"
+    family = ARRAY
 
     def __init__(self, variables: Sequence[Variable]) -> None:
         self.variables = tuple(v for v in variables if v.derived is not None and v.numeric)

@@ -39,7 +39,7 @@ from imrosc.translate.points import PointSpec
 class BoundsState:
     """Mergeable state of the bounds family at one point."""
 
-    family = "bounds"
+    family = BOUNDS
 
     def __init__(self, variables: Sequence[Variable], *, one_of: bool, equality: bool) -> None:
         self.variables = tuple(
@@ -136,7 +136,7 @@ def bound_invariant(
     finite = (
         variable.trigger and int(extremes.nan[i]) == 0 and math.isfinite(lo) and math.isfinite(hi)
     )
-    extra = {"finite": True} if finite and family == "bounds" else {}
+    extra = {"finite": True} if finite and family == BOUNDS else {}
     if use_lo and use_hi:
         n = min(n_lo, n_hi)
         if lo == hi:

@@ -24,7 +24,7 @@ from imrosc.translate.points import PointSpec
 class EqualityState(PairRelationState):
     """Mergeable state of the equality family at one point."""
 
-    family = "equality"
+    family = EQUALITY
     mode = "equality"
 
     def finalize(self, context: FinalizeContext) -> list[Invariant]:

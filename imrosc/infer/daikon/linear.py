@@ -36,7 +36,7 @@ from imrosc.translate.points import PointSpec
 class LinearState(RelationState):
     """Mergeable state of the linear family at one point."""
 
-    family = "linear"
+    family = LINEAR
     width = 2
 
     def relations(self, context: FinalizeContext) -> list[tuple[int, int, Fit]]:

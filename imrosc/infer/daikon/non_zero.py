@@ -34,7 +34,7 @@ from imrosc.translate.points import PointSpec
 class NonZeroState:
     """Mergeable state of the non-zero family at one point."""
 
-    family = "non-zero"
+    family = NON_ZERO
 
     def __init__(self, variables: Sequence[Variable], *, one_of: bool) -> None:
         self.variables = tuple(v for v in variables if v.type == "int" and v.derived is None)

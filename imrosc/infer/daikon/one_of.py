@@ -26,7 +26,7 @@ from imrosc.translate.points import PointSpec
 class OneOfState:
     """Mergeable state of the one-of family at one point."""
 
-    family = "one-of"
+    family = ONE_OF
 
     def __init__(self, variables: Sequence[Variable]) -> None:
         self.variables = unary_variables(variables)

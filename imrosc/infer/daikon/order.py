@@ -29,7 +29,7 @@ from imrosc.translate.points import PointSpec
 class OrderState(PairRelationState):
     """Mergeable state of the order family at one point."""
 
-    family = "order"
+    family = ORDER
     mode = "order"
 
     def __init__(self, variables: Sequence[Variable], *, bounds: bool) -> None:

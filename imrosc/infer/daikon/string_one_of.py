@@ -20,7 +20,7 @@ from imrosc.translate.points import PointSpec
 class StringOneOfState:
     """Mergeable state of the string-one-of family at one point."""
 
-    family = "string-one-of"
+    family = STRING_ONE_OF
 
     def __init__(self, variables: Sequence[Variable]) -> None:
         self.variables = tuple(v for v in variables if v.type == "string" and v.derived is None)

@@ -52,7 +52,7 @@ _ORIENTATIONS = ((2, (0, 1)), (1, (0, 2)), (0, (1, 2)))
 class TernaryState(RelationState):
     """Mergeable state of the ternary family at one point."""
 
-    family = "ternary"
+    family = TERNARY
     width = 3
 
     def __init__(self, variables: Sequence[Variable]) -> None:

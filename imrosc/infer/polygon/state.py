@@ -141,7 +141,7 @@ def _changed(before: GroupSet, after: GroupSet, groups: IntArray) -> IntArray:
 class PolygonState:
     """Convex hulls of every pair of a point's numeric variables."""
 
-    family = "polygon"
+    family = POLYGON
 
     def __init__(self, variables: Sequence[Variable]) -> None:
         self.variables = tuple(variables)
@@ -341,7 +341,7 @@ def make_states(
     """The polygon state of one point, if enabled and the point has two numeric variables."""
     del tunables  # the chunk size of Algorithm 6 does not change the (exact) result
     chosen = polygon_variables(variables)
-    if "polygon" not in set(families) or len(chosen) < 2:
+    if POLYGON not in set(families) or len(chosen) < 2:
         return []
     return [PolygonState(chosen)]
 

@@ -46,9 +46,9 @@ def make_temporal_states(
     Raise ``ValueError`` for a concrete text that is no pattern over ``events``.
     """
     states: list[FamilyState] = []
-    if "interval" in families and len(events) >= 2:
+    if INTERVAL in families and len(events) >= 2:
         states.append(IntervalState(events, max_interval, max_events))
-    if "pattern" in families and patterns:
+    if PATTERN in families and patterns:
         state = PatternState(events, patterns)
         if state.machines:
             states.append(state)

@@ -43,10 +43,11 @@ import numpy as np
 import numpy.typing as npt
 
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, confidence
+from imrosc.runtime.families import INTERVAL
 
 __all__ = ["FAMILY", "IntervalState", "format_multiset"]
 
-FAMILY = "interval"
+FAMILY = INTERVAL
 
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]

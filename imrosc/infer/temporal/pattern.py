@@ -35,10 +35,11 @@ import numpy as np
 from imrosc.infer.core import FinalizeContext, Invariant, Samples, confidence
 from imrosc.infer.temporal.dfa import Dfa, compile_pattern
 from imrosc.infer.temporal.interval import event_codes
+from imrosc.runtime.families import PATTERN
 
 __all__ = ["FAMILY", "Machine", "PatternState"]
 
-FAMILY = "pattern"
+FAMILY = PATTERN
 
 Config = tuple[tuple[int, tuple[int, ...]], ...]
 """Pointers of a machine: (current state, maximal visited-state masks standing on it), sorted."""

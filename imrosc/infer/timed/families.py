@@ -184,7 +184,7 @@ class TimedState(ABC):
 class FrequencyState(TimedState):
     """Algorithm 2: ``freq_min <= messages per second <= freq_max`` over full windows."""
 
-    family = "frequency"
+    family = FREQUENCY
     label = "freq"
 
     def __init__(self, topic: str, window: float) -> None:
@@ -226,7 +226,7 @@ class MomentState(TimedState):
 class VarianceState(MomentState):
     """Algorithm 3: ``var_min <= window variance <= var_max`` per trigger variable."""
 
-    family = "variance"
+    family = VARIANCE
     label = "var"
     moment = 1
 
@@ -235,7 +235,7 @@ class MeanState(MomentState):
     """``mean_min <= window mean <= mean_max`` per trigger variable (windows of at least two
     messages, as the variance's)."""
 
-    family = "mean"
+    family = MEAN
     label = "mean"
     moment = 0
 
@@ -243,7 +243,7 @@ class MeanState(MomentState):
 class RateState(TimedState):
     """Algorithm 4 (errata fixed): ``rate_min <= window change rate <= rate_max``."""
 
-    family = "rate"
+    family = RATE
     label = "rate"
 
     def update(self, samples: Samples) -> None:
@@ -267,11 +267,11 @@ def make_states(
     enabled = set(families)
     states: list[TimedState] = []
     names = tuple(v.name for v in tracked(variables))
-    if "frequency" in enabled:
+    if FREQUENCY in enabled:
         states.append(FrequencyState(trigger_topic(variables), tunables.window))
-    if "variance" in enabled and names:
+    if VARIANCE in enabled and names:
         states.append(VarianceState(names, tunables.window))
-    if "rate" in enabled and names:
+    if RATE in enabled and names:
         states.append(RateState(names, tunables.window))
     if MEAN in enabled and names:
         states.append(MeanState(names, tunables.window))

@@ -90,30 +90,19 @@ def _convert(
     return _scalar(kind, value, where)
 
 
-def fill(
-    message: Any,
-    values: Mapping[str, Any],
-    message_class: Callable[[str], Any],
-    where: str = "",
-) -> Any:
-    """Set the fields of ``message`` (a rospy message: ``__slots__`` and ``_slot_types``)
-    from an action value (``{data: 3}``, ``{linear: {x: 0.5}}``); return the message.
-
-    ``message_class(type_name)`` gives the class of a nested message in a list. A field the
-    message lacks, a value of the wrong kind or out of range raises :class:`FillError`; a
-    ``null`` value leaves the field at its default.
-    """
+def _kinds(message: Any) -> Mapping[str, str]:
+    """The fields of a rospy message (``__slots__``) and their types (``_slot_types``, or
+    the values' own where a class does not list them: ``genpy.Time``)."""
     slots = list(getattr(message, "__slots__", ()))
     types = list(getattr(message, "_slot_types", ()))
     if len(types) == len(slots):
-        kinds = dict(zip(slots, types))
-    else:
-        kinds = {slot: _kind_of(getattr(message, slot)) for slot in slots}
+        return dict(zip(slots, types))
+    return {slot: _kind_of(getattr(message, slot)) for slot in slots}
 
-    def convert(current: Any, kind: str, value: Any, path: str) -> Any:
-        return _convert(current, kind, value, path, message_class)
 
-    return check.fill_fields(message, kinds, values, convert, where)
+fill = check.filler(_kinds, _convert)
+"""Set the fields of a rospy message from an action value (``{linear: {x: 0.5}}``); return
+the message (:func:`imrosc.onboard.fill.filler`)."""
 
 
 def _kind_of(current: Any) -> str:

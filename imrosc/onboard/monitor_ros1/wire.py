@@ -45,7 +45,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..flat import STATISTICS, VARIABLE_PATH, UnsupportedError, converter
+from ..flat import Step, UnsupportedError, Wanted, match, walker
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type``) -> its genpy class."""
@@ -121,6 +121,16 @@ def _kind(base: str, array: bool) -> Optional[Tuple[str, str]]:
     return None
 
 
+def _numbers(kind: str, code: str) -> str:
+    """A leaf's kind as :func:`.flat.match` reads it: ``bytes`` are an array of numbers, an
+    array of times is not one (genpy gives its elements as ``Time`` objects)."""
+    if kind == "bytes":
+        return "array"
+    if kind == "array" and code in _TIMES.values():
+        return "times"
+    return kind
+
+
 def _leaves(message_class: Any, lookup: Lookup, prefix: str, out: List[Leaf]) -> None:
     for name, kind in zip(message_class.__slots__, message_class._slot_types):
         path = prefix + name
@@ -176,9 +186,6 @@ def _static_width(leaf: Leaf) -> Optional[int]:
 
 # -- the plan --------------------------------------------------------------------------------
 
-Step = Callable[[bytes, int, List[Any]], int]
-"""Reads from ``data`` at an offset, appends what it reads, returns the next offset."""
-
 
 def reader(
     message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup
@@ -194,30 +201,7 @@ def reader(
 def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup) -> Reader:
     leaves: List[Leaf] = []
     _leaves(message_class, lookup, "", leaves)
-    by_path = {leaf[0]: k for k, leaf in enumerate(leaves)}
-    wanted: List[Tuple[int, Optional[int], Optional[str], bool]] = []
-    for variable in variables:
-        found = VARIABLE_PATH.match(str(variable.get("path", "")))
-        if found is None or found.group("fields") not in by_path:
-            raise UnsupportedError(f"no field {variable.get('path')!r}")
-        leaf = by_path[found.group("fields")]
-        index = int(found.group("index")) if found.group("index") is not None else None
-        derived = variable.get("derived")
-        text = variable.get("type") == "string"
-        _, kind, code, _ = leaves[leaf]
-        if derived is not None:
-            if derived not in STATISTICS or index is not None or text:
-                raise UnsupportedError(f"statistic {derived!r} of {variable.get('path')!r}")
-            if kind not in ("array", "bytes") or code in _TIMES.values():
-                raise UnsupportedError(f"a statistic of {kind} {variable.get('path')!r}")
-        elif index is not None:
-            if kind not in ("array", "bytes") or code in _TIMES.values() or text:
-                raise UnsupportedError(f"element of {kind} {variable.get('path')!r}")
-        elif kind != ("string" if text else "scalar"):
-            raise UnsupportedError(
-                f"{kind} {variable.get('path')!r} read as {variable.get('type')}"
-            )
-        wanted.append((leaf, index, derived, text))
+    wanted = match(variables, [(path, _numbers(kind, code)) for path, kind, code, _ in leaves])
     needed = sorted({leaf for leaf, _, _, _ in wanted})
     first = needed[0] if needed else 0
     if [leaf for leaf, _, _, _ in wanted] == list(range(first, first + len(wanted))) and all(
@@ -390,12 +374,13 @@ def _errors() -> str:
 
 def _finish(
     steps: Sequence[Step],
-    wanted: Sequence[Tuple[int, Optional[int], Optional[str], bool]],
+    wanted: Sequence[Wanted],
     leaves: Sequence[Leaf],
     order: Sequence[int],
 ) -> Reader:
     """The reader: run the steps, then give each variable its value as the generated
-    flattener computes it."""
+    flattener computes it (numbers only: the values the steps keep, as they are or picked;
+    else :func:`.flat.walker`'s)."""
     plain = all(index is None and derived is None for _, index, derived, _ in wanted)
     floats = all(leaves[leaf][2] in ("d", "f") for leaf in order)
     at = [slot for slot, _, _, _ in wanted]
@@ -420,14 +405,9 @@ def _finish(
             return list(map(float, pick(got)))
 
         return numbers
-    convert = [converter(index, derived, text) for _, index, derived, text in wanted]
-    pairs = list(zip(convert, at))
+    return walker(steps, wanted, _origin)
 
-    def mixed(data: bytes) -> List[Any]:
-        got: List[Any] = []
-        offset = 0
-        for step in steps:
-            offset = step(data, offset, got)
-        return [make(got[slot]) for make, slot in pairs]
 
-    return mixed
+def _origin(data: bytes) -> int:
+    """Where a ROS 1 message's fields start: at its first byte."""
+    return 0

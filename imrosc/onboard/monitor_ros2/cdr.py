@@ -46,14 +46,12 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..flat import STATISTICS, VARIABLE_PATH, UnsupportedError, converter
+from ..flat import Step, UnsupportedError, match, walker
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type`` or ``pkg/msg/Type``) -> its rclpy class, or ``None``."""
 Reader = Callable[[bytes], Any]
 """The serialised bytes of a message -> its values in the layout's order."""
-Step = Callable[[bytes, int, List[Any]], int]
-"""Reads from ``data`` at an offset, appends what it keeps, returns the next offset."""
 
 HEADER = b"\x00\x01"
 """The encapsulation the plan reads: plain CDR, little-endian."""
@@ -132,34 +130,10 @@ def reader(
         return None
 
 
-Wanted = Tuple[int, Optional[int], Optional[str], bool]
-"""A variable: its leaf, its element index, its statistic and whether it is a string."""
-
-
 def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup) -> Reader:
     leaves: List[Leaf] = []
     _leaves(message_class, lookup, "", leaves)
-    by_path = {leaf[0]: k for k, leaf in enumerate(leaves)}
-    wanted: List[Wanted] = []
-    for variable in variables:
-        path = str(variable.get("path", ""))
-        found = VARIABLE_PATH.match(path)
-        if found is None or found.group("fields") not in by_path:
-            raise UnsupportedError(f"no field {path!r}")
-        leaf = by_path[found.group("fields")]
-        index = int(found.group("index")) if found.group("index") is not None else None
-        derived = variable.get("derived")
-        text = variable.get("type") == "string"
-        kind = leaves[leaf][1]
-        if derived is not None:
-            if derived not in STATISTICS or index is not None or text or kind != "array":
-                raise UnsupportedError(f"statistic {derived!r} of {kind} {path!r}")
-        elif index is not None:
-            if kind != "array" or text:
-                raise UnsupportedError(f"element of {kind} {path!r}")
-        elif kind != ("string" if text else "scalar"):
-            raise UnsupportedError(f"{kind} {path!r} read as {variable.get('type')}")
-        wanted.append((leaf, index, derived, text))
+    wanted = match(variables, [(path, kind) for path, kind, _, _, _ in leaves])
     needed = sorted({leaf for leaf, _, _, _ in wanted})
     last = needed[-1] if needed else -1
     kept = set(needed)
@@ -169,9 +143,8 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
         elements = [index for _, index, derived, _ in wanted]
         if elements == list(range(len(wanted))):
             return _doubles(steps[:-1], len(wanted))
-    return _finish(
-        steps, [(slot[leaf], index, derived, text) for leaf, index, derived, text in wanted]
-    )
+    slots = [(slot[leaf], index, derived, text) for leaf, index, derived, text in wanted]
+    return walker(steps, slots, _start)
 
 
 def _start(data: bytes) -> int:
@@ -281,19 +254,3 @@ def _dynamic(leaf: Leaf, keep: bool) -> Step:
         return offset
 
     return messages
-
-
-def _finish(steps: Sequence[Step], wanted: Sequence[Wanted]) -> Reader:
-    """The reader: walk the steps, then give each variable its value as the generated
-    flattener computes it."""
-    convert = [converter(index, derived, text) for _, index, derived, text in wanted]
-    pairs = list(zip(convert, [slot for slot, _, _, _ in wanted]))
-
-    def values(data: bytes) -> List[Any]:
-        got: List[Any] = []
-        offset = _start(data)
-        for step in steps:
-            offset = step(data, offset, got)
-        return [make(got[slot]) for make, slot in pairs]
-
-    return values

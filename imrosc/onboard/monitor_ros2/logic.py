@@ -426,24 +426,9 @@ def _convert(
     return _scalar(kind, value, where)
 
 
-def fill(
-    message: Any,
-    values: Mapping[str, Any],
-    message_class: Callable[[str], Any],
-    where: str = "",
-) -> Any:
-    """Set the fields of a ROS 2 message (``get_fields_and_field_types``) from an action
-    value (``{data: 3}``, ``{linear: {x: 0.5}}``, ``{header: {stamp: 1.5}}``); return it.
-
-    ``message_class(type_name)`` gives the class of a nested message (``pkg/Name``). A
-    field the message lacks, a value of the wrong kind, out of range or of the wrong length
-    raises :class:`FillError`; a ``null`` value leaves the field at its default.
-    """
-
-    def convert(current: Any, kind: str, value: Any, path: str) -> Any:
-        return _convert(current, kind, value, path, message_class)
-
-    return check.fill_fields(message, fields_of(message) or {}, values, convert, where)
+fill = check.filler(lambda message: fields_of(message) or {}, _convert)
+"""Set the fields of a ROS 2 message (``get_fields_and_field_types``) from an action value
+(``{header: {stamp: 1.5}}``); return it (:func:`imrosc.onboard.fill.filler`)."""
 
 
 # -- warnings -------------------------------------------------------------------------------
@@ -456,7 +441,7 @@ NO_MASTER = (
 
 def note(violation: Any) -> Optional[str]:
     """What the warning adds for a violation the ROS 2 node cannot act on as ROS 1 does."""
-    if violation.family == "architecture" and violation.kind == "max_pubs":
+    if common.bounds_publishers(violation.family, violation.kind):
         return NO_MASTER
     return None
 
