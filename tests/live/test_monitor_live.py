@@ -231,7 +231,9 @@ def test_a_silent_publisher_breaks_its_frequency_by_timer(monitored: Monitored) 
 
 def test_an_extra_publisher_is_reported_and_unregistered(monitored: Monitored) -> None:
     """The master forgets the intruder: it tells the subscribers (roscpp ones drop their
-    connection to it; rospy ones keep what they have) and no later subscriber hears it."""
+    connection to it; rospy ones keep what they have) and no later subscriber hears it. The
+    topic is watched, not blocked: the system's rospy subscribers still hear the intruder, so
+    the monitor keeps its own connection and goes on checking what the intruder sends."""
     ros = monitored.ros
     since = time.time()
     intruder = ros.node("car.py", name="intruder", namespace="/a")
@@ -244,6 +246,10 @@ def test_an_extra_publisher_is_reported_and_unregistered(monitored: Monitored) -
         assert intruder.alive  # still running and publishing, but unknown to the master
         late = ros.listen(POSE)
         assert {m["callerid"] for m in late.wait_count(10)} == {"/a/car"}
+        since = time.time()
+        ros.inject("/a/intruder", "out_of_range:1")
+        bad = monitored.wait_report(Z_BOUNDS, since)
+        assert (bad["observed"], bad["point"]) == (50.0, "v")
     finally:
         ros.stop(intruder)
 

@@ -441,8 +441,13 @@ class Monitor(common.Checking):
             rospy.logwarn(f"imrosc: cannot unregister {node} of {topic}: {status}")
             return
         rospy.logwarn(f"imrosc: unregistered unknown publisher {node} of {topic}")
-        # roscpp subscribers drop a publisher the master no longer lists; rospy ones only
-        # connect to new publishers, so the node closes its own connection to it
+        if topic not in self.topic_relays:
+            # a watched topic: the system's rospy subscribers keep their connection to the
+            # publisher and hear it still, so the node keeps hearing and checking it too
+            return
+        # a blocked topic, which only the node hears: roscpp subscribers drop a publisher the
+        # master no longer lists, rospy ones only connect to new publishers, so the node
+        # closes its own connection to it and relays nothing of it
         subscriber = self.subscribers.get(topic)
         impl = getattr(subscriber, "impl", None)
         for connection in list(getattr(impl, "connections", ())):
