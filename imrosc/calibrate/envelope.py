@@ -116,6 +116,8 @@ class _Limits:
     """``(limits, units)``: how far each unit reaches along each limit (0 where unknown)."""
     known: np.ndarray
     """``(limits, units)``: whether the unit says anything about the limit."""
+    reached: list[bool]
+    """Per unit, whether it says anything about any of the limits."""
 
     @classmethod
     def of(cls, invariant: Mapping[str, Any], found: Sequence[Mapping[str, Any] | None]) -> _Limits:
@@ -131,11 +133,14 @@ class _Limits:
             rows = [[support(params, unit, slot) for unit in found] for slot in limits]
         known = np.array([[s is not None for s in row] for row in rows], dtype=bool)
         values = [[0.0 if s is None else s for s in row] for row in rows]
+        known = known.reshape(len(limits), len(found))
+        reached = [bool(r) for r in np.asarray(known.any(axis=0))]
         return cls(
             limits,
             [to_scale(raw(params, slot), slot) for slot in limits],
             np.array(values, dtype=np.float64).reshape(len(limits), len(found)),
-            known.reshape(len(limits), len(found)),
+            known,
+            reached,
         )
 
 
@@ -184,7 +189,6 @@ class Envelopes:
         ``units`` holds. (A set that some unit of ``units`` holds is tested by
         :meth:`set_breaks`.)"""
         found: set[str] = set()
-        chosen = _indexes(units)
         for invariant in self.source["invariants"]:
             ident = invariant["id"]
             if ident in self.drop:
@@ -193,7 +197,7 @@ class Envelopes:
             if sets is not None:
                 if all(sets[u] is None for u in units):
                     found.add(ident)
-            elif limits is None or not limits.known[:, chosen].any():
+            elif limits is None or not any(limits.reached[u] for u in units):
                 found.add(ident)
         return found
 
