@@ -8,8 +8,8 @@ fold's for the held-out replays that set the alarm rule.
 
 from __future__ import annotations
 
-import copy
 import math
+import pickle
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,6 +22,8 @@ from imrosc.calibrate.limits import (
     Slot,
     members,
     merge_sets,
+    number,
+    polygon_supports,
     raw,
     set_broken,
     slots,
@@ -31,7 +33,7 @@ from imrosc.calibrate.limits import (
     with_value,
 )
 from imrosc.calibrate.text import retext
-from imrosc.calibrate.tolerance import tolerance, too_many
+from imrosc.calibrate.tolerance import tolerance, tolerances, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
@@ -104,10 +106,42 @@ def _key(invariant: Mapping[str, Any]) -> Key:
 
 
 @dataclass
-class _Limit:
-    slot: Slot
-    base: float | None
-    supports: list[float | None]
+class _Limits:
+    """An invariant's limits: their slots, their values in the merged invariant (in each
+    slot's space) and their supports in each unit."""
+
+    slots: list[Slot]
+    bases: list[float | None]
+    supports: np.ndarray
+    """``(limits, units)``: how far each unit reaches along each limit (0 where unknown)."""
+    known: np.ndarray
+    """``(limits, units)``: whether the unit says anything about the limit."""
+    reached: list[bool]
+    """Per unit, whether it says anything about any of the limits."""
+
+    @classmethod
+    def of(cls, invariant: Mapping[str, Any], found: Sequence[Mapping[str, Any] | None]) -> _Limits:
+        """The limits of ``invariant`` given each unit's params of it (``found``)."""
+        params = invariant["params"]
+        limits = slots(invariant)
+        rows: list[list[float | None]]
+        if invariant["family"] == POLYGON:
+            normals = [params["A"][k] for k in range(len(limits))]  # b's half-planes
+            per_unit = [polygon_supports(normals, unit) if normals else None for unit in found]
+            rows = [[None if s is None else s[k] for s in per_unit] for k in range(len(limits))]
+        else:
+            rows = [[support(params, unit, slot) for unit in found] for slot in limits]
+        known = np.array([[s is not None for s in row] for row in rows], dtype=bool)
+        values = [[0.0 if s is None else s for s in row] for row in rows]
+        known = known.reshape(len(limits), len(found))
+        reached = [bool(r) for r in np.asarray(known.any(axis=0))]
+        return cls(
+            limits,
+            [to_scale(raw(params, slot), slot) for slot in limits],
+            np.array(values, dtype=np.float64).reshape(len(limits), len(found)),
+            known,
+            reached,
+        )
 
 
 class Envelopes:
@@ -120,7 +154,7 @@ class Envelopes:
         self.types, self.integer = _types(document)
         self.budget = budget
         self.count = len(views)
-        self.limits: dict[str, list[_Limit]] = {}
+        self.limits: dict[str, _Limits] = {}
         self.drop: set[str] = set()
         self.widened: dict[str, int] = {}
         self.dropped: dict[str, int] = {}
@@ -143,14 +177,7 @@ class Envelopes:
                     for params in found
                 ]
             if family in WIDENED:
-                self.limits[invariant["id"]] = [
-                    _Limit(
-                        slot,
-                        to_scale(raw(invariant["params"], slot), slot),
-                        [support(invariant["params"], unit, slot) for unit in found],
-                    )
-                    for slot in slots(invariant)
-                ]
+                self.limits[invariant["id"]] = _Limits.of(invariant, found)
             elif self._unstable(invariant, found):
                 self._drop(invariant, self.dropped)
 
@@ -170,7 +197,7 @@ class Envelopes:
             if sets is not None:
                 if all(sets[u] is None for u in units):
                     found.add(ident)
-            elif limits is None or all(lim.supports[u] is None for lim in limits for u in units):
+            elif limits is None or not any(limits.reached[u] for u in units):
                 found.add(ident)
         return found
 
@@ -217,56 +244,108 @@ class Envelopes:
     def document(self, units: set[int], *, final: bool = False) -> dict[str, Any]:
         """The invariants document learnt from ``units``: the merged envelope with the
         final tolerances (``final``), or each limit from those units' supports alone."""
-        out = copy.deepcopy(dict(self.source))
-        kept = []
+        source = dict(self.source)
+        source["invariants"] = [i for i in source["invariants"] if i["id"] not in self.drop]
+        out: dict[str, Any] = _copy(source)
+        chosen = _indexes(units)
         for invariant in out["invariants"]:
-            if invariant["id"] in self.drop:
-                continue
             limits = self.limits.get(invariant["id"])
-            if limits:
+            if limits is not None and limits.slots:
                 integer = invariant["id"] in self.integer
-                if self._widen(invariant, limits, units, final, integer):
+                if self._widen(invariant, limits, chosen, final, integer):
                     retext(invariant, self.types)
                     if final:
                         family = invariant["family"]
                         self.widened[family] = self.widened.get(family, 0) + 1
-            kept.append(invariant)
-        out["invariants"] = kept
         return out
 
     def _widen(
         self,
         invariant: dict[str, Any],
-        limits: list[_Limit],
-        units: set[int],
+        limits: _Limits,
+        chosen: np.ndarray,
         final: bool,
         integer: bool,
     ) -> bool:
         params = dict(invariant["params"])
         moved = False
-        for limit in limits:
-            known = [s for u, s in enumerate(limit.supports) if u in units and s is not None]
-            base = limit.base
-            if not final and known and all(math.isfinite(s) for s in known):
-                base = max(known)
+        supports, known = limits.supports[:, chosen], limits.known[:, chosen]
+        whole = bool((known == known[:1]).all())
+        if whole:  # the same units give every limit a support (polygons: those with vertices)
+            supports = supports[:, known[0]] if len(known) else supports
+            held = supports.tolist()
+            finite = np.isfinite(supports).all(axis=1).tolist()
+        else:  # the supports of the units that have one, in the units' order
+            held = [row[mask].tolist() for row, mask in zip(supports, known, strict=True)]
+            finite = [all(map(math.isfinite, row)) for row in held]
+        bases = [
+            max(row) if not final and row and ok else base
+            for row, ok, base in zip(held, finite, limits.bases, strict=True)
+        ]
+        alpha = self.budget / len(limits.slots)
+        counted = [slot.quantum if slot.scale == "count" else 0.0 for slot in limits.slots]
+        if whole:
+            tols = tolerances(supports, bases, alpha, counted)
+        else:
+            tols = [
+                None if base is None else tolerance(row, base, alpha, resolution)
+                for row, base, resolution in zip(held, bases, counted, strict=True)
+            ]
+        if invariant["family"] == POLYGON:
+            return self._widen_polygon(invariant, params, bases, tols, final)
+        for slot, base, found in zip(limits.slots, bases, tols, strict=True):
             if base is None:
                 continue
-            counted = limit.slot.quantum if limit.slot.scale == "count" else 0.0
-            tol = tolerance(known, base, self.budget / len(limits), counted)
-            if tol is None:  # one unit alone reaches this limit: what it did, no more
-                tol = 0.0
-            if tol == 0 and final and limit.slot.scale != "count":
+            tol = 0.0 if found is None else found  # None: one unit alone reaches this limit
+            if tol == 0 and final and slot.scale != "count":
                 continue  # the envelope as inferred, to the last bit
-            value = widened(base, tol, limit.slot)
-            if value != raw(params, limit.slot):
+            value = widened(base, tol, slot)
+            if value != raw(params, slot):
                 if integer:  # integer variables' bounds stay integers, rounded outward
-                    value = float(math.ceil(value) if limit.slot.upper else math.floor(value))
-                with_value(params, limit.slot, value)
+                    value = float(math.ceil(value) if slot.upper else math.floor(value))
+                with_value(params, slot, value)
                 moved = True
-        if moved and invariant["family"] == POLYGON:
-            params["vertices"] = vertices(params["A"], params["b"], params["vertices"])
         invariant["params"] = params
         return moved
+
+    @staticmethod
+    def _widen_polygon(
+        invariant: dict[str, Any],
+        params: dict[str, Any],
+        bases: Sequence[float | None],
+        tols: Sequence[float | None],
+        final: bool,
+    ) -> bool:
+        """:meth:`_widen`'s loop for a polygon, whose limits are its offsets ``b``: upper
+        limits in the values' own scale, moved in one copy of ``b``."""
+        offsets = list(params["b"])
+        moved = False
+        for k, (base, tol) in enumerate(zip(bases, tols, strict=True)):
+            if base is None:
+                continue
+            if not tol and final:
+                continue  # the envelope as inferred, to the last bit
+            value = base + (tol or 0.0)  # widened() of an upper additive limit
+            if value != number(offsets[k]):
+                offsets[k] = value
+                moved = True
+        if moved:
+            params["b"] = offsets
+            params["vertices"] = vertices(params["A"], offsets, params["vertices"])
+        invariant["params"] = params
+        return moved
+
+
+def _indexes(units: set[int]) -> np.ndarray:
+    """The units' indexes in increasing order, to pick their columns of a limit's supports."""
+    return np.array(sorted(units), dtype=np.intp)
+
+
+def _copy(document: dict[str, Any]) -> dict[str, Any]:
+    """A deep copy of an invariants document (a tree of dicts, lists and numbers), through
+    pickle: several times faster than ``copy.deepcopy`` on thousands of polygons."""
+    found: dict[str, Any] = pickle.loads(pickle.dumps(document, pickle.HIGHEST_PROTOCOL))
+    return found
 
 
 def _types(document: Mapping[str, Any]) -> tuple[dict[tuple[str, str], str], set[str]]:

@@ -93,17 +93,24 @@ def raw(params: Mapping[str, Any], slot: Slot) -> float | None:
     """The slot's value in ``params`` as a number (``None`` if absent or not finite)."""
     value = params.get(slot.param)
     if slot.index is not None:
-        if isinstance(value, Mapping):
+        if type(value) is list and type(slot.index) is int:  # the common case, quickly
+            value = value[slot.index] if slot.index < len(value) else None
+        elif isinstance(value, Mapping):
             value = value.get(str(slot.index), 0 if slot.param == "min_events" else None)
         elif isinstance(value, Sequence) and isinstance(slot.index, int):
             value = value[slot.index] if slot.index < len(value) else None
         else:
             value = None
+    return number(value)
+
+
+def number(value: Any) -> float | None:
+    """``value`` as a finite float (``None``: not a number, or not finite)."""
     try:
-        number = float(value)  # type: ignore[arg-type]
+        found = float(value)
     except (TypeError, ValueError):
         return None
-    return number if math.isfinite(number) else None
+    return found if math.isfinite(found) else None
 
 
 def to_scale(value: float | None, slot: Slot) -> float | None:
@@ -129,12 +136,33 @@ def support(merged: Mapping[str, Any], unit: Mapping[str, Any] | None, slot: Slo
     if unit is None:
         return None
     if slot.param == "b":
-        vertices = np.asarray(unit.get("vertices") or [], dtype=np.float64).reshape(-1, 2)
-        if not len(vertices) or not isinstance(slot.index, int):
+        if not isinstance(slot.index, int):
             return None
-        normal = np.asarray(merged["A"][slot.index], dtype=np.float64)
-        return float(np.max(vertices @ normal))
+        found = polygon_supports([merged["A"][slot.index]], unit)
+        return None if found is None else found[0]
     return to_scale(raw(unit, slot), slot)
+
+
+def polygon_supports(
+    normals: Sequence[Sequence[float]], unit: Mapping[str, Any] | None
+) -> list[float] | None:
+    """How far a unit's polygon (``unit``: its params, or ``None``) reaches along each of
+    ``normals``: the largest ``a_k . v`` over its vertices ``v`` (``None``: no vertices).
+
+    The unit's vertices are converted once and multiplied by every normal in one call:
+    ``np.matmul`` broadcasts the ``(n, 2)`` vertices over a stack of ``(2, 1)`` normals, one
+    matrix-vector product per normal, the same BLAS call (so the same bits, whatever fused
+    multiply-adds the machine's BLAS uses) as ``vertices @ normal`` for each normal alone. A
+    matrix-matrix product ``vertices @ A.T`` would round differently.
+    """
+    if unit is None:
+        return None
+    vertices = np.asarray(unit.get("vertices") or [], dtype=np.float64).reshape(-1, 2)
+    if not len(vertices):
+        return None
+    stack = np.asarray(normals, dtype=np.float64).reshape(-1, 2, 1)
+    found: list[float] = np.matmul(vertices, stack).max(axis=1)[:, 0].tolist()
+    return found
 
 
 def widened(base: float, tolerance: float, slot: Slot) -> float:
