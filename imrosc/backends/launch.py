@@ -141,7 +141,9 @@ def resolve(name: str, namespace: str) -> str:
     return join_namespace(namespace, name)
 
 
-def _indent(element: etree._Element) -> str:
+def indent_of(element: etree._Element) -> str:
+    """The indentation of ``element``'s line (the whitespace after the last line break
+    before it)."""
     previous = element.getprevious()
     parent = element.getparent()
     space = previous.tail if previous is not None else parent.text if parent is not None else ""
@@ -149,9 +151,9 @@ def _indent(element: etree._Element) -> str:
     return space[space.rfind("\n") + 1 :] if "\n" in space else ""
 
 
-def _append(parent: etree._Element, child: etree._Element, step: str = "  ") -> None:
+def append_child(parent: etree._Element, child: etree._Element, step: str = "  ") -> None:
     """Append ``child`` as the last element of ``parent``, indented like its siblings."""
-    outer = _indent(parent)
+    outer = indent_of(parent)
     inner = outer + step
     if len(parent):
         last = parent[-1]
@@ -163,26 +165,23 @@ def _append(parent: etree._Element, child: etree._Element, step: str = "  ") -> 
     parent.append(child)
 
 
-class _Rewriter:
-    def __init__(
-        self,
-        label: str,
-        interception: Interception,
-        graph: Graph | None,
-    ) -> None:
+class LaunchWalker:
+    """Walks the scopes of a roslaunch XML file: a ``<group ns=...>`` nests its namespace
+    (``None`` where a substitution makes it unknown), and each ``<node>``, ``<include>`` and
+    other element is handed to :meth:`node`, :meth:`include` and :meth:`other` with the
+    namespace in force. The monitor's rewriter and ``imrosc record``'s copy build on it."""
+
+    def __init__(self, label: str, diagnostics: list[Diagnostic]) -> None:
         self.label = label
-        self.interception = interception
-        self.graph = graph
-        self.out = Rewritten(None)
+        self.diagnostics = diagnostics
 
     def report(self, element: etree._Element, code: str, message: str) -> None:
+        """A diagnostic at ``element``'s line."""
         line = element.sourceline if isinstance(element.sourceline, int) else 1
-        self.out.diagnostics.append(make(self.label, line, 1, code, message))
-
-    def intercepted(self, name: str) -> bool:
-        return name in self.interception.topics or name in self.interception.services
+        self.diagnostics.append(make(self.label, line, 1, code, message))
 
     def scope(self, element: etree._Element, namespace: str | None) -> None:
+        """Walk the children of ``element`` in ``namespace``."""
         for child in element:
             if not isinstance(child.tag, str):
                 continue
@@ -195,22 +194,56 @@ class _Rewriter:
             elif child.tag == "node":
                 self.node(child, namespace)
             elif child.tag == "include":
-                self.report(
-                    child,
-                    "launch-unrewritten",
-                    f"<include file={child.get('file', '')!r}>: the nodes of an included file "
-                    "are not remapped; rewrite that file or move its nodes here",
-                )
-            elif child.tag == "remap" and namespace is not None:
-                target = resolve(child.get("to", ""), namespace)
-                source = resolve(child.get("from", ""), namespace)
-                if self.intercepted(target) or self.intercepted(source):
-                    self.report(
-                        child,
-                        "launch-unrewritten",
-                        f"a <remap> outside a node touches the intercepted name "
-                        f"{target if self.intercepted(target) else source}; it is left as is",
-                    )
+                self.include(child)
+            else:
+                self.other(child, namespace)
+
+    def node(self, element: etree._Element, namespace: str | None) -> None:
+        """A ``<node>`` in ``namespace``."""
+        raise NotImplementedError
+
+    def include(self, element: etree._Element) -> None:
+        """An ``<include>``."""
+
+    def other(self, element: etree._Element, namespace: str | None) -> None:
+        """Any other element of a scope."""
+
+
+class _Rewriter(LaunchWalker):
+    def __init__(
+        self,
+        label: str,
+        interception: Interception,
+        graph: Graph | None,
+    ) -> None:
+        self.out = Rewritten(None)
+        super().__init__(label, self.out.diagnostics)
+        self.interception = interception
+        self.graph = graph
+
+    def intercepted(self, name: str) -> bool:
+        return name in self.interception.topics or name in self.interception.services
+
+    def include(self, element: etree._Element) -> None:
+        self.report(
+            element,
+            "launch-unrewritten",
+            f"<include file={element.get('file', '')!r}>: the nodes of an included file "
+            "are not remapped; rewrite that file or move its nodes here",
+        )
+
+    def other(self, element: etree._Element, namespace: str | None) -> None:
+        if element.tag != "remap" or namespace is None:
+            return
+        target = resolve(element.get("to", ""), namespace)
+        source = resolve(element.get("from", ""), namespace)
+        if self.intercepted(target) or self.intercepted(source):
+            self.report(
+                element,
+                "launch-unrewritten",
+                f"a <remap> outside a node touches the intercepted name "
+                f"{target if self.intercepted(target) else source}; it is left as is",
+            )
 
     namespace_attribute = "ns"
     """The attribute that puts a node into a namespace (ROS 2: ``namespace``)."""
@@ -274,7 +307,7 @@ class _Rewriter:
         added = etree.Element("remap")
         added.set("from", name)
         added.set("to", relay)
-        _append(element, added)
+        append_child(element, added)
         self.out.remaps.setdefault(full, []).append((name, relay))
 
 
@@ -362,9 +395,9 @@ def _finish(
     given = etree.SubElement(include, "arg")
     given.set("name", "fail_open")
     given.set("value", passed)
-    _append(root, etree.Comment(" the imrosc monitor "))
-    _append(root, include)
-    indent = _indent(include)
+    append_child(root, etree.Comment(" the imrosc monitor "))
+    append_child(root, include)
+    indent = indent_of(include)
     include.text = "\n" + indent + "  "
     given.tail = "\n" + indent
     before = list(root.itersiblings(preceding=True))[::-1]
@@ -431,12 +464,7 @@ class _Ros2Rewriter(_Rewriter):
             elif tag == "node":
                 self.node(child, current)
             elif tag == "include":
-                self.report(
-                    child,
-                    "launch-unrewritten",
-                    f"<include file={child.get('file', '')!r}>: the nodes of an included file "
-                    "are not remapped; rewrite that file or move its nodes here",
-                )
+                self.include(child)
             elif tag in _CONTAINERS:
                 for composable in child.iter(*_COMPOSABLE):
                     self.report(

@@ -25,9 +25,15 @@ from pathlib import Path
 
 from lxml import etree
 
-from imrosc.backends.launch import join_namespace, read_launch, resolve
+from imrosc.backends.launch import (
+    LaunchWalker,
+    append_child,
+    join_namespace,
+    read_launch,
+    resolve,
+)
 from imrosc.backends.quoting import xml_comment
-from imrosc.diagnostics import Diagnostic, make
+from imrosc.diagnostics import Diagnostic
 
 __all__ = ["RecordLaunch", "record_launch_name", "rewrite_for_recording"]
 
@@ -54,54 +60,17 @@ def record_launch_name(path: Path) -> Path:
     return path.with_name(f"{path.stem}.record{path.suffix or '.launch'}")
 
 
-def _indent_of(element: etree._Element) -> str:
-    before = element.getprevious()
-    parent = element.getparent()
-    space = (before.tail if before is not None else parent.text if parent is not None else "") or ""
-    return space[space.rfind("\n") + 1 :] if "\n" in space else ""
-
-
-def _append(parent: etree._Element, child: etree._Element) -> None:
-    """Append ``child`` to ``parent``, indented one step deeper than ``parent``."""
-    outer = _indent_of(parent)
-    inner = outer + "  "
-    if len(parent):
-        last = parent[-1]
-        child.tail = last.tail if last.tail is not None else "\n" + outer
-        last.tail = "\n" + inner
-    else:
-        parent.text = "\n" + inner
-        child.tail = "\n" + outer
-    parent.append(child)
-
-
-class _Walker:
+class _Walker(LaunchWalker):
     def __init__(self, label: str, servers: Mapping[str, Iterable[str]], prefix: str) -> None:
-        self.label = label
+        self.out = RecordLaunch(None)
+        super().__init__(label, self.out.diagnostics)
         self.prefix = prefix.rstrip("/")
         self.wanted = {(node, service) for service, nodes in servers.items() for node in nodes}
-        self.out = RecordLaunch(None)
         self.unresolved: list[etree._Element] = []
         self.includes: list[etree._Element] = []
 
-    def report(self, element: etree._Element, code: str, message: str) -> None:
-        line = element.sourceline if isinstance(element.sourceline, int) else 1
-        self.out.diagnostics.append(make(self.label, line, 1, code, message))
-
-    def scope(self, element: etree._Element, namespace: str | None) -> None:
-        for child in element:
-            if not isinstance(child.tag, str):
-                continue
-            if child.tag == "group":
-                ns = child.get("ns")
-                inner = namespace
-                if ns is not None and namespace is not None:
-                    inner = None if _SUBSTITUTION in ns else join_namespace(namespace, ns)
-                self.scope(child, inner)
-            elif child.tag == "node":
-                self.node(child, namespace)
-            elif child.tag == "include":
-                self.includes.append(child)
+    def include(self, element: etree._Element) -> None:
+        self.includes.append(element)
 
     def node(self, element: etree._Element, namespace: str | None) -> None:
         name = element.get("name", "")
@@ -126,7 +95,7 @@ class _Walker:
         added = etree.Element("remap")
         added.set("from", service)
         added.set("to", target)
-        _append(element, added)
+        append_child(element, added)
 
     def finish(self) -> None:
         """Report the servers no ``<node>`` of the file matched."""
