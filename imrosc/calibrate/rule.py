@@ -13,10 +13,12 @@ violating sample with the length of its invariant's episode so far. From those:
    of a point within the window) reaches ``D``. Each threshold lies just past the conformal
    ``1 - alpha/3`` rank of those per-unit maxima (:func:`.tolerance.conformal`; one more
    sample, one more invariant, one more millisecond), so a new nominal run raises any of
-   the three alarms with probability at most ``alpha``. Samples and seconds both count:
-   points run at different rates. The maxima of a fold's units are taken without the
-   invariants that the *other* folds' units would drop: dropping what a unit itself broke
-   would make its figures 0 by construction, and a new run is not so kind.
+   the three alarms with probability at most ``alpha``; with too few units for that rank,
+   past the normal prediction bound of one more unit's (:func:`threshold`). Samples and
+   seconds both count: points run at different rates. The maxima of a fold's units are
+   taken without the invariants that the *other* folds' units would drop: dropping what a
+   unit itself broke would make its figures 0 by construction, and a new run is not so
+   kind.
 
 Event alarms (a silent topic, an ordering past its time, an unexpected node) cannot be
 held back by a rule: an invariant whose events more than ``alpha`` of the held-out units
@@ -33,7 +35,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from imrosc.calibrate.tolerance import conformal, too_many
+from imrosc.calibrate.tolerance import conformal, prediction_bound, too_many
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
 from imrosc.runtime import Engine
@@ -180,6 +182,26 @@ def _seconds(lasting: float) -> float:
     return (math.floor(lasting * 1000) + 1) / 1000
 
 
+def threshold(values: Sequence[float], alpha: float, resolution: float) -> tuple[float, bool]:
+    """The conformal ``1 - alpha`` rank of held-out units' ``values`` when they are enough
+    to certify it; with fewer, the larger of their largest value and the normal prediction
+    bound of one more unit's (:func:`.tolerance.prediction_bound`, as the envelopes take
+    theirs): whether certified.
+
+    >>> threshold([1, 5, 2, 2, 8, 12], 0.05 / 3, 1.0)[1]
+    False
+    >>> round(threshold([1, 5, 2, 2, 8, 12], 0.05 / 3, 1.0)[0], 1)
+    18.5
+    >>> threshold(list(range(1, 70)), 0.05 / 3, 1.0)
+    (69, True)
+    """
+    ranked, sure = conformal(values, alpha)
+    if sure:
+        return ranked, True
+    bound = prediction_bound(values, alpha, resolution)
+    return (ranked if bound is None else max(ranked, bound)), False
+
+
 def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, bool]:
     """The rule just past the conformal ``1 - budget/3`` rank of held-out units' longest
     episodes (samples, seconds) and largest agreements; whether they certify it.
@@ -207,9 +229,9 @@ def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, boo
     >>> rule.persistence("mean"), rule.persistence("polygon"), sure
     ((4, 0.201), (41, 2.001), True)
     """
-    persist, sure_persist = conformal([f.persist + 1 for f in figures], budget / 3)
-    lasting, sure_lasting = conformal([f.lasting for f in figures], budget / 3)
-    distinct, sure_distinct = conformal([f.distinct + 1 for f in figures], budget / 3)
+    persist, sure_persist = threshold([f.persist + 1 for f in figures], budget / 3, 1.0)
+    lasting, sure_lasting = threshold([f.lasting for f in figures], budget / 3, 0.0)
+    distinct, sure_distinct = threshold([f.distinct + 1 for f in figures], budget / 3, 1.0)
     names = sorted({name for f in figures for name in f.families if name in WINDOW_FAMILIES})
     share = budget / 3 / max(1, len(names))
     families = []

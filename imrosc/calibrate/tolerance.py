@@ -18,8 +18,8 @@ for certain, and one message less would break the limit.
 Counts that decide an alarm rule use the distribution-free conformal rank instead: with
 ``n`` held-out units, the ``ceil((1 - alpha) (n + 1))``-th smallest value is exceeded by a
 new exchangeable unit with probability at most ``alpha``. With too few units for the
-budget the rank is past ``n``; the largest value is then used, and the budget is not
-certified (:func:`conformal` says so).
+budget the rank is past ``n`` and the budget is not certified (:func:`conformal` says
+so); the rule then takes the prediction bound above (``imrosc.calibrate.rule.threshold``).
 """
 
 from __future__ import annotations

@@ -89,3 +89,24 @@ def test_the_rule_of_a_subset_comes_from_the_file_s_traces() -> None:
     assert whole.persistence("mean") == only_mean.persistence("mean") == (10, 0.091)
     assert whole.persist == 51 and only_mean.persist == 10
     assert isinstance(whole, AlarmRule)
+
+
+def test_too_few_units_set_the_rule_past_a_prediction_bound_of_one_more() -> None:
+    """Six units cannot certify the budget by rank: the rule lies past the normal
+    prediction bound of one more unit's figures (as the envelopes' tolerances do), so a new
+    run that goes a little beyond every unit seen (a landing harder than the training
+    flight's) raises no alarm; a fault far beyond them still does."""
+    distinct = [0, 4, 1, 1, 7, 11]  # Crazyflie sine_1's six segments, largest agreements
+    persist = [0, 193, 83, 1, 762, 92]
+    lasting = [0.0, 1.91, 0.82, 0.0, 15.19, 1.81]
+    figures = [Figures(p, s, d, False) for p, s, d in zip(persist, lasting, distinct, strict=True)]
+    rule, certified = rule_from(figures, 0.05)
+    assert not certified
+    assert rule.distinct == 18  # the largest seen is 11: the old rule alarmed at 12
+    assert rule.seconds is not None
+    assert rule.persist > max(persist) + 1 and rule.seconds > max(lasting)
+    assert not alarms_under(Figures(0, 0.0, 12, False), rule)
+    assert alarms_under(Figures(0, 0.0, 30, False), rule)
+    # units that all agree still leave room for one more count (the counts' resolution)
+    same, _ = rule_from([Figures(5, 0.5, 3, False)] * 6, 0.05)
+    assert same.distinct >= 4 and same.persist >= 6
