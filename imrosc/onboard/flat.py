@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 
@@ -116,6 +116,32 @@ VARIABLE_PATH = re.compile(
 class UnsupportedError(Exception):
     """A byte reader's layout needs what its plan does not read (the ROS 1 wire reader's and
     the ROS 2 CDR reader's): the node decodes the message instead."""
+
+
+Built = TypeVar("Built")
+
+
+def unless_unsupported(build: Callable[..., Built]) -> Callable[..., Optional[Built]]:
+    """``build`` giving ``None`` where it raises :class:`UnsupportedError`: a byte reader's
+    plan (the ROS 1 wire reader's and the ROS 2 CDR reader's) that cannot read a topic's
+    layout, whose node decodes the messages instead.
+
+    >>> def plan(ok):
+    ...     if not ok:
+    ...         raise UnsupportedError("no field 'x'")
+    ...     return "plan"
+    >>> unless_unsupported(plan)(True), unless_unsupported(plan)(False)
+    ('plan', None)
+    """
+
+    def built(*args: Any) -> Optional[Built]:
+        try:
+            return build(*args)
+        except UnsupportedError:
+            return None
+
+    built.__doc__ = build.__doc__
+    return built
 
 
 Wanted = Tuple[int, Optional[int], Optional[str], bool]

@@ -45,7 +45,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..flat import Step, UnsupportedError, Wanted, match, walker
+from ..flat import Step, UnsupportedError, Wanted, match, unless_unsupported, walker
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type``) -> its genpy class."""
@@ -187,17 +187,6 @@ def _static_width(leaf: Leaf) -> Optional[int]:
 # -- the plan --------------------------------------------------------------------------------
 
 
-def reader(
-    message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup
-) -> Optional[Reader]:
-    """The values of ``variables`` (the topic's layout) from a message's bytes, or ``None``
-    when the plan cannot read them (the caller decodes instead)."""
-    try:
-        return _reader(message_class, variables, lookup)
-    except UnsupportedError:
-        return None
-
-
 def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup) -> Reader:
     leaves: List[Leaf] = []
     _leaves(message_class, lookup, "", leaves)
@@ -217,6 +206,11 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
         leaves,
         order,
     )
+
+
+reader = unless_unsupported(_reader)
+"""The values of ``variables`` (the topic's layout) from a message's bytes, or ``None``
+when the plan cannot read them (the caller decodes instead)."""
 
 
 def _steps(leaves: Sequence[Leaf], needed: Sequence[int]) -> Tuple[List[Step], List[int]]:

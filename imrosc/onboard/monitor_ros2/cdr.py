@@ -46,7 +46,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..flat import Step, UnsupportedError, match, walker
+from ..flat import Step, UnsupportedError, match, unless_unsupported, walker
 
 Lookup = Callable[[str], Any]
 """A message type name (``pkg/Type`` or ``pkg/msg/Type``) -> its rclpy class, or ``None``."""
@@ -119,17 +119,6 @@ def _message(lookup: Lookup, name: str) -> Any:
     return found
 
 
-def reader(
-    message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup
-) -> Optional[Reader]:
-    """The values of ``variables`` (the topic's layout) from a message's CDR bytes, or
-    ``None`` when the plan cannot read them (the caller deserialises instead)."""
-    try:
-        return _reader(message_class, variables, lookup)
-    except UnsupportedError:
-        return None
-
-
 def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: Lookup) -> Reader:
     leaves: List[Leaf] = []
     _leaves(message_class, lookup, "", leaves)
@@ -145,6 +134,11 @@ def _reader(message_class: Any, variables: Sequence[Mapping[str, Any]], lookup: 
             return _doubles(steps[:-1], len(wanted))
     slots = [(slot[leaf], index, derived, text) for leaf, index, derived, text in wanted]
     return walker(steps, slots, _start)
+
+
+reader = unless_unsupported(_reader)
+"""The values of ``variables`` (the topic's layout) from a message's CDR bytes, or ``None``
+when the plan cannot read them (the caller deserialises instead)."""
 
 
 def _start(data: bytes) -> int:
