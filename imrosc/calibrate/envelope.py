@@ -33,7 +33,7 @@ from imrosc.calibrate.limits import (
     with_value,
 )
 from imrosc.calibrate.text import retext
-from imrosc.calibrate.tolerance import tolerance, tolerances, too_many
+from imrosc.calibrate.tolerance import tolerances, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
@@ -270,27 +270,15 @@ class Envelopes:
         params = dict(invariant["params"])
         moved = False
         supports, known = limits.supports[:, chosen], limits.known[:, chosen]
-        whole = bool((known == known[:1]).all())
-        if whole:  # the same units give every limit a support (polygons: those with vertices)
-            supports = supports[:, known[0]] if len(known) else supports
-            held = supports.tolist()
-            finite = np.isfinite(supports).all(axis=1).tolist()
-        else:  # the supports of the units that have one, in the units' order
-            held = [row[mask].tolist() for row, mask in zip(supports, known, strict=True)]
-            finite = [all(map(math.isfinite, row)) for row in held]
+        # the supports of the units that have one, in the units' order
+        held = [row[mask].tolist() for row, mask in zip(supports, known, strict=True)]
         bases = [
-            max(row) if not final and row and ok else base
-            for row, ok, base in zip(held, finite, limits.bases, strict=True)
+            max(row) if not final and row and all(map(math.isfinite, row)) else base
+            for row, base in zip(held, limits.bases, strict=True)
         ]
         alpha = self.budget / len(limits.slots)
         counted = [slot.quantum if slot.scale == "count" else 0.0 for slot in limits.slots]
-        if whole:
-            tols = tolerances(supports, bases, alpha, counted)
-        else:
-            tols = [
-                None if base is None else tolerance(row, base, alpha, resolution)
-                for row, base, resolution in zip(held, bases, counted, strict=True)
-            ]
+        tols = tolerances(held, bases, alpha, counted)
         if invariant["family"] == POLYGON:
             return self._widen_polygon(invariant, params, bases, tols, final)
         for slot, base, found in zip(limits.slots, bases, tols, strict=True):

@@ -25,11 +25,9 @@ so); the rule then takes the prediction bound above (``imrosc.calibrate.rule.thr
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 from collections.abc import Sequence
 
-import numpy as np
 from scipy import stats
 
 
@@ -87,58 +85,23 @@ def tolerance(
 
 
 def tolerances(
-    supports: np.ndarray,
+    rows: Sequence[Sequence[float]],
     bases: Sequence[float | None],
     alpha: float,
     resolutions: Sequence[float],
 ) -> list[float | None]:
-    """:func:`tolerance` of each row of ``supports`` (``(limits, units)``, every unit's
-    support known) with its base and resolution, to the last bit, computed together (a
-    ``None`` base gives ``None``). The means and their deviations are taken as
-    :func:`prediction_bound` takes them (``math.fsum``, one rounding per subtraction); the
-    squares stay Python's ``** 2`` (the C library's ``pow``, which does not always round as
-    ``d * d`` does).
+    """:func:`tolerance` of each limit: its units' supports (a row), its base and its
+    resolution (a ``None`` base gives ``None``).
 
-    >>> rows = np.array([[1.0, 2.0, 3.0], [1.0, 1.0, 1.0], [1.0, np.inf, 1.0]])
+    >>> rows = [[1.0, 2.0, 3.0], [1.0, 1.0, 1.0], [1.0, math.inf, 1.0]]
     >>> tolerances(rows, [3.0, 1.0, None], 0.05, [0.0, 1.0, 0.0]) == [
     ...     tolerance([1.0, 2.0, 3.0], 3.0, 0.05), tolerance([1.0, 1.0, 1.0], 1.0, 0.05, 1.0), None]
     True
     """
-    count = supports.shape[1]
-    rows = supports.tolist()
-    finite = np.isfinite(supports).all(axis=1).tolist()
-    usable = [
-        base is not None and ok and math.isfinite(base)
-        for base, ok in zip(bases, finite, strict=True)
+    return [
+        None if base is None else tolerance(row, base, alpha, resolution)
+        for row, base, resolution in zip(rows, bases, resolutions, strict=True)
     ]
-    if count < 2:
-        return [
-            None if base is None or use else 0.0 for base, use in zip(bases, usable, strict=True)
-        ]
-    means = [math.fsum(row) / count if use else 0.0 for row, use in zip(rows, usable, strict=True)]
-    with np.errstate(invalid="ignore", over="ignore"):
-        deviations = (supports - np.array(means)[:, None]).tolist()
-    quantile = _t_quantile(1 - alpha, count - 1)
-    spread = math.sqrt(1 + 1 / count)
-    found: list[float | None] = []
-    for row, base, use, mean, deviation, resolution in zip(
-        rows, bases, usable, means, deviations, resolutions, strict=True
-    ):
-        if base is None:
-            found.append(None)
-            continue
-        if not use:
-            found.append(0.0)
-            continue
-        variance = math.fsum(map(pow, deviation, _TWOS)) / (count - 1)
-        sd = math.sqrt(variance + resolution * resolution / 12.0)
-        bound = mean if sd == 0 else mean + quantile * sd * spread
-        found.append(max(0.0, bound - max(base, *row)))
-    return found
-
-
-_TWOS = itertools.repeat(2)
-"""The exponents of ``map(pow, deviations, _TWOS)``: ``d ** 2`` for each ``d``."""
 
 
 def too_many(breaks: int, units: int, alpha: float) -> bool:

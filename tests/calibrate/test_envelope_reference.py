@@ -378,7 +378,7 @@ def test_tolerances_together_are_each_alone_to_the_bit() -> None:
             None if base is None else old_tolerance(row, base, alpha, resolution)
             for row, base, resolution in zip(supports.tolist(), bases, resolutions, strict=True)
         ]
-        got = tolerances(supports, bases, alpha, resolutions)
+        got = tolerances(supports.tolist(), bases, alpha, resolutions)
         assert [repr(v) for v in got] == [repr(v) for v in expected]
         alone = [
             None if base is None else tolerance(row, base, alpha, resolution)
