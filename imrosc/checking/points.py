@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from imrosc.infer.core import condition_restarts
+from imrosc.infer.core import kept_restarts
 from imrosc.infer.timed.windows import episode_starts, windowed_moments
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
@@ -246,11 +246,8 @@ class ChunkPoint:
         texts = [topics[s].strings[k][at[s]] for s, k in self.strings]
         if point.filters:
             accepted = self._accepted(values, texts, pos, topics)
-            begins, self.window.gap = condition_restarts(accepted[valid], self.window.gap)
-            restarts = np.zeros(len(pos), dtype=bool)
-            restarts[valid] = begins
+            self.window.restarts, self.window.gap = kept_restarts(valid, accepted, self.window.gap)
             valid &= accepted
-            self.window.restarts = restarts[valid]
         if not valid.all():
             keep = np.flatnonzero(valid)
             return pos[keep], time[keep], values[keep], [t[keep] for t in texts]

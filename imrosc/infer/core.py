@@ -126,6 +126,18 @@ def condition_restarts(
     return begins, not bool(held[-1])
 
 
+def kept_restarts(
+    present: npt.NDArray[np.bool_], held: npt.NDArray[np.bool_], gap: bool
+) -> tuple[npt.NDArray[np.bool_], bool]:
+    """:func:`condition_restarts` of a chunk whose condition is judged at the rows
+    ``present`` and ``held`` at some of them: where episodes begin among the rows kept
+    (``present & held``), and the next chunk's ``gap``."""
+    begins, gap = condition_restarts(held[present], gap)
+    restarts = np.zeros(len(present), dtype=bool)
+    restarts[present] = begins
+    return restarts[present & held], gap
+
+
 @dataclass(frozen=True)
 class Invariant:
     """One inferred property.

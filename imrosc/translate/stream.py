@@ -24,7 +24,7 @@ import numpy.typing as npt
 from imrosc import records
 from imrosc.bags import MessageError, open_bag
 from imrosc.graph.bags import PublisherStart, publisher_starts
-from imrosc.infer.core import Samples, Variable, condition_restarts
+from imrosc.infer.core import Samples, Variable, kept_restarts
 from imrosc.runtime.arch import node_names
 from imrosc.translate.catalog import flatten_json
 from imrosc.translate.columns import Columns, Flattener
@@ -348,12 +348,9 @@ class BagTranslator:
                     )
                 except (ConditionError, KeyError):
                     valid &= False
-            begins, self._gaps[spec.key] = condition_restarts(
-                valid[present], self._gaps.get(spec.key, False)
+            restarts, self._gaps[spec.key] = kept_restarts(
+                present, valid, self._gaps.get(spec.key, False)
             )
-            restarts = np.zeros(len(trigger), dtype=bool)
-            restarts[present] = begins
-            restarts = restarts[valid]
         rows_kept = int(valid.sum())
         variables = spec.variables
         if spec.kind == "arch":  # only the kinds this bag can tell
