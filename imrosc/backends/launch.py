@@ -199,7 +199,7 @@ class LaunchWalker:
                 self.other(child, namespace)
 
     def node(self, element: etree._Element, namespace: str | None) -> None:
-        """A ``<node>`` in ``namespace``."""
+        """A ``<node>`` in ``namespace`` (each walker says what it does with one)."""
         raise NotImplementedError
 
     def include(self, element: etree._Element) -> None:
@@ -233,15 +233,19 @@ class _Rewriter(LaunchWalker):
         )
 
     def other(self, element: etree._Element, namespace: str | None) -> None:
-        if element.tag != "remap" or namespace is None:
-            return
+        if element.tag == "remap" and namespace is not None:
+            self.loose_remap(element, namespace, "a <remap> outside a node")
+
+    def loose_remap(self, element: etree._Element, namespace: str, what: str) -> None:
+        """Report a remap that no node's rewriting sees (``what``: how the message names
+        it) when it touches an intercepted name: it is left as is."""
         target = resolve(element.get("to", ""), namespace)
         source = resolve(element.get("from", ""), namespace)
         if self.intercepted(target) or self.intercepted(source):
             self.report(
                 element,
                 "launch-unrewritten",
-                f"a <remap> outside a node touches the intercepted name "
+                f"{what} touches the intercepted name "
                 f"{target if self.intercepted(target) else source}; it is left as is",
             )
 
@@ -474,15 +478,7 @@ class _Ros2Rewriter(_Rewriter):
                         "not remapped; add the <remap> elements to it yourself",
                     )
             elif tag in _SET_REMAP and current is not None:
-                target = resolve(child.get("to", ""), current)
-                source = resolve(child.get("from", ""), current)
-                if self.intercepted(target) or self.intercepted(source):
-                    self.report(
-                        child,
-                        "launch-unrewritten",
-                        f"a <{tag}> touches the intercepted name "
-                        f"{target if self.intercepted(target) else source}; it is left as is",
-                    )
+                self.loose_remap(child, current, f"a <{tag}>")
         return current
 
     def node(self, element: etree._Element, namespace: str | None) -> None:
