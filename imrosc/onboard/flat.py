@@ -140,7 +140,6 @@ def unless_unsupported(build: Callable[..., Built]) -> Callable[..., Optional[Bu
         except UnsupportedError:
             return None
 
-    built.__doc__ = build.__doc__
     return built
 
 
