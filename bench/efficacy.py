@@ -343,6 +343,9 @@ class Outcome:
     error: str | None = None
     start: float = 0.0
     """The bag's start (s), for times printed from the start."""
+    violated: float | None = None
+    """The first violation at or after the onset (any violation of a nominal run): where
+    the alarm rule starts from (:func:`print_sources`)."""
 
     @property
     def first(self) -> float | None:
@@ -370,6 +373,13 @@ class Outcome:
         return None if after is None or self.onset is None else after - self.onset
 
     @property
+    def violation_delay(self) -> float | None:
+        """First violation at or after the onset minus the onset."""
+        if self.violated is None or self.onset is None:
+            return None
+        return self.violated - self.onset
+
+    @property
     def detected(self) -> bool:
         """A fault run whose first alarm is at or after its onset."""
         first = self.first
@@ -382,6 +392,7 @@ class Outcome:
 
 def outcome(name: str, group: str, onset: float | None, result: RunResult) -> Outcome:
     """The outcome of one replay (alarm times in bag-clock seconds)."""
+    after = [v.time for v in result.violations if onset is None or v.time >= onset]
     return Outcome(
         name,
         group,
@@ -390,6 +401,7 @@ def outcome(name: str, group: str, onset: float | None, result: RunResult) -> Ou
         len(result.violations),
         result.error,
         result.start,
+        min(after) if after else None,
     )
 
 
@@ -703,6 +715,40 @@ def print_scores(table: Mapping[str, Mapping[str, Score]]) -> None:
             )
 
 
+def print_sources(monitors: Mapping[str, Sequence[Outcome]]) -> None:
+    """Where each detection's delay comes from, per fault run and monitor: the first
+    violation at or after the onset (the signal), the first alarm at or after it, and what
+    the alarm rule added between them; then, per monitor, their means over the runs it
+    detected (an alarm may also come from an episode that began before the onset, so a
+    run's figure can be negative)."""
+    found = list(monitors.values())
+    side_by_side(monitors)  # the same runs
+    faulty = [k for k, o in enumerate(found[0]) if o.onset is not None]
+    mean = "mean (detected)"
+    width = max([len(found[0][k].name) for k in faulty] + [len(mean)])
+    cell = f"{'violation':>9} {'alarm':>6} {'rule':>6}"
+    print(("  " + " " * width + "".join(f" | {m:^{len(cell)}}" for m in monitors)).rstrip())
+    print(f"  {'run':<{width}}" + f" | {cell}" * len(found))
+    for k in faulty:
+        line = f"  {found[0][k].name:<{width}}"
+        for runs in found:
+            o = runs[k]
+            signal, alarm = o.violation_delay, o.delay
+            added = None if alarm is None or signal is None else alarm - signal
+            line += f" | {fmt(o.violation_delay):>9} {fmt(o.delay):>6} {fmt(added):>6}"
+        print(line.rstrip())
+    line = f"  {mean:<{width}}"
+    for runs in found:
+        caught = [runs[k] for k in faulty if runs[k].detected]
+        signals = [o.violation_delay for o in caught if o.violation_delay is not None]
+        alarms = [o.delay for o in caught if o.delay is not None]
+        mean_signal = sum(signals) / len(signals) if signals else None
+        mean_alarm = sum(alarms) / len(alarms) if alarms else None
+        added = None if mean_signal is None or mean_alarm is None else mean_alarm - mean_signal
+        line += f" | {fmt(mean_signal):>9} {fmt(mean_alarm):>6} {fmt(added):>6}"
+    print(line.rstrip())
+
+
 def target_figures(s: Score) -> str:
     """The figures the ALFA target rests on."""
     return (
@@ -806,6 +852,11 @@ def alfa_part(work: Path, folds: int, workers: int | None, verdicts: Verdicts) -
     print("\nper class (precision: detected / flights with any alarm):")
     table = side_by_side(outcomes)
     print_scores(table)
+    print(
+        "\nwhere the delays come from (s after the onset: first violation, first alarm, "
+        "and what the alarm rule added between them):"
+    )
+    print_sources(named)
     s, inferred = table["overall"]["classified"], table["overall"]["inferred"]
     verdicts.set(
         0,
@@ -875,6 +926,8 @@ def crazyflie_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
         result = replayer.run(path)
         outcomes.append(outcome(name, "injected", onset / SECOND, result))
     print_outcomes(outcomes)
+    print("  where the delays come from (s after the onset):")
+    print_sources({"learnt on both": outcomes})
     ok = all(
         o.detected and o.delay is not None and o.delay <= FAULT_DELAY and o.before == 0
         for o in outcomes
@@ -955,6 +1008,8 @@ def sim_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
     print_side_by_side(outcomes)
     table = side_by_side(outcomes)
     print_scores({"overall": table["overall"]})
+    print("where the delays come from (s after the onset):")
+    print_sources(outcomes)
     found = {m: [o for o in runs if o.onset is not None] for m, runs in outcomes.items()}
     caught = {m: sum(o.detected for o in runs) for m, runs in found.items()}
     verdicts.set(

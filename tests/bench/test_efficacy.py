@@ -406,6 +406,42 @@ def test_two_monitors_side_by_side(capsys: pytest.CaptureFixture[str]) -> None:
         e.side_by_side({"inferred": inferred, "classified": classified[:2]})
 
 
+def test_where_the_delays_come_from(capsys: pytest.CaptureFixture[str]) -> None:
+    """Per fault run and monitor: the first violation at or after the onset, the first
+    alarm, and what the alarm rule added between them; their means over detected runs."""
+    slow = [
+        dataclasses.replace(_named("a", "engine", 10.0, 13.0), violated=10.5),
+        dataclasses.replace(_named("b", "engine", 10.0), violated=11.0),  # never alarmed
+        _named("c", "nominal", None),
+    ]
+    at_once = [
+        dataclasses.replace(_named("a", "engine", 10.0, 12.0), violated=12.0),
+        dataclasses.replace(_named("b", "engine", 10.0, 14.0), violated=14.0),
+        _named("c", "nominal", None),
+    ]
+    assert slow[0].violation_delay == 0.5 and slow[2].violation_delay is None
+    e.print_sources({"persisted": slow, "detector": at_once})
+    lines = capsys.readouterr().out.splitlines()
+    assert "persisted" in lines[0] and "detector" in lines[0]
+    assert lines[2].split() == ["a", "|", "0.50", "3.00", "2.50", "|", "2.00", "2.00", "0.00"]
+    assert lines[3].split() == ["b", "|", "1.00", "-", "-", "|", "4.00", "4.00", "0.00"]
+    assert len(lines) == 5  # the nominal run has no delay to explain
+    assert lines[4].split()[2:] == ["|", "0.50", "3.00", "2.50", "|", "3.00", "3.00", "0.00"]
+
+
+def test_an_outcome_keeps_its_first_violation_at_or_after_the_onset() -> None:
+    def violation(time: float) -> Any:
+        return type("V", (), {"time": time})()
+
+    result = type("R", (), {})()
+    result.alarms, result.error, result.start = [], None, 0.0
+    result.violations = [violation(t) for t in (3.0, 12.0, 11.0)]
+    assert e.outcome("r", "engine", 10.0, result).violated == 11.0
+    assert e.outcome("r", "nominal", None, result).violated == 3.0
+    result.violations = [violation(3.0)]
+    assert e.outcome("r", "engine", 10.0, result).violated is None
+
+
 def test_the_warnings_of_a_classification() -> None:
     def diagnostic(code: str) -> Diagnostic:
         return make("c.xml", 1, 1, code, "...")
