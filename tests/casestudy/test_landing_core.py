@@ -139,3 +139,62 @@ def test_the_blower_sweeps_gusts_of_8_to_38_kmh_over_calm_spells() -> None:
         longest = max(longest, run)
     assert longest * L.DT >= 5.0  # long enough to land in: 1.5 s over the platform, 2 s down
     assert L.Wind(random.Random(0)).at(0.0, 0.0) == (0.0, 0.0)  # no wind but in its scenario
+
+
+def _landing(height: float) -> tuple[Any, float]:
+    """A controller landing on a platform at the origin (heading 0, seen 20 times a second
+    for 1 s), the UAV ``height`` over its markers; and the time it is at."""
+    control = L.LandingController()
+    for k in range(21):
+        control.see_car(k * 0.05, 0.0, 0.0, L.PLATFORM_TOP, 0.0)
+    control.commanded, control.since, control.land_z = L.LAND, 1.0, L.PLATFORM_TOP + height
+    return control, 1.0
+
+
+def test_a_landing_waits_over_the_platform_while_it_turns_in_place() -> None:
+    control, t = _landing(0.3)
+    control.see_car(t + 0.05, 0.0, 0.0, L.PLATFORM_TOP, 0.2)  # 4 rad/s: it turns
+    state, waypoint, _ = control.step(t + 0.05, L.LAND, (0.0, 0.0, L.PLATFORM_TOP + 0.2), -0.3)
+    assert state == L.LAND and waypoint is not None
+    assert waypoint[2] == pytest.approx(L.PLATFORM_TOP + control.hold)  # back up, waiting
+    for k in range(2, 30):  # the turn is over: after settling it descends again
+        control.see_car(t + 0.05 * k, 0.0, 0.0, L.PLATFORM_TOP, 0.2)
+        _, waypoint, _ = control.step(t + 0.05 * k, L.LAND, (0.0, 0.0, 0.5), -0.3)
+    assert waypoint is not None and waypoint[2] < L.PLATFORM_TOP + control.hold - 0.2
+
+
+def test_a_landing_that_touched_down_goes_on_when_the_platform_turns() -> None:
+    control, t = _landing(0.0)
+    control.see_car(t + 0.05, 0.0, 0.0, L.PLATFORM_TOP, 0.2)
+    touched = (0.0, 0.0, L.PLATFORM_TOP + L.UAV_REST)
+    _, waypoint, _ = control.step(t + 0.05, L.LAND, touched, 0.0)
+    assert waypoint is not None and waypoint[2] < L.PLATFORM_TOP  # no climbing off it
+
+
+def test_the_position_loop_never_pushes_up_towards_a_landing_target_below() -> None:
+    loop = L.Attitude()
+    pose, rising = (0.0, 0.0, 0.4), (0.0, 0.0, -0.4)  # descending fast onto a target below
+    braking = loop.command(L.TASK, (0.0, 0.0, 0.3), pose, rising)
+    assert braking.thrust > L.GRAVITY  # pursuing, it brakes the descent
+    landing = loop.command(L.LAND, (0.0, 0.0, 0.3), pose, rising)
+    assert landing.thrust <= L.GRAVITY  # landing, no bounce off the surface
+
+
+def test_normal_runs_land_offline() -> None:
+    outcomes = [L.offline_trial("normal", seed).outcome for seed in range(20)]
+    assert outcomes == ["landed"] * 20
+
+
+def test_the_top_of_a_climb_after_waiting_is_no_touchdown() -> None:
+    control, t = _landing(0.3)
+    control.see_car(t + 0.05, 0.0, 0.0, L.PLATFORM_TOP, 0.2)  # it turns: wait, climbing
+    control.step(t + 0.05, L.LAND, (0.0, 0.0, L.PLATFORM_TOP + 0.2), -0.3)
+    for k in range(2, 40):  # the turn is over; the UAV hangs at the top of its climb
+        control.see_car(t + 0.05 * k, 0.0, 0.0, L.PLATFORM_TOP, 0.2)
+        state, _, _ = control.step(t + 0.05 * k, L.LAND, (0.0, 0.0, L.PLATFORM_TOP + 0.2), 0.0)
+        assert state == L.LAND  # not switched off in mid-air
+    for k in range(40, 60):  # it descends and stops on the platform: that is a touchdown
+        control.see_car(t + 0.05 * k, 0.0, 0.0, L.PLATFORM_TOP, 0.2)
+        z, vz = (L.PLATFORM_TOP + L.UAV_REST, 0.0) if k >= 45 else (L.PLATFORM_TOP + 0.1, -0.3)
+        state, _, _ = control.step(t + 0.05 * k, L.LAND, (0.0, 0.0, z), vz)
+    assert state == L.SHUTDOWN

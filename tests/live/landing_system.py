@@ -90,6 +90,14 @@ class Outcome:
         )
 
 
+def written(path: Path) -> bool:
+    """Whether the simulator has written its whole outcome to ``path`` (one line of JSON)."""
+    try:
+        return path.read_text(encoding="utf-8").endswith("\n")
+    except OSError:
+        return False
+
+
 def trial(
     ros: Ros,
     scenario: str,
@@ -115,9 +123,9 @@ def trial(
     )
     # lockstep runs as fast as the graph goes, so a loaded machine slows it down
     limit = started + 60.0 + 4.0 * timeout + (timeout / speed if speed > 0 else 0.0)
-    while proc.alive and time.monotonic() < limit:
-        time.sleep(0.2)
-    if proc.alive:
+    while proc.alive and time.monotonic() < limit and not written(out):
+        time.sleep(0.1)
+    if proc.alive:  # over (or overdue): stop every node at once, not one after the other
         ros.stop(proc)
     if not out.exists():
         raise RuntimeError(f"the {scenario} trial (seed {seed}) gave no outcome:\n{proc.tail()}")

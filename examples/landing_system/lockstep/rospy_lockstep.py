@@ -232,6 +232,7 @@ class Process:
                     "bye": bye,
                     "released": self.released,
                     "next": min((d for d in self.sleepers.values() if d is not None), default=None),
+                    "waiting": any(d is None for d in self.sleepers.values()),
                     "sent": self.sent,
                     "received": self.received,
                     "calls": self.calls,
@@ -632,6 +633,25 @@ class Coordinator:
         if made != done:
             why.append(f"services: {made} calls answered, {done} served")
         return why
+
+    def due(self, stamp: Any) -> bool:
+        """Whether a process has a timer due at ``stamp`` (a ``rospy.Time``), or may have:
+        before every process has reported a deadline. Between two due steps nothing in the
+        graph runs but the callbacks that take in the simulator's sensor messages, so the
+        simulator need not publish ``/clock`` nor wait there (:meth:`step` waits at the next
+        due step until those messages are in)."""
+        now = int(stamp.to_nsec())
+        with self.state.cond:
+            self.take_reports()
+            if self.state.busy or not self.reports:
+                return True
+            for report in self.reports.values():
+                if report.get("waiting", True):
+                    return True  # a sleep that began before time started
+                deadline = report.get("next")
+                if deadline is not None and deadline <= now:
+                    return True
+        return False
 
     def step(self, stamp: Any) -> None:
         """The step at ``stamp`` (a ``rospy.Time``), once its ``/clock`` and sensor messages

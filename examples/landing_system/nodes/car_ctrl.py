@@ -45,8 +45,9 @@ def main() -> None:
 
     def on_car(msg: PoseStamped) -> None:
         p = msg.pose.position
+        yaw = node.euler(msg.pose.orientation)[2]
         with lock:
-            control.see_car(rospy.get_time(), p.x, p.y, p.z)
+            control.see_car(rospy.get_time(), p.x, p.y, p.z, yaw)
 
     def on_uav(msg: PoseStamped) -> None:
         # the climb rate from the poses' own stamps: /a/uav forwards the latest motion-capture

@@ -415,6 +415,8 @@ class Attitude:
         ax = clip(ax, -self.max_accel, self.max_accel)
         ay = clip(ay, -self.max_accel, self.max_accel)
         az = clip(self.kp_z * ez - self.kd_z * velocity[2], -5.0, 5.0)
+        if state == LAND and ez < 0.0:
+            az = min(az, 0.0)  # landing on a target below: never push up, no bounce at touchdown
         thrust = clip(GRAVITY + az, 0.0, MAX_THRUST)
         pitch = math.atan2(ax, GRAVITY)
         roll = -math.atan2(ay, GRAVITY)
@@ -439,12 +441,26 @@ class LandingController:
     within_since: float | None = None
     land_z: float = 0.0
     touch_since: float | None = None
+    descended: bool = False
+    """The UAV has descended (faster than 0.1 m/s) since the landing began or last waited:
+    only then does a standstill mean a touchdown, not the top of a climb."""
     home: tuple[float, float] | None = None
     last_car: tuple[float, float, float, float] | None = None
     car_velocity: tuple[float, float] = (0.0, 0.0)
+    car_yaw: float | None = None
+    turning_until: float = -1.0
+    """Until when (s) the platform counts as turning: its heading changed between two poses
+    faster than :attr:`turn_rate`, and :attr:`settle` s after that."""
+    turn_rate: float = 0.3
+    settle: float = 0.5
+    hold: float = 0.3
+    """How high over the platform (m) the UAV waits while the platform turns in a landing."""
+    commit: float = UAV_REST + 0.01
+    """Below this height over the platform's markers (m) the UAV has touched down: the
+    landing goes on whatever the platform does."""
 
-    def see_car(self, t: float, x: float, y: float, z: float) -> None:
-        """A platform position arrived (``/a/car_pose``)."""
+    def see_car(self, t: float, x: float, y: float, z: float, yaw: float | None = None) -> None:
+        """A platform position (and heading, when known) arrived (``/a/car_pose``)."""
         if self.last_car is not None:
             t0, x0, y0, _ = self.last_car
             if t > t0:
@@ -454,6 +470,11 @@ class LandingController:
                     (1 - a) * self.car_velocity[0] + a * clip(vx, -1.0, 1.0),
                     (1 - a) * self.car_velocity[1] + a * clip(vy, -1.0, 1.0),
                 )
+                turned = None if yaw is None or self.car_yaw is None else wrap(yaw - self.car_yaw)
+                if turned is not None and abs(turned) > self.turn_rate * (t - t0):
+                    self.turning_until = t + self.settle
+        if yaw is not None:
+            self.car_yaw = yaw
         self.last_car = (t, x, y, z)
 
     def _go(self, state: int, t: float) -> int:
@@ -503,14 +524,22 @@ class LandingController:
                 if t - self.within_since >= self.landing_time:
                     self._go(LAND, t)
                     self.land_z = car[3] + self.approach
-                    self.touch_since = None
+                    self.touch_since, self.descended = None, False
                     task = TASK_LAND
             else:
                 self.within_since = None
             return self.commanded, (cx, cy, car[3] + self.approach), task
         if self.commanded == LAND:
             self.land_z -= self.land_speed / 20.0
-            if abs(vz) < 0.05 and uav[2] > self.land_z + 0.1:
+            if t < self.turning_until and uav[2] - car[3] > self.commit:
+                # the platform turns in place: its surface would sweep the legs sideways at
+                # the touchdown; wait over it until it drives straight again (unless it
+                # touched down already: climbing off the turning surface would slide on it)
+                self.land_z = max(self.land_z, car[3] + self.hold)
+                self.descended = False
+            else:
+                self.descended = self.descended or vz < -0.1
+            if self.descended and abs(vz) < 0.05 and uav[2] > self.land_z + 0.1:
                 self.touch_since = self.touch_since if self.touch_since is not None else t
                 if t - self.touch_since >= 0.3:
                     self._go(SHUTDOWN, t)
@@ -676,15 +705,17 @@ def offline_trial(scenario: str, seed: int, timeout: float = 120.0) -> Referee:
         step += 1
         uav, platform = world.uav, world.platform
         if step % 5 == 0:
+            car = (platform.x, platform.y, PLATFORM_TOP, platform.heading)
             if scenario == "false_airport":
-                control.see_car(world.t, fake[0], fake[1], PLATFORM_TOP)
+                control.see_car(world.t, fake[0], fake[1], PLATFORM_TOP, 0.0)
             elif scenario == "slowed" and world.t % 10.0 >= 5.0:
                 if control.last_car is None or world.t - control.last_car[0] >= 2.0:
-                    control.see_car(world.t, platform.x, platform.y, PLATFORM_TOP)
+                    control.see_car(world.t, *car)
             else:
-                control.see_car(world.t, platform.x, platform.y, PLATFORM_TOP)
-                if scenario == "stealing" and platform.y > 0.0:
-                    control.see_car(world.t + 1e-3, platform.x, -platform.y, PLATFORM_TOP)
+                control.see_car(world.t, *car)
+                if scenario == "stealing" and platform.y > 0.0:  # mirrored, same heading
+                    mirrored = (platform.x, -platform.y, PLATFORM_TOP, platform.heading)
+                    control.see_car(world.t + 1e-3, *mirrored)
             state, waypoint, task = control.step(world.t, state, (uav.x, uav.y, uav.z), uav.vz)
             if waypoint is not None:
                 loop.see_waypoint(world.t, *waypoint)

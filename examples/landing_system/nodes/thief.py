@@ -22,9 +22,10 @@ def main() -> None:
     def lure(now: float) -> None:
         if "msg" in vicon:
             t = vicon["msg"].transform.translation
-            if t.y > 0.0:
+            if t.y > 0.0:  # its position mirrored, its heading as it is
                 stamp = rospy.Time.from_sec(now)
-                pose.publish(node.pose_message(stamp, t.x, -t.y, core.PLATFORM_TOP))
+                yaw = node.euler(vicon["msg"].transform.rotation)[2]
+                pose.publish(node.pose_message(stamp, t.x, -t.y, core.PLATFORM_TOP, yaw))
 
     node.every(RATE, lure)
 
