@@ -83,7 +83,7 @@ class Calibration:
         certified = (
             "certified"
             if self.certified
-            else f"not certified by {self.count} {self.units} (a normal prediction bound used)"
+            else f"not certified by {self.count} {self.units} (a prediction bound used)"
         )
         return (
             f"calibrated on {self.count} {unit} at a false-alarm budget of {self.budget:g} "

@@ -19,7 +19,9 @@ Counts that decide an alarm rule use the distribution-free conformal rank instea
 ``n`` held-out units, the ``ceil((1 - alpha) (n + 1))``-th smallest value is exceeded by a
 new exchangeable unit with probability at most ``alpha``. With too few units for the
 budget the rank is past ``n`` and the budget is not certified (:func:`conformal` says
-so); the rule then takes the prediction bound above (``imrosc.calibrate.rule.threshold``).
+so); the rule then takes the prediction bound above, or the same bound in ``log(1 + x)``
+when it reaches further (:func:`skewed_bound`: such counts are non-negative and skewed;
+``imrosc.calibrate.rule.threshold``).
 """
 
 from __future__ import annotations
