@@ -3,9 +3,10 @@
 Runs recorded close together (one session, one day, neighbouring segments of one run)
 share their conditions; holding them out together keeps a held-out run from being
 explained by its own neighbour, which would make held-out figures optimistic about a run of
-another day. Calibration (:mod:`imrosc.calibrate`), the detectors' cross-fitting
-(:mod:`imrosc.detectors`) and classification's held-out choice of the monitor all cut their
-runs so.
+another day. The detectors' cross-fitting (:mod:`imrosc.detectors`) and classification's
+held-out choice of the monitor cut their runs into near-equal blocks (:func:`blocked`);
+calibration (:mod:`imrosc.calibrate`) cuts at the widest gaps between the runs' starts
+(:func:`at_gaps`), so that a session is never split.
 """
 
 from __future__ import annotations
