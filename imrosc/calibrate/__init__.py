@@ -27,7 +27,7 @@ from typing import Any
 
 from imrosc.calibrate.envelope import Envelopes, UnitView
 from imrosc.calibrate.rule import HeldOut, Replays, calibrate_rule
-from imrosc.folds import blocked
+from imrosc.folds import at_gaps
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
 from imrosc.runtime.alarms import AlarmRule
@@ -83,7 +83,7 @@ class Calibration:
         certified = (
             "certified"
             if self.certified
-            else f"not certified by {self.count} {self.units} (a normal prediction bound used)"
+            else f"not certified by {self.count} {self.units} (a prediction bound used)"
         )
         return (
             f"calibrated on {self.count} {unit} at a false-alarm budget of {self.budget:g} "
@@ -93,8 +93,9 @@ class Calibration:
 
 
 def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
-    """Blocked k-fold (:func:`imrosc.folds.blocked`): the units (indexes) in the order they
-    were recorded, cut into ``folds`` contiguous blocks.
+    """Blocked k-fold by session (:func:`imrosc.folds.at_gaps`): the units (indexes) in the
+    order they were recorded, cut into ``folds`` contiguous blocks at the widest gaps
+    between their starts (evenly spaced units: near-equal blocks).
 
     >>> from pathlib import Path
     >>> units = [Unit(Path(name), [], start=start) for name, start in
@@ -102,7 +103,9 @@ def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
     >>> blocks(units, 2), blocks(units, 3)
     ([[1, 2, 0], [3, 4]], [[1, 2], [0, 3], [4]])
     """
-    return blocked(units, lambda u: (u.start, str(u.bag)), folds)
+    order = sorted(range(len(units)), key=lambda k: (units[k].start, str(units[k].bag)))
+    cut = at_gaps([units[k].start for k in order], folds)
+    return [[order[k] for k in group] for group in cut]
 
 
 def _evidence(

@@ -35,7 +35,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from imrosc.calibrate.tolerance import conformal, prediction_bound, too_many
+from imrosc.calibrate.tolerance import conformal, skewed_bound, too_many
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
 from imrosc.runtime import Engine
@@ -184,21 +184,21 @@ def _seconds(lasting: float) -> float:
 
 def threshold(values: Sequence[float], alpha: float, resolution: float) -> tuple[float, bool]:
     """The conformal ``1 - alpha`` rank of held-out units' ``values`` when they are enough
-    to certify it; with fewer, the larger of their largest value and the normal prediction
-    bound of one more unit's (:func:`.tolerance.prediction_bound`, as the envelopes take
-    theirs): whether certified.
+    to certify it; with fewer, the larger of their largest value and the prediction bound
+    of one more unit's, normal or log-normal whichever reaches further (the maxima are
+    non-negative and right-skewed; :func:`.tolerance.skewed_bound`): whether certified.
 
     >>> threshold([1, 5, 2, 2, 8, 12], 0.05 / 3, 1.0)[1]
     False
     >>> round(threshold([1, 5, 2, 2, 8, 12], 0.05 / 3, 1.0)[0], 1)
-    18.5
+    46.6
     >>> threshold(list(range(1, 70)), 0.05 / 3, 1.0)
     (69, True)
     """
     ranked, sure = conformal(values, alpha)
     if sure:
         return ranked, True
-    bound = prediction_bound(values, alpha, resolution)
+    bound = skewed_bound(values, alpha, resolution)
     return (ranked if bound is None else max(ranked, bound)), False
 
 

@@ -198,3 +198,20 @@ def test_a_held_out_unit_breaks_a_set_its_fold_never_saw_whole(tmp_path: Path) -
     seen = held_out_runs(result.document, tmp_path)
     assert sets <= seen[(tmp_path / "good_5.bag").resolve()].broken
     assert not sets & seen[(tmp_path / "good_5.bag").resolve()].untested
+
+
+def test_calibration_holds_out_whole_sessions() -> None:
+    """Runs of one session (minutes apart) are held out together, whatever the block
+    sizes: a held-out run is not explained by a neighbour of its own session. Evenly spaced
+    units (the segments of one run) still get near-equal blocks."""
+    from imrosc.calibrate import blocks
+    from imrosc.infer.engine import Unit
+
+    day = 86400.0
+    starts = [0.0, 120.0, 260.0, day, day + 200.0, 2 * day, 2 * day + 90.0, 2 * day + 300.0]
+    units = [Unit(Path(f"run_{k}.bag"), [], start=s) for k, s in enumerate(starts)]
+    assert blocks(units, 3) == [[0, 1, 2], [3, 4], [5, 6, 7]]
+    even = [
+        Unit(Path("one.bag"), [], span=(10.0 * k, 10.0 * k + 10), start=10.0 * k) for k in range(6)
+    ]
+    assert blocks(even, 5) == [[0, 1], [2], [3], [4], [5]]
