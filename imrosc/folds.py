@@ -27,13 +27,7 @@ def blocked(items: Sequence[T], order: Callable[[T], Any], folds: int) -> list[l
     """
     ranked = sorted(range(len(items)), key=lambda k: (order(items[k]), k))
     k = max(2, min(folds, len(ranked)))
-    size, extra = divmod(len(ranked), k)
-    found, at = [], 0
-    for fold in range(k):
-        width = size + (fold < extra)
-        found.append(ranked[at : at + width])
-        at += width
-    return [group for group in found if group]
+    return [ranked[part.start : part.stop] for part in _even(len(ranked), k) if len(part)]
 
 
 def at_gaps(starts: Sequence[float], folds: int) -> list[list[int]]:
@@ -69,8 +63,8 @@ def at_gaps(starts: Sequence[float], folds: int) -> list[list[int]]:
 
 
 def _even(n: int, k: int) -> list[range]:
-    """``n`` positions in ``k`` contiguous parts of sizes differing by at most one, as
-    :func:`blocked` cuts them."""
+    """``n`` positions in ``k`` contiguous parts of sizes differing by at most one (the
+    near-equal blocks of :func:`blocked`, and where :func:`at_gaps` cuts equal gaps)."""
     size, extra = divmod(n, k)
     found, at = [], 0
     for fold in range(k):
