@@ -1,6 +1,7 @@
 """Detection efficacy: alarms on runs the invariants were not learnt from, with known faults.
 
     python bench/efficacy.py [--only alfa,crazyflie,sim] [--folds 5] [-j N] [--keep DIR]
+    python bench/efficacy.py --alfa-test DIR [-j N]
 
 Every part learns with ``imrosc.detect.run_detect`` and replays with ``imrosc.replay.Replayer``
 under the alarm rule the invariants document carries; nothing here tunes anything. An alarm's
@@ -55,6 +56,11 @@ Parts:
   product: infer, classify, monitor), the inferred figures beside it. Reference to beat: RLS
   on ALFA, precision 0.88, recall 0.88, mean delay 2.02 s (Keipour, Mousaei, Scherer, ICRA
   2019).
+* **--alfa-test DIR**: flights the development ones never saw (laid out like
+  ``../shared/data/real/alfa``: the bags under DIR, an ``onsets.json`` naming them relative to
+  DIR). Both monitors are learnt once, as a fold's are, from all 21 development flights, and
+  DIR's flights replayed whole with them; printed as the k-fold part prints its flights and
+  scores, against the same target. With it, only this part runs.
 * **crazyflie**: the scope of ``examples/crazyflie.xml``. Learn on ``sine_1.bag`` alone, replay
   ``sine_2.bag`` (alarms, violations, first alarm) and ``sine_1.bag``; learn on both, replay both
   and six faulty copies of ``sine_2`` the bench writes itself, each fault starting at 60 % of
@@ -133,6 +139,9 @@ TARGETS = (
     "0 alarms before it",
     "Crazyflie: the training bags replay with 0 alarms",
     "Simulated landing system (classified): every fault scenario detected",
+    f"ALFA flights of --alfa-test, learnt from every development flight (classified): "
+    f"recall >= {ALFA_RECALL}, false alarms on <= {ALFA_FALSE:.0%} of flights, mean delay "
+    f"<= {ALFA_DELAY} s",
 )
 
 
@@ -779,66 +788,106 @@ MONITORS = ("inferred", "classified")
 """The two documents each part replays: inferred (A) and classified (B, A refined)."""
 
 
-def alfa_part(work: Path, folds: int, workers: int | None, verdicts: Verdicts) -> None:
-    onsets: dict[str, dict[str, Any]] = json.loads((ALFA / "onsets.json").read_text())
-    split = session_folds(onsets, folds)
-    print(f"\n== ALFA: {len(onsets)} flights, {len(split)}-fold by recording session ==")
-    print(f"reference to beat: {REFERENCE}")
+@dataclass(frozen=True)
+class Flights:
+    """Labelled ALFA flights: their folder and its ``onsets.json`` (per bag, relative to the
+    folder: class, start, end and onset in ns, the onset null for a no-failure flight)."""
+
+    root: Path
+    onsets: dict[str, dict[str, Any]]
+
+
+def read_flights(root: Path) -> Flights:
+    """The flights of ``root`` as ``onsets.json`` lists them (exits naming the file and the
+    problem if it is missing, not JSON, or names a bag that is not there)."""
+    listing = root / "onsets.json"
+    try:
+        onsets = json.loads(listing.read_text())
+    except (OSError, ValueError) as error:
+        sys.exit(f"{listing}: cannot read the flights' onsets: {error}")
+    if not isinstance(onsets, dict) or not all(
+        isinstance(info, dict) and "onset_ns" in info and "class" in info
+        for info in onsets.values()
+    ):
+        sys.exit(f"{listing}: not a mapping of bag to its class and onset_ns")
+    missing = sorted(name for name in onsets if not (root / name).is_file())
+    if missing:
+        sys.exit(f"{listing}: {len(missing)} listed bags are missing, first {root / missing[0]}")
+    return Flights(root, onsets)
+
+
+def pre_onset_copies(work: Path, flights: Flights) -> dict[str, Path]:
+    """Per flight, the bag a monitor learns from: a no-failure flight whole, a fault flight's
+    copy up to its onset (written under ``work``)."""
     started = time.monotonic()
     training: dict[str, Path] = {}
-    for name, info in sorted(onsets.items()):
+    for name, info in sorted(flights.onsets.items()):
         if info["onset_ns"] is None:
-            training[name] = ALFA / name
+            training[name] = flights.root / name
         else:
-            training[name] = crop(ALFA / name, int(info["onset_ns"]), work / "pre_onset" / name)
+            training[name] = crop(flights.root / name, int(info["onset_ns"]), work / name)
+    copies = sum(i["onset_ns"] is not None for i in flights.onsets.values())
+    print(f"wrote {copies} pre-onset copies in {time.monotonic() - started:.1f} s")
+    return training
+
+
+def learn_alfa(
+    work: Path,
+    names: Sequence[str],
+    flights: Flights,
+    training: Mapping[str, Path],
+    workers: int | None,
+) -> dict[str, dict[str, Any]]:
+    """Both monitors learnt from ``names``: inferred on their training bags, classified with
+    those as <success> and the fault flights whole as <fail onset_topic> (printed)."""
+    bags = [training[n] for n in names]
+    faults = [flights.root / n for n in names if flights.onsets[n]["onset_ns"] is not None]
+    config = write_config(work / "alfa.xml", "alfa", ALFA_SCOPE, bags)
+    tick = time.monotonic()
+    document = learn(config, bags, workers)
+    learnt = time.monotonic() - tick
+    set_check(config, "alfa.inv", Classification(bags, faults, onset_topic=ALFA_LABEL))
+    tick = time.monotonic()
+    refined, diagnostics = refine(config, document, workers)
+    classified = time.monotonic() - tick
     print(
-        f"wrote {sum(i['onset_ns'] is not None for i in onsets.values())} pre-onset copies "
-        f"in {time.monotonic() - started:.1f} s"
+        f"  {len(bags)} training bags ({len(bags) - len(faults)} no-failure flights, "
+        f"{len(faults)} pre-onset copies), {len(faults)} fault flights"
     )
     print(
-        "per fold: infer on the other folds' pre-onset copies and no-failure flights "
-        "(inferred); classify with those as <success> and the other folds' fault flights whole "
-        f'as <fail onset_topic="{ALFA_LABEL}"> (classified); replay the fold\'s flights whole '
-        "with both"
+        f"  inferred:   {len(document['invariants'])} invariants, alarm rule "
+        f"{describe_rule(document)} ({learnt:.1f} s)"
     )
-    outcomes: dict[str, list[Outcome]] = {m: [] for m in MONITORS}
-    for index, held in enumerate(split):
-        names = [n for n in sorted(onsets) if n not in held]
-        bags = [training[n] for n in names]
-        faults = [ALFA / n for n in names if onsets[n]["onset_ns"] is not None]
-        config = write_config(work / f"fold_{index}" / "alfa.xml", "alfa", ALFA_SCOPE, bags)
-        tick = time.monotonic()
-        document = learn(config, bags, workers)
-        learnt = time.monotonic() - tick
-        set_check(config, "alfa.inv", Classification(bags, faults, onset_topic=ALFA_LABEL))
-        tick = time.monotonic()
-        refined, diagnostics = refine(config, document, workers)
-        classified = time.monotonic() - tick
-        documents = {"inferred": document, "classified": refined}
-        tick = time.monotonic()
-        for monitor, used in documents.items():
-            replayer = Replayer(used)
-            for name in held:
-                info = onsets[name]
-                onset = None if info["onset_ns"] is None else info["onset_ns"] / SECOND
-                group = info["class"] if onset is not None else "no_failure"
-                outcomes[monitor].append(outcome(name, group, onset, replayer.run(ALFA / name)))
-        sessions = sorted({session_of(n) for n in held})
-        print(
-            f"fold {index}: {len(held)} flights of {len(sessions)} sessions held out; "
-            f"{len(bags)} training bags ({len(bags) - len(faults)} no-failure flights, "
-            f"{len(faults)} pre-onset copies), {len(faults)} fault flights"
-        )
-        print(
-            f"  inferred:   {len(document['invariants'])} invariants, alarm rule "
-            f"{describe_rule(document)} ({learnt:.1f} s)"
-        )
-        print(
-            f"  classified: {len(refined['invariants'])} kept, "
-            f"{refined['classified']['dropped']} dropped, alarm rule {describe_rule(refined)} "
-            f"({classified:.1f} s); warnings: {describe_warnings(diagnostics)}"
-        )
-        print(f"  replayed with both in {time.monotonic() - tick:.1f} s")
+    print(
+        f"  classified: {len(refined['invariants'])} kept, "
+        f"{refined['classified']['dropped']} dropped, alarm rule {describe_rule(refined)} "
+        f"({classified:.1f} s); warnings: {describe_warnings(diagnostics)}"
+    )
+    return {"inferred": document, "classified": refined}
+
+
+def replay_alfa(
+    documents: Mapping[str, dict[str, Any]],
+    flights: Flights,
+    names: Sequence[str],
+    outcomes: Mapping[str, list[Outcome]],
+) -> None:
+    """Replay ``names`` whole with each monitor, their outcomes added to ``outcomes``."""
+    tick = time.monotonic()
+    for monitor, used in documents.items():
+        replayer = Replayer(used)
+        for name in names:
+            info = flights.onsets[name]
+            onset = None if info["onset_ns"] is None else info["onset_ns"] / SECOND
+            group = info["class"] if onset is not None else "no_failure"
+            result = replayer.run(flights.root / name)
+            outcomes[monitor].append(outcome(name, group, onset, result))
+    print(f"  replayed {len(names)} flights with both in {time.monotonic() - tick:.1f} s")
+
+
+def report_alfa(outcomes: Mapping[str, list[Outcome]]) -> dict[str, dict[str, Score]]:
+    """Print every flight under both monitors, the scores per class and where the delays
+    come from; the scores."""
     for found in outcomes.values():
         found.sort(key=lambda o: o.name)
     named = {
@@ -857,12 +906,56 @@ def alfa_part(work: Path, folds: int, workers: int | None, verdicts: Verdicts) -
         "and what the alarm rule added between them):"
     )
     print_sources(named)
+    return table
+
+
+def alfa_verdict(verdicts: Verdicts, index: int, table: Mapping[str, Mapping[str, Score]]) -> None:
     s, inferred = table["overall"]["classified"], table["overall"]["inferred"]
     verdicts.set(
-        0,
+        index,
         s.recall >= ALFA_RECALL and s.false_rate <= ALFA_FALSE and s.mean_delay <= ALFA_DELAY,
         f"classified: {target_figures(s)}; inferred: {target_figures(inferred)}",
     )
+
+
+def alfa_part(work: Path, folds: int, workers: int | None, verdicts: Verdicts) -> None:
+    flights = read_flights(ALFA)
+    split = session_folds(flights.onsets, folds)
+    print(f"\n== ALFA: {len(flights.onsets)} flights, {len(split)}-fold by recording session ==")
+    print(f"reference to beat: {REFERENCE}")
+    training = pre_onset_copies(work / "pre_onset", flights)
+    print(
+        "per fold: infer on the other folds' pre-onset copies and no-failure flights "
+        "(inferred); classify with those as <success> and the other folds' fault flights whole "
+        f'as <fail onset_topic="{ALFA_LABEL}"> (classified); replay the fold\'s flights whole '
+        "with both"
+    )
+    outcomes: dict[str, list[Outcome]] = {m: [] for m in MONITORS}
+    for index, held in enumerate(split):
+        sessions = sorted({session_of(n) for n in held})
+        print(f"fold {index}: {len(held)} flights of {len(sessions)} sessions held out")
+        names = [n for n in sorted(flights.onsets) if n not in held]
+        documents = learn_alfa(work / f"fold_{index}", names, flights, training, workers)
+        replay_alfa(documents, flights, held, outcomes)
+    alfa_verdict(verdicts, 0, report_alfa(outcomes))
+
+
+def held_out_part(work: Path, test: Flights, workers: int | None, verdicts: Verdicts) -> None:
+    """Learn both monitors once from every development flight, replay ``test``'s flights."""
+    development = read_flights(ALFA)
+    print(
+        f"\n== ALFA held out: learn on the {len(development.onsets)} development flights, "
+        f"replay the {len(test.onsets)} flights of {test.root} =="
+    )
+    print(f"reference to beat: {REFERENCE}")
+    seen = sorted({Path(n).name for n in development.onsets} & {Path(n).name for n in test.onsets})
+    if seen:
+        print(f"warning: {len(seen)} test flights are development flights too, first {seen[0]}")
+    training = pre_onset_copies(work / "pre_onset", development)
+    documents = learn_alfa(work / "all", sorted(development.onsets), development, training, workers)
+    outcomes: dict[str, list[Outcome]] = {m: [] for m in MONITORS}
+    replay_alfa(documents, test, sorted(test.onsets), outcomes)
+    alfa_verdict(verdicts, len(TARGETS) - 1, report_alfa(outcomes))
 
 
 def _replay_line(label: str, result: RunResult) -> str:
@@ -1042,6 +1135,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="<check detector> of the classified monitors (default: imrosc's, logistic, "
         'docs/families/detector.md; "none": invariants only)',
     )
+    parser.add_argument(
+        "--alfa-test",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="learn from every development ALFA flight and replay DIR's flights (bags and an "
+        "onsets.json like shared/data/real/alfa's); only this part runs",
+    )
     args = parser.parse_args(argv)
     BUDGET[0] = args.budget
     SELECT[0] = args.select
@@ -1052,6 +1153,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"unknown part {unknown}" if unknown else "--folds must be at least 2")
     if args.keep is not None and args.keep.exists() and any(args.keep.iterdir()):
         parser.error(f"--keep {args.keep}: not empty")
+    test = read_flights(args.alfa_test) if args.alfa_test is not None else None
     print("Targets (issue 17):")
     for target in TARGETS:
         print(f"  - {target}")
@@ -1060,17 +1162,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     work = args.keep if args.keep is not None else Path(scratch.name)
     started = time.monotonic()
     with scratch:
-        if "alfa" in parts:
+        if test is not None:
+            held_out_part(work / "held_out", test, args.workers, verdicts)
+        elif "alfa" in parts:
             if (ALFA / "onsets.json").is_file():
                 alfa_part(work / "alfa", args.folds, args.workers, verdicts)
             else:
                 print(f"\nALFA: {ALFA} missing, skipped")
-        if "crazyflie" in parts:
+        if "crazyflie" in parts and test is None:
             if (CRAZYFLIE / "sine_2.bag").is_file():
                 crazyflie_part(work / "crazyflie", args.workers, verdicts)
             else:
                 print(f"\nCrazyflie: {CRAZYFLIE} missing, skipped")
-        if "sim" in parts:
+        if "sim" in parts and test is None:
             (work / "sim").mkdir(parents=True, exist_ok=True)
             sim_part(work / "sim", args.workers, verdicts)
     print(f"\nVerdicts ({time.monotonic() - started:.0f} s):")

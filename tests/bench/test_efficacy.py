@@ -5,6 +5,7 @@ monitor or two side by side). The bench itself is not run."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import shutil
 from pathlib import Path
@@ -247,6 +248,38 @@ def test_no_session_is_split_across_folds(folds: int) -> None:
 def test_five_folds_of_alfa() -> None:
     split = e.session_folds(ALFA_FLIGHTS, 5)
     assert sorted(len(fold) for fold in split) == [4, 4, 4, 4, 5]
+
+
+def test_test_flights_are_read_from_their_onsets(tmp_path: Path) -> None:
+    (tmp_path / "engine").mkdir()
+    (tmp_path / "engine" / "a.bag").write_bytes(b"")
+    info = {"class": "engine", "onset_ns": 5, "onset_s": 1.0, "start_ns": 0, "end_ns": 9}
+    (tmp_path / "onsets.json").write_text(json.dumps({"engine/a.bag": info}))
+    flights = e.read_flights(tmp_path)
+    assert (flights.root, flights.onsets) == (tmp_path, {"engine/a.bag": info})
+
+
+@pytest.mark.parametrize(
+    ("listing", "problem"),
+    [
+        (None, "cannot read the flights' onsets"),
+        ("{", "cannot read the flights' onsets"),
+        ('["engine/a.bag"]', "not a mapping of bag to its class and onset_ns"),
+        ('{"engine/a.bag": {"class": "engine"}}', "not a mapping of bag to its class"),
+        ('{"engine/b.bag": {"class": "engine", "onset_ns": 5}}', "1 listed bags are missing"),
+    ],
+)
+def test_unreadable_test_flights_exit_naming_the_listing(
+    tmp_path: Path, listing: str | None, problem: str
+) -> None:
+    (tmp_path / "engine").mkdir()
+    (tmp_path / "engine" / "a.bag").write_bytes(b"")
+    if listing is not None:
+        (tmp_path / "onsets.json").write_text(listing)
+    with pytest.raises(SystemExit) as raised:
+        e.read_flights(tmp_path)
+    assert str(raised.value).startswith(f"{tmp_path / 'onsets.json'}: ")
+    assert problem in str(raised.value)
 
 
 def _run(onset: float | None, *alarms: float) -> e.Outcome:
