@@ -12,6 +12,8 @@ monitor``) work alike in imrosc and in a generated package.
 * :mod:`.flat`: the helpers of the generated flatteners;
 * :mod:`.records`: the record format's encoder (``docs/record-format.md``), the one both
   recorders and :mod:`imrosc.records` write with.
+* :mod:`.service_pool`: pooled persistent connections to a ROS 1 service (rospy passed
+  in), through which the ROS 1 recorder and monitor both forward the calls they relay.
 
 Python 3.8 syntax, numpy and the standard library only (and ``..runtime``; the adapters
 besides rospy or rclpy): a ROS Noetic robot runs it unchanged.

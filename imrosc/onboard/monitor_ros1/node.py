@@ -49,6 +49,7 @@ import numpy as np
 
 from .. import files
 from .. import monitor as common
+from ..service_pool import ServicePool
 from . import messages, wire
 
 try:  # only a ROS 1 robot has these; the helpers above are usable without them
@@ -278,8 +279,11 @@ class Monitor(common.Checking):
 
     def handler(self, service: str, service_class: Any) -> Callable[[Any], Any]:
         """The handler of ``/m/<service>``: check, forward, check, answer. A request whose
-        violations are alone (no alarm) is forwarded, and the whole call reported then."""
+        violations are alone (no alarm) is forwarded, and the whole call reported then. Calls
+        go over pooled persistent connections, and the delay checked is the wall-clock
+        seconds of the forwarded call, as ``imrosc record`` measured the delays it learnt."""
         blocked = service in self.blocked_services
+        calls = ServicePool(rospy, service, service_class)
 
         def serve(request: Any) -> Any:
             response = self.guard.run(f"call of {service}", checked, request)
@@ -298,10 +302,10 @@ class Monitor(common.Checking):
                     self.report(refused, raised, alarmed)
                     ids = common.withheld_for(refused, alarmed)
                     raise rospy.ServiceException(f"imrosc monitor refused the request: {ids}")
-            start = rospy.get_time()
-            response = rospy.ServiceProxy(service, service_class)(request)
+            started = time.perf_counter()
+            response = calls.call(request)
             values = common.call_values(
-                messages.message_data, request, response, rospy.get_time() - start
+                messages.message_data, request, response, time.perf_counter() - started
             )
             with self.lock:
                 now = rospy.get_time()

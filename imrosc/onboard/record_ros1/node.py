@@ -47,11 +47,11 @@ import xmlrpc.client
 from typing import Any, Callable, Dict, List, Optional, Set, Tuple
 
 from .. import records
+from ..service_pool import ServicePool
 
 DEFAULT_PREFIX = "/rec"
 _SERVER_ERROR = "service cannot process request: "
 _RESPONDED = "responded with an error: "
-_TRANSPORT_ERROR = "transport error"
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 SWITCH_INTERVAL = 0.0005
 """Seconds a thread may hold the GIL while another waits (Python's default is 5 ms): a relay
@@ -525,8 +525,9 @@ def _raw_service(header: Dict[str, str]) -> Any:
 class Relay:
     """Serves ``service`` and forwards each call to ``target`` (the remapped server).
 
-    Connections to the server are persistent and pooled, one per concurrent call, so a call
-    costs one extra local hop, not a new connection.
+    Connections to the server are persistent and pooled (:class:`ServicePool`), so a call
+    costs one extra local hop, not a new connection; the recorded delay is the wall-clock
+    seconds of the forwarded call, whatever clock ROS runs on.
     """
 
     def __init__(self, recorder: Recorder, service: str, target: str, cls: Any, raw: bool):
@@ -536,50 +537,14 @@ class Relay:
         self.target = target
         self.cls = cls
         self.raw = raw
-        self.pool: List[Any] = []
-        self.lock = threading.Lock()
-        self.busy = 0
-        self.idle = threading.Condition(self.lock)
+        self.calls = ServicePool(self.rospy, target, cls)
         self.server = self.rospy.Service(service, cls, self.handle)
-
-    def _take(self) -> Tuple[Any, bool]:
-        with self.lock:
-            self.busy += 1
-            if self.pool:
-                return self.pool.pop(), True
-        return self.rospy.ServiceProxy(self.target, self.cls, persistent=True), False
-
-    def _give(self, proxy: Optional[Any]) -> None:
-        with self.lock:
-            if proxy is not None:
-                self.pool.append(proxy)
-            self.busy -= 1
-            self.idle.notify_all()
-
-    def _forward(self, request: Any) -> Any:
-        proxy, reused = self._take()
-        try:
-            try:
-                response = proxy.call(request)
-            except self.rospy.ServiceException as error:
-                proxy.close()
-                if not (reused and str(error).startswith(_TRANSPORT_ERROR)):
-                    raise
-                # a pooled connection to a server that has restarted: one fresh try
-                proxy = self.rospy.ServiceProxy(self.target, self.cls, persistent=True)
-                response = proxy.call(request)
-        except BaseException:
-            proxy.close()
-            self._give(None)
-            raise
-        self._give(proxy)
-        return response
 
     def handle(self, request: Any) -> Any:
         stamp = self.rospy.get_time()
         started = time.perf_counter()
         try:
-            response = self._forward(request)
+            response = self.calls.call(request)
         except Exception as error:
             delay = time.perf_counter() - started
             self._record(request, None, stamp, delay)
@@ -621,13 +586,7 @@ class Relay:
 
     def drain(self, timeout: float) -> None:
         """Wait until no call is in flight, then close the server connections."""
-        deadline = time.monotonic() + timeout
-        with self.lock:
-            while self.busy and time.monotonic() < deadline:
-                self.idle.wait(max(0.0, deadline - time.monotonic()))
-            pool, self.pool = self.pool, []
-        for proxy in pool:
-            proxy.close()
+        self.calls.drain(timeout)
 
 
 def run(argv: List[str]) -> int:
