@@ -37,6 +37,34 @@ def test_a_fragile_platform_tips_when_landed_off_its_safe_quadrant() -> None:
     assert any(r.outcome == "landed" for r in outcomes)  # its safe quadrant holds
 
 
+def test_a_fragile_platforms_safe_quadrant_is_one_of_four_drawn_by_the_seed() -> None:
+    safe = [L.World("fragile", seed).platform.safe for seed in range(20)]
+    assert set(safe) == {(1, 1), (1, -1), (-1, 1), (-1, -1)}
+    # drawn last: the platform and the UAV start where the normal scenario's do
+    fragile, normal = L.World("fragile", 3), L.World("normal", 3)
+    assert (fragile.platform.x, fragile.uav.x, fragile.wind.phase) == (
+        normal.platform.x,
+        normal.uav.x,
+        normal.wind.phase,
+    )
+    world = L.World("fragile", 0)
+    platform = world.platform
+    platform.heading, platform.moving = 0.0, False
+    for su in (1, -1):
+        for sv in (1, -1):
+            u = world.uav
+            u.x, u.y = platform.x + su * 0.1, platform.y + sv * 0.1
+            u.resting, platform.tipping = "platform", None
+            world._load_fragile_platform()
+            # a quarter of the platform holds the UAV, the other three tip
+            assert (platform.tipping is None) == ((su, sv) == platform.safe)
+
+
+def test_a_fragile_platform_is_landed_on_safely_in_about_a_quarter_of_the_runs() -> None:
+    landed = sum(L.offline_trial("fragile", seed).outcome == "landed" for seed in range(24))
+    assert 2 <= landed <= 10  # the thesis: 20 % without a monitor
+
+
 def test_a_fragile_platform_sags_slowly_and_rights_itself_once_the_uav_lifts_off() -> None:
     world = L.World("fragile", 0)
     world.platform.moving = False

@@ -119,6 +119,10 @@ class Platform:
     pitch: float = 0.0
     tipping: tuple[float, float] | None = None
     present: bool = True
+    safe: tuple[int, int] = (1, 1)
+    """The quadrant of a fragile platform that holds a load (signs of its forward and leftward
+    coordinates): the one over the vehicle's support, which differs from one platform to the
+    next (:class:`World` draws it for the fragile scenario)."""
     vx: float = 0.0
     vy: float = 0.0
     yaw_rate: float = 0.0
@@ -628,6 +632,8 @@ class World:
                 break
         self.uav = Uav(x=x, y=y)
         self.wind = Wind(self.rng, enabled=self.scenario == "wind")
+        if self.scenario == "fragile":  # drawn last: the other scenarios' draws are unchanged
+            self.platform.safe = (self.rng.choice((-1, 1)), self.rng.choice((-1, 1)))
         self.referee = Referee(self.scenario, self.timeout)
 
     @property
@@ -653,14 +659,14 @@ class World:
 
     def _load_fragile_platform(self) -> None:
         """The fragile platform starts to tip when the UAV rests on it outside its safe
-        (front-left) quadrant, towards where it rests, and rights itself once the UAV has
-        lifted off."""
+        quadrant (:attr:`Platform.safe`), towards where it rests, and rights itself once the
+        UAV has lifted off."""
         platform = self.platform
         if self.uav.resting != "platform":
             platform.tipping = None
         elif platform.tipping is None:
             u, v = platform.local(self.uav.x, self.uav.y)
-            if not (u > 0.0 and v > 0.0):  # only the front-left quadrant is safe
+            if not (u * platform.safe[0] > 0.0 and v * platform.safe[1] > 0.0):
                 platform.tipping = (
                     math.copysign(TIP_ANGLE, -v or 1.0),
                     math.copysign(TIP_ANGLE, u or 1.0),
