@@ -18,7 +18,8 @@ detect stage on ``examples/landing_sim.xml``'s configuration over them:
     from ``/proc/stat`` less ours; 0 on an idle machine, 2 on two cores fully taken). The cases
     of 1 and 2 workers alternate ``--repeats`` times, so that each pair ran under about the same
     load; the speed-up is given per pair and as their median. Each case gives the catalogue's
-    seconds and the client's CPU seconds in it; ``--client-catalogue`` adds, per pair, 2 workers
+    seconds and the client's CPU seconds in it, and the workers' and the client's CPU seconds
+    over the whole stage, calibration included; ``--client-catalogue`` adds, per pair, 2 workers
     with the bags catalogued by the client one after another (as before the catalogue's tasks).
 (b) the peak RSS of each worker process (its ``ru_maxrss``) for half the bags and for all of
     them: a worker holds one bag's states at a time, so the peak does not grow with the bags.
@@ -124,6 +125,12 @@ class Cpu:
     """This process's CPU seconds during the catalogue."""
     others: float = 0.0
     """The other processes' busy seconds on every core (the machine's less ours)."""
+    whole_workers: float = 0.0
+    """The workers' CPU seconds over the whole stage, calibration included."""
+    whole_client: float = 0.0
+    """This process's CPU seconds over the whole stage, calibration included."""
+    whole_others: float = 0.0
+    """The other processes' cores over the whole stage."""
 
     def __str__(self) -> str:
         workers = " + ".join(f"{s:.1f}" for s in self.workers)
@@ -131,7 +138,9 @@ class Cpu:
         return (
             f"CPU: workers {workers} s, client {self.client:.1f} s; "
             f"other processes {cores:.2f} cores; catalogue {self.catalogue:.1f} s, "
-            f"client {self.catalogue_client:.1f} s CPU in it"
+            f"client {self.catalogue_client:.1f} s CPU in it; with calibration: workers "
+            f"{self.whole_workers:.1f} s, client {self.whole_client:.1f} s, other processes "
+            f"{self.whole_others:.2f} cores"
         )
 
 
@@ -183,6 +192,13 @@ def on_cluster(
             return notes
 
         result = run_detect(config, bags=list(bags), reducer=fleet, replays=replays, noter=noter)
+        done = client.run(cpu_seconds)
+        busy_now, own_now = machine_busy()
+        cpu.whole_workers = sum(done[w] - worker_cpu[w] for w in done)
+        cpu.whole_client = own_now - own
+        whole = time.monotonic() - begun
+        spent = busy_now - busy - cpu.whole_client - cpu.whole_workers
+        cpu.whole_others = max(0.0, spent) / whole if whole else 0.0
         peaks = [started, *sorted(client.run(worker_peak_mb).values())]
     return result, [started, *inferred], peaks, cpu
 

@@ -21,12 +21,12 @@ The figures, and what a user trades with the budget, are in ``docs/calibration.m
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from imrosc.calibrate.envelope import Envelopes, UnitView
-from imrosc.calibrate.rule import HeldOut, Replays, calibrate_rule
+from imrosc.calibrate.envelope import Envelopes, FoldDocument, UnitView
+from imrosc.calibrate.rule import HeldOut, Learnt, Replays, calibrate_rule
 from imrosc.folds import at_gaps
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
@@ -112,7 +112,7 @@ def _evidence(
     held_out: Sequence[HeldOut],
     units: Sequence[Unit],
     envelopes: Envelopes,
-    held: Sequence[tuple[Mapping[str, Any], list[int]]],
+    held: Sequence[tuple[Learnt, list[int]]],
     kept: set[str],
 ) -> None:
     """What each held-out unit says of the kept invariants beyond its replay: those it could
@@ -149,8 +149,11 @@ def calibrate(
     report.widened, report.dropped = envelopes.widened, envelopes.dropped
     report.unsupported = envelopes.unsupported
     groups = blocks(units, folds)
-    held: list[tuple[Mapping[str, Any], list[int]]] = [
-        (envelopes.document(everyone - set(group)), group) for group in groups if group
+    # each fold's document is built where its units are replayed (a worker, a process)
+    held: list[tuple[Learnt, list[int]]] = [
+        (FoldDocument(envelopes, frozenset(everyone - set(group))), group)
+        for group in groups
+        if group
     ]
     found = calibrate_rule(held, units, budget, workers=workers, replays=replays)
     report.rule, report.certified, report.held_out = found.rule, found.certified, found.held_out

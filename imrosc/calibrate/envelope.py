@@ -324,6 +324,20 @@ class Envelopes:
         return moved
 
 
+@dataclass(frozen=True)
+class FoldDocument:
+    """The document learnt from ``units`` alone (:meth:`Envelopes.document`), built where
+    it is replayed: in the process (or on the Dask worker) that replays its fold, so that
+    the folds' documents are built in parallel and only the envelopes, once, cross to the
+    workers."""
+
+    envelopes: Envelopes
+    units: frozenset[int]
+
+    def build(self) -> dict[str, Any]:
+        return self.envelopes.document(set(self.units))
+
+
 def _indexes(units: set[int]) -> np.ndarray:
     """The units' indexes in increasing order, to pick their columns of a limit's supports."""
     return np.array(sorted(units), dtype=np.intp)

@@ -35,6 +35,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
+from imrosc.calibrate.envelope import FoldDocument
 from imrosc.calibrate.tolerance import conformal, skewed_bound, too_many
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
@@ -338,17 +339,25 @@ def _within(time: float, span: tuple[float, float] | None) -> bool:
     return span is None or span[0] <= time <= span[1]
 
 
-Job = tuple[Mapping[str, Any], dict[Path, list[tuple[float, float] | None]], int]
+Learnt = Mapping[str, Any] | FoldDocument
+"""A fold's document, or how to build it (:class:`~.envelope.FoldDocument`)."""
+Job = tuple[Learnt, dict[Path, list[tuple[float, float] | None]], int]
 """A fold's replays: the document learnt without its units, their bags and spans, the fold."""
 Replays = Callable[[Sequence[Job]], list[list[HeldOut]]]
 """Replays the folds' jobs elsewhere (a cluster, :mod:`imrosc.fleet`), each fold's units in
 the order of its bags."""
 
 
-def held_out_replayer(document: Mapping[str, Any]) -> Any:
+def built(learnt: Learnt) -> Mapping[str, Any]:
+    """A fold's document (built, when it is a :class:`~.envelope.FoldDocument`)."""
+    return learnt.build() if isinstance(learnt, FoldDocument) else learnt
+
+
+def held_out_replayer(learnt: Learnt) -> Any:
     """The replayer of a fold's document (its engine built once; it replays bag after bag)."""
     from imrosc.replay import Replayer
 
+    document = built(learnt)
     engine = Engine(document, rule=HELD_BACK)
     engine.alarms.record = True
     return Replayer(document, engine)
@@ -362,6 +371,15 @@ def _replay(job: Job) -> list[HeldOut]:
     for bag, spans in bags.items():
         found += held_out(replayer, bag, spans, fold)
     return found
+
+
+_JOBS: list[Job] = []
+"""The jobs of :func:`calibrate_rule`'s process pool, set before it forks."""
+
+
+def _replay_at(index: int) -> list[HeldOut]:
+    """:func:`_replay` of the pool's job ``index`` (the jobs inherited through the fork)."""
+    return _replay(_JOBS[index])
 
 
 def held_out(
@@ -410,7 +428,7 @@ class RuleResult:
 
 
 def calibrate_rule(
-    held: Sequence[tuple[Mapping[str, Any], list[int]]],
+    held: Sequence[tuple[Learnt, list[int]]],
     units: Sequence[Unit],
     budget: float,
     *,
@@ -429,8 +447,12 @@ def calibrate_rule(
     if replays is not None:
         answers = replays(jobs)
     elif workers > 1 and len(jobs) > 1:
-        with multiprocessing.get_context("fork").Pool(min(workers, len(jobs))) as pool:
-            answers = pool.map(_replay, jobs)
+        _JOBS[:] = jobs  # inherited by the forked processes: nothing pickled to them
+        try:
+            with multiprocessing.get_context("fork").Pool(min(workers, len(jobs))) as pool:
+                answers = pool.map(_replay_at, range(len(jobs)))
+        finally:
+            _JOBS.clear()
     else:
         answers = [_replay(job) for job in jobs]
     held_out = [h for answer in answers for h in answer]

@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from imrosc import __version__
+from imrosc.calibrate.envelope import Envelopes, FoldDocument
 from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
 from imrosc.progress import bag_done
@@ -79,6 +80,26 @@ Task = Callable[[BagJob, Path, int], BagResult]
 
 def _same(job: BagJob) -> BagJob:
     return job
+
+
+@dataclass(frozen=True)
+class _Sealed:
+    """A value Dask passes to a task as it is: Dask walks the dicts, lists and tuples of a
+    task's arguments in search of futures, which takes seconds on an invariants document
+    of thousands of invariants (a client's CPU, before the task is sent)."""
+
+    value: Any
+
+
+def _unsealed(sealed: _Sealed) -> Any:
+    """A task that gives the sealed value (once on the cluster, a future of it)."""
+    return sealed.value
+
+
+def _fold_document(envelopes: Envelopes, units: frozenset[int]) -> dict[str, Any]:
+    """A calibration task: a fold's document, learnt from ``units`` (built on the worker
+    that replays the fold, from the envelopes sent once)."""
+    return FoldDocument(envelopes, units).build()
 
 
 def _answer(task: Task, template: BagJob, bag: Path, run: int, name: Path) -> Merged:
@@ -466,6 +487,8 @@ class Fleet:
         learnt: dict[int, Any] = {}
         tasks: dict[Any, tuple[int, int]] = {}
         left = [0] * len(jobs)
+        sent: dict[int, Any] = {}
+        """The futures of the folds' envelopes, by ``id``: sent once."""
         try:
             order = 0
             cut = shares([len(bags) for bags in folds], len(workers))
@@ -474,8 +497,8 @@ class Fleet:
                 for fold, first, stop in share:
                     if fold not in learnt:
                         # a task, not scattered data: computed again if its workers die
-                        learnt[fold] = client.submit(
-                            _same, jobs[fold][0], key=f"imrosc-fold-{token}-{fold}", **where
+                        learnt[fold] = self._learnt(
+                            jobs[fold][0], sent, f"imrosc-fold-{token}-{fold}", where
                         )
                     task = client.submit(
                         _replay,
@@ -491,6 +514,9 @@ class Fleet:
                     tasks[task] = (fold, len(found[fold]))
                     found[fold].append([])
                     left[fold] += 1
+            for future in sent.values():
+                future.release()  # kept by the scheduler until the folds' documents are built
+            sent.clear()
             for task in distributed.as_completed(list(tasks), loop=client.loop):
                 fold, index = tasks.pop(task)
                 found[fold][index] = task.result()
@@ -505,9 +531,24 @@ class Fleet:
         except (OSError, TimeoutError) as error:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
         finally:
-            for future in [*tasks, *learnt.values()]:
+            for future in [*tasks, *learnt.values(), *sent.values()]:
                 future.release()
         return [[unit for part in fold for unit in part] for fold in found]
+
+    def _learnt(
+        self, learnt: Mapping[str, Any] | FoldDocument, sent: dict[int, Any], key: str, where: Any
+    ) -> Any:
+        """The future of a fold's document: built by a task from its envelopes (sent once,
+        their future kept in ``sent``), or sent as it is."""
+        client = self.client
+        if not isinstance(learnt, FoldDocument):
+            return client.submit(_unsealed, _Sealed(learnt), key=key, **where)
+        envelopes = sent.get(id(learnt.envelopes))
+        if envelopes is None:
+            envelopes = sent[id(learnt.envelopes)] = client.submit(
+                _unsealed, _Sealed(learnt.envelopes), key=f"{key}-envelopes", **where
+            )
+        return client.submit(_fold_document, envelopes, learnt.units, key=key, **where)
 
     def replay_runs(
         self,
@@ -582,7 +623,7 @@ class Fleet:
         client = self.client
         key = f"imrosc-document-{uuid.uuid4().hex[:12]}"
         try:
-            learnt = client.submit(_same, document, key=key)
+            learnt = client.submit(_unsealed, _Sealed(document), key=key)
             client.replicate([learnt])
             futures = {
                 client.submit(*task(learnt, key, bag), key=f"{key}-{index}", retries=RETRIES): index

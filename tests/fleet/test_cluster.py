@@ -4,11 +4,13 @@ mid-run, and a scheduler that cannot be used."""
 
 from __future__ import annotations
 
+import copy
 import importlib
 import shutil
 import socket
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +19,9 @@ from click.testing import CliRunner, Result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from imrosc.calibrate.envelope import FoldDocument
+from imrosc.calibrate.rule import HeldOut, Job, built
+from imrosc.calibrate.rule import _replay as held_out_here
 from imrosc.cli import main
 from imrosc.demo import example_configs
 from imrosc.detect import prepare, run_detect
@@ -148,6 +153,32 @@ def test_a_worker_killed_mid_task_gives_the_same_invariants(
     assert fleet.document is not None and alone.document is not None
     assert dumps(fleet.document) == dumps(alone.document)
     assert fleet.diagnostics == alone.diagnostics
+
+
+def test_the_folds_documents_built_on_the_workers_replay_as_in_one_process(
+    project: Path, client: Any, address: str
+) -> None:
+    """Calibration sends the envelopes once and each fold's document is built on a worker
+    (:class:`~imrosc.calibrate.envelope.FoldDocument`); a document given as it is (``classify``'s
+    rule) is sent sealed from Dask's walk of its arguments. Both give every held-out unit
+    as the folds' documents built and replayed in this process do."""
+    cluster = Fleet(client, address)
+    seen: list[tuple[list[Any], list[Any], list[Any]]] = []
+
+    def replays(jobs: Sequence[Job]) -> list[list[HeldOut]]:
+        assert all(isinstance(learnt, FoldDocument) for learnt, _, _ in jobs)
+        built_here = [(built(learnt), bags, fold) for learnt, bags, fold in jobs]
+        on_workers = cluster.replay_held_out(jobs)
+        sent = cluster.replay_held_out(built_here)
+        here = [held_out_here(job) for job in built_here]
+        seen.append((copy.deepcopy(on_workers), sent, here))  # calibration settles them after
+        return on_workers
+
+    result = run_detect(project, bags=runs(project), reducer=cluster, replays=replays)
+    assert result.calibration is not None
+    [(on_workers, sent, here)] = seen
+    assert len(on_workers) > 1 and any(on_workers)
+    assert on_workers == sent == here
 
 
 def test_a_bag_that_kills_every_worker_is_reported_and_skipped(
