@@ -534,8 +534,6 @@ class Relay:
         self.recorder = recorder
         self.rospy = recorder.rospy
         self.service = service
-        self.target = target
-        self.cls = cls
         self.raw = raw
         self.calls = ServicePool(self.rospy, target, cls)
         self.server = self.rospy.Service(service, cls, self.handle)
