@@ -34,6 +34,9 @@ rospy when it is imported (``sitecustomize.py``), with no change to the nodes' c
   which process the scheduler ran first).
 * Publishers write synchronously (no queue, nothing dropped), subscribers queue without
   bound and ask for ``TCP_NODELAY`` (Nagle's delayed small writes would stall every step).
+* A subscriber connects to every publisher the master named to it, whatever order the
+  master's reply and its updates arrive in (:func:`patch_publisher_updates`): rospy alone may
+  never connect to one, and time would start without it.
 
 A subscriber that closes its connection to a publisher (the monitor drops an unknown
 publisher, a node leaves) reports the channel closed, and the simulator stops balancing it:
@@ -448,7 +451,46 @@ def install(rospy: Any) -> Process:
                 state.end()
 
     tcpros_service.ServiceImpl._handle_request = handle_request
+    patch_publisher_updates()
     return state
+
+
+def patch_publisher_updates() -> None:
+    """Keep rospy from losing a publisher a subscriber must connect to.
+
+    rospy queues the publisher lists it hears for a topic (the master's reply to its
+    ``registerSubscriber``, the master's ``publisherUpdate`` calls) and its registration
+    thread connects only to the last one queued, dropping the others. The reply to a
+    subscription, taken before a publisher registered, can be queued after the master's
+    update that names that publisher (both race on their way in): the publisher is then never
+    connected to (a subscriber of ``/a/cmd_attitude`` that never hears the UAV's commands,
+    and the simulator's start waiting 60 s for that connection). Here a list queued for a
+    topic also holds the publishers of the lists still queued for it: connecting to a
+    publisher that has left meanwhile fails at once (connection refused). The connections to
+    one publisher on one topic are made one at a time, so that two updates naming it do not
+    both connect (the second, a duplicate, is reset by the publisher)."""
+    from rospy.impl import registration  # type: ignore[import-not-found]
+
+    manager = registration.RegManager
+
+    def publisher_update(self: Any, resolved_name: str, uris: list[str]) -> None:
+        with self.cond:
+            queued = [u for topic, listed in self.updates if topic == resolved_name for u in listed]
+            self.updates.append((resolved_name, list(dict.fromkeys([*queued, *uris]))))
+            self.cond.notify_all()
+
+    manager.publisher_update = publisher_update
+    original_connect = manager._connect_topic_thread
+    guard = threading.Lock()
+    locks: dict[tuple[str, str], threading.Lock] = {}
+
+    def connect_topic_thread(self: Any, topic: str, uri: str) -> None:
+        with guard:
+            lock = locks.setdefault((topic, uri), threading.Lock())
+        with lock:
+            original_connect(self, topic, uri)
+
+    manager._connect_topic_thread = connect_topic_thread
 
 
 class _Hook(importlib.abc.MetaPathFinder):
