@@ -2,12 +2,19 @@
 its generated monitor.
 
     python bench/casestudy.py [--trials 10] [--scenarios normal,wind,...] [--nominal 20]
-                              [--speed 0] [--timeout 120] [--keep DIR]
+                              [--speed 0] [--timeout 120] [--lanes 2] [--keep DIR]
 
 The pipeline, as a user runs it, on the live ROS 1 system of ``examples/landing_system``
 (real roscore on a free port, rospy nodes on simulated time in lockstep with the simulator,
 so that a seed gives the same run on a loaded machine; ``--speed`` caps the pace, 0: none;
-``tests/live/landing_system.py`` starts it):
+``tests/live/landing_system.py`` starts it). The runs (recorded and trials) go ``--lanes``
+at a time, each lane a roscore of its own (``DIR/ros/<n>``, its ROS logs in
+``DIR/ros/<n>/ros_log``) recording in a folder of its own (``DIR/lanes/<n>``): the lockstep
+makes a run the same whatever runs beside it, so the lanes change the bench's wall time,
+not its outcomes. A run of the graph is CPU-bound (one to one and a half cores for the
+lockstep, the nodes and the monitor, plus 3-4 CPU seconds to start and stop its ten Python
+processes), so two lanes on two cores are what pays (``examples/landing_system/README.md``
+gives the figures).
 
 1. ``imrosc record`` of ``--nominal`` runs of the normal scenario (seeds 1000, 1001, ...),
    each through the ``--launch`` copy it writes (the servers remapped so it can relay their
@@ -39,19 +46,22 @@ from __future__ import annotations
 
 import argparse
 import collections
+import concurrent.futures
 import json
 import os
 import re
+import resource
 import shutil
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -81,6 +91,10 @@ THESIS = {
 """Table 5.2: success % without and with the monitor."""
 NOMINAL_SEED, FAIL_SEED = 1000, 2000
 ALARM = re.compile(r"imrosc: alarm[^:]*: (\S+) broken at ([^:]+): (.*)$")
+LANES = 2
+"""Trials at once by default, each lane its own roscore (see ``--lanes``)."""
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 def imrosc(*args: str, cwd: Path, env: dict[str, str] | None = None) -> str:
@@ -138,9 +152,10 @@ def record(
     speed: float,
     timeout: float,
 ) -> tuple[Outcome, Path]:
-    """One recorded run: ``imrosc record`` started, the system launched through its
-    ``--launch`` copy, the recorder stopped (Ctrl-C) once the run is over; its outcome and
-    bag (in ``bags/recording``)."""
+    """One recorded run in ``work`` (the configuration ``config``, its graph and launch file
+    there): ``imrosc record`` started, the system launched through its ``--launch`` copy,
+    the recorder stopped (Ctrl-C) once the run is over; its outcome and bag (in
+    ``work/bags/recording``; the recorder's log in ``work/logs``)."""
     env = {**os.environ, **ros.env}
     env.pop("LANDING_LOCKSTEP", None)  # the recorder is no part of the robot: not in lockstep
     # the ROS graph's PYTHONPATH (the generated service types) and this tree's imrosc
@@ -168,25 +183,20 @@ def record(
     ]
     log = work / "logs" / f"record_{name}.log"
     log.parent.mkdir(exist_ok=True)
+    written = work / "launch" / "landing.record.launch"
+    written.unlink(missing_ok=True)  # the recorder writes it when it starts
     with log.open("w") as out:
         recorder = subprocess.Popen(
             command, cwd=work, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
         )
     try:
         deadline = time.monotonic() + 60
-        while not (work / "launch" / "landing.record.launch").exists():
+        while not written.exists():
             if recorder.poll() is not None or time.monotonic() > deadline:
                 sys.exit(f"imrosc record did not start:\n{log.read_text()}")
             time.sleep(0.2)
         time.sleep(3.0)  # rosbag subscribes, the recording node relays
-        outcome = trial(
-            ros,
-            scenario,
-            seed,
-            launch=work / "launch" / "landing.record.launch",
-            speed=speed,
-            timeout=timeout,
-        )
+        outcome = trial(ros, scenario, seed, launch=written, speed=speed, timeout=timeout)
     finally:
         recorder.send_signal(signal.SIGINT)
         recorder.wait(120)
@@ -256,38 +266,174 @@ def alarms(ros: Ros) -> collections.Counter[str]:
     return found
 
 
-def record_runs(ros: Ros, work: Path, config: Path, args: argparse.Namespace) -> None:
-    """Record ``--nominal`` normal runs and ``--fail-runs`` runs of each fault, sorted into
-    ``bags/nominal``, ``bags/success`` and ``bags/fail`` (with ``bags/fail_onsets.json``)."""
+def children_cpu() -> float:
+    """CPU seconds (user and system) of the processes this one started and reaped so far
+    (a trial's roslaunch and, through it, the graph's nodes)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+@dataclass
+class Lane:
+    """A roscore of its own (``ros``, its logs in ``ros.home``) and a folder to record in
+    (``work``: a copy of the configuration, graph and launch file): one trial at a time."""
+
+    ros: Ros
+    work: Path
+    config: Path
+
+
+def start_lanes(work: Path, count: int, refined: bool, select: str) -> list[Lane]:
+    """``count`` lanes, each its roscore started (``work/ros/<n>``) and ready for the
+    landing system, recording in ``work/lanes/<n>``."""
+    lanes = []
+    try:
+        for n in range(count):
+            ros = Ros(work / "ros" / str(n))
+            lanes.append(Lane(ros, work / "lanes" / str(n), Path()))
+            prepare(ros)
+            ros.start()
+            # the launch file sets it too, but only once started: a recorder started before
+            # the first launch would stamp its bag with wall time, the later ones with
+            # simulated time
+            ros.set_param("/use_sim_time", True)
+            lanes[-1].work.mkdir(parents=True, exist_ok=True)
+            lanes[-1].config = configuration(lanes[-1].work, refined=refined, select=select)
+    except BaseException:
+        for lane in lanes:
+            lane.ros.shutdown()
+        raise
+    return lanes
+
+
+def on_lanes(
+    lanes: Sequence[Lane],
+    tasks: Sequence[T],
+    run: Callable[[Lane, T], R],
+    done: Callable[[T, R], None] = lambda task, result: None,
+) -> list[R]:
+    """``run(lane, task)`` for every task, each on a lane free at the time, as many at once as
+    there are lanes; ``done(task, result)`` as each ends (one at a time). The results in the
+    tasks' order. The first failure stops the tasks not yet begun and is raised."""
+    free: list[Lane] = list(lanes)
+    lock = threading.Lock()
+    failed = threading.Event()
+
+    def work(task: T) -> R:
+        if failed.is_set():
+            raise concurrent.futures.CancelledError
+        with lock:
+            lane = free.pop()
+        try:
+            return run(lane, task)
+        except BaseException:
+            failed.set()
+            raise
+        finally:
+            with lock:
+                free.append(lane)
+
+    results: dict[int, R] = {}
+    with concurrent.futures.ThreadPoolExecutor(max_workers=len(lanes)) as pool:
+        futures = {pool.submit(work, task): k for k, task in enumerate(tasks)}
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                k = futures[future]
+                results[k] = future.result()
+                done(tasks[k], results[k])
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            for future in futures:  # the failure itself, not a task it stopped
+                if future.done() and not future.cancelled():
+                    error = future.exception()
+                    if error is not None and not isinstance(
+                        error, concurrent.futures.CancelledError
+                    ):
+                        raise error from None
+            raise
+    return [results[k] for k in range(len(tasks))]
+
+
+def record_runs(lanes: Sequence[Lane], work: Path, args: argparse.Namespace) -> None:
+    """Record ``--nominal`` normal runs and ``--fail-runs`` runs of each fault (on the lanes
+    at once), sorted into ``bags/nominal``, ``bags/success`` and ``bags/fail`` (with
+    ``bags/fail_onsets.json``)."""
     print(
         f"== recording {args.nominal} normal runs and {args.fail_runs} of each fault "
-        f"(speed {args.speed:g}x) ==",
+        f"(speed {args.speed:g}x, {len(lanes)} at once) ==",
         flush=True,
     )
-    for k in range(args.nominal):
-        seed = NOMINAL_SEED + k
-        outcome, bag = record(ros, work, config, "normal", seed, args.speed, args.timeout)
-        folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
-        keep(bag, work / "bags" / folder)
-        if folder == "fail":  # no fault was injected: its samples cannot be labelled
-            note_onset(work / "bags" / "fail", bag, None)
-        print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
-    for scenario in SCENARIOS[1:]:
-        for k in range(args.fail_runs):
-            seed = FAIL_SEED + k
-            outcome, bag = record(ros, work, config, scenario, seed, args.speed, args.timeout)
-            onset = bag_onset(bag, outcome.onset)
-            if outcome.success and onset is None:  # the fault never acted: not used
-                bag.unlink()
-                print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
-                continue
-            keep(bag, work / "bags" / "fail")
-            note_onset(work / "bags" / "fail", bag, onset)
-            print(
-                f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail "
-                f"(onset {outcome.onset} s simulated, {onset} s into the bag)",
-                flush=True,
-            )
+    runs = [("normal", NOMINAL_SEED + k) for k in range(args.nominal)]
+    runs += [(s, FAIL_SEED + k) for s in SCENARIOS[1:] for k in range(args.fail_runs)]
+
+    def run(lane: Lane, task: tuple[str, int]) -> tuple[Outcome, Path, float | None]:
+        outcome, bag = record(
+            lane.ros, lane.work, lane.config, *task, speed=args.speed, timeout=args.timeout
+        )
+        # the logs beside the bench's own
+        log = lane.work / "logs" / f"record_{task[0]}_{task[1]}.log"
+        (work / "logs").mkdir(exist_ok=True)
+        shutil.move(str(log), work / "logs" / log.name)
+        return outcome, bag, bag_onset(bag, outcome.onset) if task[0] != "normal" else None
+
+    def done(task: tuple[str, int], result: tuple[Outcome, Path, float | None]) -> None:
+        print(f"  {task[0]} seed {task[1]}: {result[0].outcome}", flush=True)
+
+    recorded = on_lanes(lanes, runs, run, done)
+    print("sorted:", flush=True)  # in the runs' order, whichever lane ended first
+    for (scenario, seed), (outcome, bag, onset) in zip(runs, recorded, strict=True):
+        if scenario == "normal":
+            k = seed - NOMINAL_SEED
+            folder = "fail" if not outcome.success else ("success" if k % 5 == 4 else "nominal")
+            keep(bag, work / "bags" / folder)
+            if folder == "fail":  # no fault was injected: its samples cannot be labelled
+                note_onset(work / "bags" / "fail", bag, None)
+            print(f"  normal seed {seed}: {outcome.outcome} -> bags/{folder}", flush=True)
+            continue
+        if outcome.success and onset is None:  # the fault never acted: not used
+            bag.unlink()
+            print(f"  {scenario} seed {seed}: {outcome.outcome} (not used)", flush=True)
+            continue
+        keep(bag, work / "bags" / "fail")
+        note_onset(work / "bags" / "fail", bag, onset)
+        print(
+            f"  {scenario} seed {seed}: {outcome.outcome} -> bags/fail "
+            f"(onset {outcome.onset} s simulated, {onset} s into the bag)",
+            flush=True,
+        )
+
+
+def run_trials(
+    lanes: Sequence[Lane],
+    scenarios: Sequence[str],
+    launches: dict[bool, Path],
+    args: argparse.Namespace,
+) -> dict[tuple[str, bool], Row]:
+    """``--trials`` trials (seeds 0, 1, ...) of each scenario without and with the monitor
+    (``launches[False]``, ``launches[True]``), on the lanes at once; a line per trial as it
+    ends."""
+    tasks = [(s, m, seed) for s in scenarios for m in (False, True) for seed in range(args.trials)]
+
+    def run(lane: Lane, task: tuple[str, bool, int]) -> Outcome:
+        scenario, monitor, seed = task
+        launch = launches[monitor]
+        return trial(
+            lane.ros, scenario, seed, launch=launch, speed=args.speed, timeout=args.timeout
+        )
+
+    def done(task: tuple[str, bool, int], outcome: Outcome) -> None:
+        scenario, monitor, seed = task
+        print(
+            f"  {scenario:13s} {'with' if monitor else 'without':7s} seed {seed}: "
+            f"{outcome.outcome} ({outcome.detail}), {outcome.time:.1f} s",
+            flush=True,
+        )
+
+    outcomes = on_lanes(lanes, tasks, run, done)
+    rows: dict[tuple[str, bool], Row] = {}
+    for (scenario, monitor, _), outcome in zip(tasks, outcomes, strict=True):
+        rows.setdefault((scenario, monitor), Row([])).outcomes.append(outcome)
+    return rows
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -303,6 +449,13 @@ def main(argv: Sequence[str] | None = None) -> None:
         help="at most times real time (0: as fast as the lockstep goes)",
     )
     parser.add_argument("--timeout", type=float, default=120.0, help="simulated s per trial")
+    parser.add_argument(
+        "--lanes",
+        type=int,
+        default=LANES,
+        help=f"runs at once, each on a roscore of its own (default {LANES}; the lockstep "
+        "makes a run's outcome the same whatever runs beside it)",
+    )
     parser.add_argument("--keep", type=Path, help="work in this folder and keep it")
     parser.add_argument(
         "--reuse",
@@ -328,6 +481,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     unknown = [s for s in scenarios if s not in SCENARIOS]
     if unknown:
         parser.error(f"unknown scenario(s) {', '.join(unknown)}; from {', '.join(SCENARIOS)}")
+    if args.lanes < 1:
+        parser.error("--lanes must be at least 1")
     missing = ros_missing()
     if missing:
         sys.exit(f"the case study needs ROS 1 here: {missing}")
@@ -336,59 +491,57 @@ def main(argv: Sequence[str] | None = None) -> None:
     work = args.keep or Path(tempfile.mkdtemp(prefix="imrosc-casestudy-"))
     work.mkdir(parents=True, exist_ok=True)
     started = time.monotonic()
-    config = configuration(work, refined=args.invariants == "refined", select=args.select)
+    refined = args.invariants == "refined"
+    config = configuration(work, refined=refined, select=args.select)
     onsets = work / "bags" / "fail_onsets.json"  # <fail onsets>: there even with no failed run
     onsets.parent.mkdir(parents=True, exist_ok=True)
     if not onsets.exists():
         onsets.write_text("{}\n")
     if args.reuse:  # the earlier run's logs (its alarms) and monitor package go
-        shutil.rmtree(work / "ros", ignore_errors=True)
-        shutil.rmtree(work / "build", ignore_errors=True)
-    ros = Ros(work / "ros")
-    prepare(ros)
-    ros.start()
-    # the launch file sets it too, but only once started: a recorder started before the
-    # first launch would stamp its bag with wall time, the later ones with simulated time
-    ros.set_param("/use_sim_time", True)
+        for gone in ("ros", "build", "lanes"):
+            shutil.rmtree(work / gone, ignore_errors=True)
+    lanes = start_lanes(work, args.lanes, refined, args.select)
     try:
         if args.reuse:
             print(f"== reusing the runs recorded in {work / 'bags'} ==", flush=True)
         else:
-            record_runs(ros, work, config, args)
+            record_runs(lanes, work, args)
         print("== imrosc infer, classify, build ==", flush=True)
         print(imrosc("infer", config.name, "-j", "2", cwd=work).strip(), flush=True)
         print(imrosc("classify", config.name, "-j", "2", cwd=work).strip()[-1500:], flush=True)
         imrosc("build", config.name, "--backend", "ros1", "--graph", GRAPH.name, cwd=work)
         build = next((work / "build").glob("*-ros1"))
         monitored = next(build.glob("*/launch/system_monitored.launch"))
-        ros.add_package_path(build)
-        rows: dict[tuple[str, bool], Row] = {}
-        print(f"== {args.trials} trials per scenario, without and with the monitor ==", flush=True)
-        for scenario in scenarios:
-            for monitor in (False, True):
-                outcomes = []
-                for seed in range(args.trials):
-                    launch = monitored if monitor else work / "launch" / LAUNCH.name
-                    outcome = trial(
-                        ros, scenario, seed, launch=launch, speed=args.speed, timeout=args.timeout
-                    )
-                    outcomes.append(outcome)
-                    print(
-                        f"  {scenario:13s} {'with' if monitor else 'without':7s} seed {seed}: "
-                        f"{outcome.outcome} ({outcome.detail}), {outcome.time:.1f} s",
-                        flush=True,
-                    )
-                rows[(scenario, monitor)] = Row(outcomes)
-        report(rows, scenarios, alarms(ros))
+        for lane in lanes:
+            lane.ros.add_package_path(build)
+        print(
+            f"== {args.trials} trials per scenario, without and with the monitor "
+            f"({len(lanes)} at once) ==",
+            flush=True,
+        )
+        launches = {False: work / "launch" / LAUNCH.name, True: monitored}
+        began, cpu = time.monotonic(), children_cpu()
+        rows = run_trials(lanes, scenarios, launches, args)
+        elapsed, cpu = time.monotonic() - began, children_cpu() - cpu
+        broken: collections.Counter[str] = collections.Counter()
+        for lane in lanes:
+            broken += alarms(lane.ros)
+        report(rows, scenarios, broken, elapsed, len(lanes), cpu)
     finally:
-        ros.shutdown()
+        for lane in lanes:
+            lane.ros.shutdown()
         if args.keep is None:
             shutil.rmtree(work, ignore_errors=True)
     print(f"({time.monotonic() - started:.0f} s)")
 
 
 def report(
-    rows: dict[tuple[str, bool], Row], scenarios: Sequence[str], broken: collections.Counter[str]
+    rows: dict[tuple[str, bool], Row],
+    scenarios: Sequence[str],
+    broken: collections.Counter[str],
+    elapsed: float = 0.0,
+    lanes: int = 1,
+    cpu: float = 0.0,
 ) -> None:
     def cell(value: float | None, digits: int = 1) -> str:
         return "-" if value is None else f"{value:.{digits}f}"
@@ -415,7 +568,9 @@ def report(
     print(
         f"lockstep: {sum(o.stalls for o in every)} steps went on unsettled in {len(every)} "
         f"trials; {sum(o.wall for o in every) / max(len(every), 1):.1f} s per trial "
-        "(wall, start-up included)"
+        f"(wall, start-up included), {lanes} at once: {elapsed:.0f} s in all, "
+        f"{elapsed / max(len(every), 1):.1f} s per trial; "
+        f"{cpu / max(len(every), 1):.1f} CPU s per trial"
     )
     with_ = 100.0 * sum(o.success for o in total_on) / max(len(total_on), 1)
     without = 100.0 * sum(o.success for o in total_off) / max(len(total_off), 1)

@@ -49,3 +49,44 @@ def test_the_table_ends_with_the_overall_line(capsys: pytest.CaptureFixture[str]
     normal = next(line for line in lines if line.strip().startswith("normal"))
     assert "50 [ 35]" in normal and "100 [ 95]" in normal and "30.0" in normal
     assert any("3x a?1: z <= 1" in line for line in lines)
+
+
+def test_the_lanes_run_tasks_at_once_one_per_lane_in_the_tasks_order() -> None:
+    import threading
+    import time
+
+    lanes = [c.Lane(None, Path(f"lane{n}"), Path()) for n in range(3)]  # type: ignore[arg-type]
+    busy: set[int] = set()
+    overlap: list[int] = []
+    lock = threading.Lock()
+    ended: list[int] = []
+
+    def run(lane: c.Lane, task: int) -> tuple[int, str]:
+        with lock:
+            assert id(lane) not in busy  # a lane runs one task at a time
+            busy.add(id(lane))
+            overlap.append(len(busy))
+        time.sleep(0.02 * (task % 4))
+        with lock:
+            busy.discard(id(lane))
+        return task * 10, lane.work.name
+
+    results = c.on_lanes(lanes, list(range(12)), run, lambda task, _: ended.append(task))
+    assert [r[0] for r in results] == [k * 10 for k in range(12)]  # the tasks' order
+    assert {r[1] for r in results} == {"lane0", "lane1", "lane2"}
+    assert max(overlap) == 3 and sorted(ended) == list(range(12))
+
+
+def test_a_failing_task_stops_the_lanes() -> None:
+    lanes = [c.Lane(None, Path("lane"), Path())]  # type: ignore[arg-type]
+    begun: list[int] = []
+
+    def run(_lane: c.Lane, task: int) -> int:
+        begun.append(task)
+        if task == 1:
+            raise RuntimeError("no outcome")
+        return task
+
+    with pytest.raises(RuntimeError, match="no outcome"):
+        c.on_lanes(lanes, list(range(5)), run)
+    assert begun == [0, 1]  # nothing begun after the failure
