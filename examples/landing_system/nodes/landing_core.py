@@ -63,6 +63,13 @@ SLIDE_TILT = 0.25
 WIND_PERIOD = 20.0
 WIND_WIDTH = 0.25
 """The blower's sweep (s, there and back) and its jet's half-width (rad)."""
+GROUND_EFFECT_HEIGHT = 0.4
+GROUND_EFFECT_AIR = 0.5
+"""Near a surface the rotors' downwash comes back off it: below this height over what is
+under it (m) the UAV sits in an unsteady outwash, air moving sideways at up to this speed
+(m/s, standard deviation right at the surface, falling off linearly with height; it changes
+over about 0.3 s): a landing touches down a few centimetres from where it aimed, never twice
+at the same spot."""
 UAV_REST = 0.08
 """Height of the UAV's markers above the surface it stands on (m)."""
 UAV_MASS = 0.7
@@ -456,7 +463,7 @@ class LandingController:
     hover_z: float = 1.0
     approach: float = 0.6
     land_speed: float = 0.3
-    lead: float = 0.25
+    lead: float = 0.1
     startup_time: float = 1.0
     hover_time: float = 2.0
     commanded: int = STARTUP
@@ -639,6 +646,10 @@ class World:
     onset: float | None = None
     """When the scenario's fault first acted on the system (simulated s; None: not yet, or
     no fault): see :meth:`_fault_acts`."""
+    outwash: tuple[float, float] = (0.0, 0.0)
+    """The rotors' downwash coming back off the surface under the UAV (its own random
+    draws: the other scenarios' draws are unchanged): :data:`GROUND_EFFECT_AIR`."""
+    air: random.Random = field(init=False)
 
     def __post_init__(self) -> None:
         if self.scenario not in SCENARIOS:
@@ -655,6 +666,7 @@ class World:
         if self.scenario == "fragile":  # drawn last: the other scenarios' draws are unchanged
             self.platform.safe = (self.rng.choice((-1, 1)), self.rng.choice((-1, 1)))
         self.referee = Referee(self.scenario, self.timeout)
+        self.air = random.Random(self.seed + 7_919)
 
     @property
     def occupied(self) -> bool:
@@ -668,14 +680,28 @@ class World:
         self.t += DT
         self.wind.step(DT)
         self.platform.step(DT)
-        self.uav.step(
-            DT, self.command, self.wind.at(self.uav.x, self.uav.y), self.platform, self.occupied
-        )
+        wind = self.wind.at(self.uav.x, self.uav.y)
+        self.uav.step(DT, self.command, self._ground_effect(wind), self.platform, self.occupied)
         if self.scenario == "fragile":
             self._load_fragile_platform()
         if self.onset is None and self._fault_acts():
             self.onset = self.t
         return self.referee.step(self.t, self.uav, self.command.motors)
+
+    def _ground_effect(self, wind: tuple[float, float]) -> tuple[float, float]:
+        """The air around the UAV: the wind, and near a surface the rotors' outwash (an
+        Ornstein-Uhlenbeck process, time constant 0.3 s, drawn every step)."""
+        tau, (ox, oy) = 0.3, self.outwash
+        kick = GROUND_EFFECT_AIR * math.sqrt(2.0 * DT / tau)
+        ox += -ox * DT / tau + kick * self.air.gauss(0.0, 1.0)
+        oy += -oy * DT / tau + kick * self.air.gauss(0.0, 1.0)
+        self.outwash = (ox, oy)
+        uav = self.uav
+        height = uav.z - UAV_REST - uav.surface(self.platform, self.occupied)[0]
+        if uav.resting is not None or not self.command.motors or height >= GROUND_EFFECT_HEIGHT:
+            return wind
+        near = 1.0 - max(height, 0.0) / GROUND_EFFECT_HEIGHT
+        return wind[0] + near * ox, wind[1] + near * oy
 
     def _load_fragile_platform(self) -> None:
         """The fragile platform starts to tip when the UAV rests on it outside its safe
