@@ -114,15 +114,18 @@ def imrosc(*args: str, cwd: Path, env: dict[str, str] | None = None) -> str:
 
 def configuration(work: Path, refined: bool = True, select: str = "fscore") -> Path:
     """``uav_landing.xml`` with its ``<check>`` on the bench's folders, choosing invariants by
-    ``select`` (``fscore``: the example's threshold and beta), and its monitor on the refined
-    invariants (``refined``; else on the inferred ones, as the example has it); the launch
-    file and graph beside it."""
-    selection = (
-        'select="fscore" threshold="0.6" beta="0.5"' if select == "fscore" else 'select="cover"'
-    )
+    ``select`` (``fscore``: with the threshold and beta of the example's ``<check>``), and its
+    monitor on the refined invariants (``refined``; else on the inferred ones, as the example
+    has it); the launch file and graph beside it."""
     text = CONFIG.read_text(encoding="utf-8")
     check = re.search(r"  <check .*?</check>\n", text, re.S)
     assert check is not None, "uav_landing.xml has no <check>"
+    selection = 'select="cover"'
+    if select == "fscore":
+        selection = " ".join(
+            f'{name}="{value}"'
+            for name, value in re.findall(r'(select|threshold|beta)="([^"]*)"', check.group(0))
+        )
     text = text.replace(
         check.group(0),
         f'  <check inv="landing.inv" {selection}>\n'
@@ -474,7 +477,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         choices=("fscore", "cover"),
         default="fscore",
         help="how classify chooses the refined file's invariants (<check select>; default: "
-        "the example's, fscore with threshold 0.6 and beta 0.5)",
+        "the example's: fscore with its threshold and beta)",
     )
     args = parser.parse_args(argv)
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()]

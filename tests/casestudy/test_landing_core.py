@@ -86,13 +86,25 @@ def test_a_fragile_platform_sags_slowly_and_rights_itself_once_the_uav_lifts_off
 
 
 def test_the_platform_turns_in_place_at_the_walls() -> None:
+    import itertools
     import random
 
-    platform = L.Platform(random.Random(1), x=L.PLATFORM_LIMIT - 0.001, y=0.0, heading=0.0)
+    # its braking distance from the wall's limit, driving at full speed towards it
+    brake = L.PLATFORM_SPEED**2 / (2 * L.PLATFORM_ACCEL)
+    platform = L.Platform(random.Random(1), x=L.PLATFORM_LIMIT - brake - 0.002, y=0.0)
     platform.until_turn = 1e9
     platform.step(L.DT)
     assert platform.target is not None  # at the wall: it turns, it does not drive on
     assert abs(L.wrap(platform.target - math.atan2(0.0, -platform.x))) <= 1.0 + 1e-9
+    speeds, rates = [], []
+    for _ in range(60):  # it brakes to a standstill before it turns: no instant stop
+        platform.step(L.DT)
+        speeds.append(platform.speed)
+        rates.append(platform.yaw_rate)
+    assert speeds[0] > 0.9 * L.PLATFORM_SPEED and speeds[-1] == 0.0
+    assert all(r == 0.0 for s, r in zip(speeds, rates, strict=True) if s > 0.0)
+    spin = L.PLATFORM_YAW_ACCEL * L.DT + 1e-9
+    assert all(abs(b - a) <= spin for a, b in itertools.pairwise(rates))
     x = platform.x
     for _ in range(400):
         platform.step(L.DT)
@@ -185,7 +197,7 @@ def test_a_landing_waits_over_the_platform_while_it_turns_in_place() -> None:
     state, waypoint, _ = control.step(t + 0.05, L.LAND, (0.0, 0.0, L.PLATFORM_TOP + 0.2), -0.3)
     assert state == L.LAND and waypoint is not None
     assert waypoint[2] == pytest.approx(L.PLATFORM_TOP + control.hold)  # back up, waiting
-    for k in range(2, 30):  # the turn is over: after settling it descends again
+    for k in range(2, 50):  # the turn is over: after settling it descends again
         control.see_car(t + 0.05 * k, 0.0, 0.0, L.PLATFORM_TOP, 0.2)
         _, waypoint, _ = control.step(t + 0.05 * k, L.LAND, (0.0, 0.0, 0.5), -0.3)
     assert waypoint is not None and waypoint[2] < L.PLATFORM_TOP + control.hold - 0.2

@@ -42,6 +42,12 @@ PLATFORM_TOP = 0.25
 """Height of the platform's markers, its top surface (m)."""
 PLATFORM_SPEED = 0.3
 PLATFORM_TURN_RATE = 1.5
+PLATFORM_ACCEL = 0.5
+"""How fast the vehicle speeds up and brakes (m/s^2): it stops from full speed in 0.6 s,
+over 9 cm."""
+PLATFORM_YAW_ACCEL = 3.0
+"""How fast its turn rate builds up and dies down (rad/s^2): a full-rate turn in place
+starts and ends over 0.5 s."""
 PLATFORM_LIMIT = ROOM_HALF - 0.35
 RANDOM_TURN_MEAN = 7.0
 """Mean seconds between spontaneous turns of the vacuum pattern."""
@@ -57,6 +63,13 @@ SLIDE_TILT = 0.25
 WIND_PERIOD = 20.0
 WIND_WIDTH = 0.25
 """The blower's sweep (s, there and back) and its jet's half-width (rad)."""
+GROUND_EFFECT_HEIGHT = 0.4
+GROUND_EFFECT_AIR = 0.5
+"""Near a surface the rotors' downwash comes back off it: below this height over what is
+under it (m) the UAV sits in an unsteady outwash, air moving sideways at up to this speed
+(m/s, standard deviation right at the surface, falling off linearly with height; it changes
+over about 0.3 s): a landing touches down a few centimetres from where it aimed, never twice
+at the same spot."""
 UAV_REST = 0.08
 """Height of the UAV's markers above the surface it stands on (m)."""
 UAV_MASS = 0.7
@@ -123,6 +136,9 @@ class Platform:
     """The quadrant of a fragile platform that holds a load (signs of its forward and leftward
     coordinates): the one over the vehicle's support, which differs from one platform to the
     next (:class:`World` draws it for the fragile scenario)."""
+    speed: float = PLATFORM_SPEED
+    """Forward speed (m/s): it drives straight at :data:`PLATFORM_SPEED` and brakes before
+    each turn in place (:data:`PLATFORM_ACCEL`)."""
     vx: float = 0.0
     vy: float = 0.0
     yaw_rate: float = 0.0
@@ -142,32 +158,43 @@ class Platform:
         return wrap(away + self.rng.uniform(-1.0, 1.0))
 
     def step(self, dt: float) -> None:
-        self.vx = self.vy = self.yaw_rate = 0.0
         if self.tipping is not None or self.roll or self.pitch:
             goal_roll, goal_pitch = self.tipping if self.tipping is not None else (0.0, 0.0)
             self.roll += clip(goal_roll - self.roll, -TIP_RATE * dt, TIP_RATE * dt)
             self.pitch += clip(goal_pitch - self.pitch, -TIP_RATE * dt, TIP_RATE * dt)
-        if not self.moving:
-            return
-        if self.target is not None:
+        brake, spin = PLATFORM_ACCEL * dt, PLATFORM_YAW_ACCEL * dt
+        if not self.moving or self.target is not None:
+            # stopping, or about to turn in place: brake to a standstill first
+            self.speed = max(0.0, self.speed - brake)
+        if not self.moving or (self.target is not None and self.speed > 0.0):
+            self.yaw_rate = clip(0.0, self.yaw_rate - spin, self.yaw_rate + spin)
+        elif self.target is not None:
+            # turn in place: the turn rate builds up, and dies down in time to stop on target
             error = wrap(self.target - self.heading)
-            turn = clip(error, -PLATFORM_TURN_RATE * dt, PLATFORM_TURN_RATE * dt)
-            self.heading = wrap(self.heading + turn)
-            self.yaw_rate = turn / dt
-            if abs(error) <= PLATFORM_TURN_RATE * dt:
-                self.target = None
-            return
-        nx = self.x + PLATFORM_SPEED * math.cos(self.heading) * dt
-        ny = self.y + PLATFORM_SPEED * math.sin(self.heading) * dt
-        if abs(nx) > PLATFORM_LIMIT or abs(ny) > PLATFORM_LIMIT:
-            self.target = self._inward()
-            return
-        self.until_turn -= dt
-        if self.until_turn <= 0.0:
-            self.target = wrap(self.heading + self.rng.choice((-1, 1)) * self.rng.uniform(0.5, 2.5))
-            self.until_turn = self.rng.expovariate(1.0 / RANDOM_TURN_MEAN)
-        self.vx, self.vy = (nx - self.x) / dt, (ny - self.y) / dt
-        self.x, self.y = nx, ny
+            goal = math.copysign(
+                min(PLATFORM_TURN_RATE, math.sqrt(2.0 * PLATFORM_YAW_ACCEL * abs(error))), error
+            )
+            self.yaw_rate = clip(goal, self.yaw_rate - spin, self.yaw_rate + spin)
+            self.heading = wrap(self.heading + self.yaw_rate * dt)
+            if abs(wrap(self.target - self.heading)) <= 0.01 and abs(self.yaw_rate) <= spin:
+                self.target, self.yaw_rate = None, 0.0
+        else:
+            self.speed = min(PLATFORM_SPEED, self.speed + brake)
+            reach = self.speed * dt + self.speed**2 / (2.0 * PLATFORM_ACCEL)  # braking distance
+            ahead_x = self.x + reach * math.cos(self.heading)
+            ahead_y = self.y + reach * math.sin(self.heading)
+            if abs(ahead_x) > PLATFORM_LIMIT or abs(ahead_y) > PLATFORM_LIMIT:
+                self.target = self._inward()
+            else:
+                self.until_turn -= dt
+                if self.until_turn <= 0.0:
+                    turn = self.rng.choice((-1, 1)) * self.rng.uniform(0.5, 2.5)
+                    self.target = wrap(self.heading + turn)
+                    self.until_turn = self.rng.expovariate(1.0 / RANDOM_TURN_MEAN)
+        self.vx = self.speed * math.cos(self.heading)
+        self.vy = self.speed * math.sin(self.heading)
+        self.x += self.vx * dt
+        self.y += self.vy * dt
 
     def local(self, x: float, y: float) -> tuple[float, float]:
         """A point of the room in the platform's frame."""
@@ -436,7 +463,7 @@ class LandingController:
     hover_z: float = 1.0
     approach: float = 0.6
     land_speed: float = 0.3
-    lead: float = 0.25
+    lead: float = 0.1
     startup_time: float = 1.0
     hover_time: float = 2.0
     commanded: int = STARTUP
@@ -456,7 +483,7 @@ class LandingController:
     """Until when (s) the platform counts as turning: its heading changed between two poses
     faster than :attr:`turn_rate`, and :attr:`settle` s after that."""
     turn_rate: float = 0.3
-    settle: float = 0.5
+    settle: float = 1.5
     hold: float = 0.3
     """How high over the platform (m) the UAV waits while the platform turns in a landing."""
     commit: float = UAV_REST + 0.01
@@ -619,6 +646,10 @@ class World:
     onset: float | None = None
     """When the scenario's fault first acted on the system (simulated s; None: not yet, or
     no fault): see :meth:`_fault_acts`."""
+    outwash: tuple[float, float] = (0.0, 0.0)
+    """The rotors' downwash coming back off the surface under the UAV (its own random
+    draws: the other scenarios' draws are unchanged): :data:`GROUND_EFFECT_AIR`."""
+    air: random.Random = field(init=False)
 
     def __post_init__(self) -> None:
         if self.scenario not in SCENARIOS:
@@ -635,6 +666,7 @@ class World:
         if self.scenario == "fragile":  # drawn last: the other scenarios' draws are unchanged
             self.platform.safe = (self.rng.choice((-1, 1)), self.rng.choice((-1, 1)))
         self.referee = Referee(self.scenario, self.timeout)
+        self.air = random.Random(self.seed + 7_919)
 
     @property
     def occupied(self) -> bool:
@@ -648,14 +680,28 @@ class World:
         self.t += DT
         self.wind.step(DT)
         self.platform.step(DT)
-        self.uav.step(
-            DT, self.command, self.wind.at(self.uav.x, self.uav.y), self.platform, self.occupied
-        )
+        wind = self.wind.at(self.uav.x, self.uav.y)
+        self.uav.step(DT, self.command, self._ground_effect(wind), self.platform, self.occupied)
         if self.scenario == "fragile":
             self._load_fragile_platform()
         if self.onset is None and self._fault_acts():
             self.onset = self.t
         return self.referee.step(self.t, self.uav, self.command.motors)
+
+    def _ground_effect(self, wind: tuple[float, float]) -> tuple[float, float]:
+        """The air around the UAV: the wind, and near a surface the rotors' outwash (an
+        Ornstein-Uhlenbeck process, time constant 0.3 s, drawn every step)."""
+        tau, (ox, oy) = 0.3, self.outwash
+        kick = GROUND_EFFECT_AIR * math.sqrt(2.0 * DT / tau)
+        ox += -ox * DT / tau + kick * self.air.gauss(0.0, 1.0)
+        oy += -oy * DT / tau + kick * self.air.gauss(0.0, 1.0)
+        self.outwash = (ox, oy)
+        uav = self.uav
+        height = uav.z - UAV_REST - uav.surface(self.platform, self.occupied)[0]
+        if uav.resting is not None or not self.command.motors or height >= GROUND_EFFECT_HEIGHT:
+            return wind
+        near = 1.0 - max(height, 0.0) / GROUND_EFFECT_HEIGHT
+        return wind[0] + near * ox, wind[1] + near * oy
 
     def _load_fragile_platform(self) -> None:
         """The fragile platform starts to tip when the UAV rests on it outside its safe
