@@ -17,6 +17,12 @@ when ``H`` changes):
   within ``1e-6`` (normalised) of ``c`` get no table: a ray grazing a vertex could meet
   a nearly radial edge far away.
 
+Per sector facing a single edge of ``H`` (no vertex's angle near the sector) whose slope is
+zero, infinite or a power of two up to rounding, the table also keeps that edge's sheared
+frame (:func:`~imrosc.infer.polygon.predicates.edge_frames`): a sample the chord leaves
+(samples of exact relations lie *on* such edges) is decided exactly there, and if on the
+edge's inner side or on it, it is in the closed hull and none of its vertices.
+
 A sample inside a box, or on the inner side of its sector's chord, is strictly inside
 ``H``, hence no vertex of any later hull; so is every point of a box whose four corners are
 (the interior of ``H`` is convex). The tables are built in cache-sized batches of pairs.
@@ -37,7 +43,7 @@ import numpy.typing as npt
 from imrosc.infer.core import FloatArray
 from imrosc.infer.polygon.hull import GroupSet, IntArray
 from imrosc.infer.polygon.locate import Locator
-from imrosc.infer.polygon.predicates import surely_left
+from imrosc.infer.polygon.predicates import Frames, edge_frames, frame_orientation, surely_left
 
 BoolArray = npt.NDArray[np.bool_]
 
@@ -45,7 +51,13 @@ BUCKETS = 256
 """Sectors of the polar table, at most (fewer when there are many pairs, see ``_TABLE``)."""
 
 _TABLE = 64 * 2**20
-"""Bytes the polar tables of one point may take (three float64 planes)."""
+"""Bytes the polar tables of one point may take (see ``_CELL``)."""
+_CELL = 73
+"""Bytes per sector of a polar table: the chord (three floats), the frame of the edge it
+faces (six floats and its kind)."""
+_MARGIN = 2.0**-20
+"""A sector whose edge is known runs this far (in sectors) inside the edge's angular span
+at both ends: far more than the rounding of any angle."""
 _TABLE_BLOCK = 1 << 14
 """Table entries computed together (keeps the temporaries in cache)."""
 FRACTIONS = (0.3, 0.55, 0.8)
@@ -161,6 +173,13 @@ class Guide:
             np.zeros(npairs * self.buckets),
             np.full(npairs * self.buckets, -np.inf),
         )
+        # per pair and sector, the frame of the edge the whole sector faces, if any
+        # (_edge_frames; kind 0 for none)
+        cells = npairs * self.buckets
+        self.frames: Frames = (
+            np.zeros(cells, np.int8),
+            *(np.zeros(cells) for _ in range(6)),
+        )  # type: ignore[assignment]
         # pairs without a table: their vertices, for exact location
         self.loose = GroupSet.empty()
         self.locator = Locator.build(self.loose, npairs)
@@ -262,17 +281,20 @@ class Guide:
     ) -> None:
         """Write the polar tables of ``pairs`` (rows of ``poly``), by cache-sized blocks."""
         nx, ny, level = (plane.reshape(-1, self.buckets) for plane in self.planes)
+        frames = [plane.reshape(-1, self.buckets) for plane in self.frames]
         nx[pairs] = 0.0
         ny[pairs] = 0.0
         level[pairs] = -np.inf
+        frames[0][pairs] = 0
         rows = np.flatnonzero(ok)
         step = max(1, _TABLE_BLOCK // self.buckets)
         for first in range(0, len(rows), step):
             mine = rows[first : first + step]
-            tx, ty, lv = _chords(poly, mine, centre, span, self.buckets)
-            nx[pairs[mine]] = tx
-            ny[pairs[mine]] = ty
-            level[pairs[mine]] = lv
+            chords, (which, faced) = _chords(poly, mine, centre, span, self.buckets)
+            target = pairs[mine]
+            nx[target], ny[target], level[target] = chords
+            for plane, values in zip(frames, faced, strict=True):
+                plane[target[which]] = np.asarray(values)
 
     def discards(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
         """Where the sample ``(x, y)`` of ``pair`` is certainly no new vertex: strictly
@@ -284,7 +306,10 @@ class Guide:
         return found
 
     def inside(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
-        """Where the sample ``(x, y)`` of ``pair`` is certainly strictly inside its hull."""
+        """Where the sample ``(x, y)`` of ``pair`` is certainly no new vertex: strictly
+        inside its hull by its sector's chord, or, in a sector facing one edge, on that edge's
+        inner side or its line by the edge's frame (then in the closed hull and none of its
+        vertices, see :func:`_edge_frames`)."""
         with np.errstate(all="ignore"):
             u = (x - self.cx.take(pair)) * self.ix.take(pair)
             v = (y - self.cy.take(pair)) * self.iy.take(pair)
@@ -298,6 +323,15 @@ class Guide:
             cell += pair * self.buckets
             nx, ny, level = self.planes
             result: BoolArray = nx.take(cell) * u + ny.take(cell) * v < level.take(cell)
+            miss = np.flatnonzero(~result)
+            if len(miss):
+                cell = cell.take(miss)
+                sel = np.flatnonzero(self.frames[0].take(cell))
+                if len(sel):
+                    miss, cell = miss.take(sel), cell.take(sel)
+                    frames = tuple(plane.take(cell) for plane in self.frames)
+                    sign, decided = frame_orientation(frames, x.take(miss), y.take(miss))
+                    result[miss[decided & (sign >= 0)]] = True
         return result
 
 
@@ -307,9 +341,14 @@ def _chords(
     centre: tuple[FloatArray, FloatArray],
     span: tuple[FloatArray, FloatArray],
     buckets: int,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
+) -> tuple[
+    tuple[FloatArray, FloatArray, FloatArray],
+    tuple[IntArray, Frames],
+]:
     """The polar tables of ``rows`` of ``poly`` (see the module docstring), as the planes
-    ``(nx, ny, level)``, ``(rows, buckets)`` each: inside when ``nx * u + ny * v < level``."""
+    ``(nx, ny, level)``, ``(rows, buckets)`` each: inside when ``nx * u + ny * v < level``;
+    and the frames of the edges the sectors face, for the rows with any
+    (:func:`_edge_frames`)."""
     width = poly.vx.shape[1]
     k = len(rows)
     cx, cy = centre[0][rows], centre[1][rows]
@@ -337,6 +376,7 @@ def _chords(
     np.add.at(marks, (rr, first_bound[rr, cc]), 1)
     edge = np.cumsum(marks[:, :buckets], axis=1) - 1
     edge = np.where(edge < 0, (cnt - 1)[:, None], edge)
+    faced = _edge_frames(poly, rows, order, angle, edge, buckets)
     # every edge line supports the polygon, so a ray leaves it at the nearest one; the
     # bound's own edge and both neighbours cover an assignment off by one at a vertex.
     # With the edges wrapped round (column c + 1 holds edge c, column 0 the last one),
@@ -366,10 +406,67 @@ def _chords(
     ty = px - qx
     level = tx * px + ty * py
     usable = (reach > 0) & (np.roll(reach, -1, axis=1) > 0) & np.isfinite(level)
-    return (
+    chords = (
         np.where(usable, tx, 0.0),
         np.where(usable, ty, 0.0),
         np.where(usable, level, -np.inf),
+    )
+    return chords, faced
+
+
+def _edge_frames(
+    poly: _Polygons,
+    rows: IntArray,
+    order: IntArray,
+    angle: FloatArray,
+    edge: IntArray,
+    buckets: int,
+) -> tuple[IntArray, Frames]:
+    """``(which, frames)``: the rows (positions in ``rows``) with an edge of a frame, and
+    for each and each sector, the frame (:func:`edge_frames`) of the one edge the whole
+    sector faces, if any (kind 0 otherwise), ``(len(which), buckets)`` each.
+
+    Sector ``j`` faces edge ``e`` when no vertex's (diamond) angle lies within ``_MARGIN``
+    of the sector (``edge`` names the edge crossing each sector's first bound). A sample
+    the table places in sector ``j`` then lies, whatever the rounding of its angle, on a
+    ray from the centre (strictly inside) that leaves the hull through ``e``, strictly
+    between ``e``'s ends: on ``e``'s inner side or on its line (an orientation of at least
+    zero, the hull being counter-clockwise), it is in the closed hull and none of its
+    vertices, so no vertex of any later hull. Samples of exact relations crowd such
+    edges, and the table's chords, drawn a little inside, leave them all.
+    """
+    width = angle.shape[1]
+    vx = np.take_along_axis(poly.vx[rows], order, axis=1)
+    vy = np.take_along_axis(poly.vy[rows], order, axis=1)
+    real = np.isfinite(angle)
+    cnt = real.sum(axis=1)
+    col = np.arange(width)[None, :]
+    nxt = np.where(col + 1 < cnt[:, None], col + 1, 0)
+    wx = np.take_along_axis(vx, nxt, axis=1)
+    wy = np.take_along_axis(vy, nxt, axis=1)
+    kind, *rest = edge_frames(vx, vy, wx, wy)
+    kind = np.where(real, kind, 0).astype(np.int8)
+    # most hulls of noisy data have no edge of a simple slope: nothing to do for them
+    which = np.flatnonzero(kind.any(axis=1))
+    k = len(which)
+    kind, angle, edge, real = kind[which], angle[which], edge[which], real[which]
+    rest = [part[which] for part in rest]
+    with np.errstate(all="ignore"):
+        # sectors with a vertex within the margin of them: j in [A - 1 - m, A + m]
+        scaled = np.where(real, angle, 0.0) * (buckets / 4)
+        lowest = np.ceil(scaled - 1 - _MARGIN).astype(np.int64)
+        highest = np.floor(scaled + _MARGIN).astype(np.int64)
+    near = np.zeros((k, buckets), bool)
+    rr, cc = np.nonzero(real)
+    for step in range(3):
+        sector = lowest[rr, cc] + step
+        hit = sector <= highest[rr, cc]
+        near[rr[hit], sector[hit] % buckets] = True
+    facing = edge.astype(np.int64)
+    faced_kind = np.where(near, 0, np.take_along_axis(kind, facing, axis=1)).astype(np.int8)
+    return which, (  # type: ignore[return-value]
+        faced_kind,
+        *(np.take_along_axis(part, facing, axis=1) for part in rest),
     )
 
 
@@ -384,7 +481,7 @@ def diamond(u: FloatArray, v: FloatArray) -> FloatArray:
 def _buckets(npairs: int) -> int:
     """A power of two, at most ``BUCKETS``, at least 16, within the ``_TABLE`` budget."""
     size = BUCKETS
-    while size > 16 and 24 * size * npairs > _TABLE:
+    while size > 16 and _CELL * size * npairs > _TABLE:
         size //= 2
     return size
 

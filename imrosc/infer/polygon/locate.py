@@ -24,7 +24,13 @@ import numpy.typing as npt
 
 from imrosc.infer.core import FloatArray
 from imrosc.infer.polygon.hull import GroupSet, IntArray
-from imrosc.infer.polygon.predicates import orientation
+from imrosc.infer.polygon.predicates import (
+    Frames,
+    SignArray,
+    edge_frames,
+    frame_orientation,
+    orientation,
+)
 
 BoolArray = npt.NDArray[np.bool_]
 
@@ -42,12 +48,48 @@ class Chains:
     y: FloatArray
     start: IntArray
     size: IntArray
+    # per vertex, the frame of the edge it starts (edge_frames; kind 0 for none)
+    frames: Frames | None = None
 
     @staticmethod
     def of(hull: GroupSet, index: IntArray, size: IntArray) -> Chains:
         """The chains whose vertices are ``hull``'s at ``index`` (chain after chain)."""
         start = np.concatenate([[0], np.cumsum(size)[:-1]]).astype(np.int64)
-        return Chains(hull.x[index], hull.y[index], start, size.astype(np.int64))
+        x, y = hull.x[index], hull.y[index]
+        nxt = np.minimum(np.arange(1, len(x) + 1), max(len(x) - 1, 0))
+        frames = edge_frames(x, y, x[nxt], y[nxt])
+        frames[0][start + size - 1] = 0  # a chain's last vertex starts no edge
+        return Chains(x, y, start, size.astype(np.int64), frames)
+
+    def turn(self, a: IntArray, b: IntArray, px: FloatArray, py: FloatArray) -> SignArray:
+        """The exact sign of ``orient2d`` of each edge ``a -> b`` (``b = a + 1``) and point:
+        in the edge's sheared frame where that decides (samples of exact relations crowd
+        such edges), else by :func:`orientation`."""
+        assert self.frames is not None
+        fast = np.flatnonzero(self.frames[0].take(a))
+        if not len(fast):
+            return orientation(
+                self.x.take(a), self.y.take(a), self.x.take(b), self.y.take(b), px, py
+            )
+        out = np.empty(len(a), np.int8)
+        at = a.take(fast)
+        frames = tuple(part.take(at) for part in self.frames)
+        sign, decided = frame_orientation(frames, px.take(fast), py.take(fast))  # type: ignore[arg-type]
+        out[fast] = sign
+        rest = np.ones(len(a), bool)
+        rest[fast[decided]] = False
+        slow = np.flatnonzero(rest)
+        if len(slow):
+            sa, sb = a.take(slow), b.take(slow)
+            out[slow] = orientation(
+                self.x.take(sa),
+                self.y.take(sa),
+                self.x.take(sb),
+                self.y.take(sb),
+                px.take(slow),
+                py.take(slow),
+            )
+        return out
 
     def edge(self, chain: IntArray, px: FloatArray) -> tuple[IntArray, IntArray]:
         """Per sample, the flat indices ``(a, b)`` of the edge of its chain spanning
@@ -109,7 +151,7 @@ class Locator:
         groups, starts, ends = hull.bounds()
         e = np.empty(0, np.int64)
         if not len(groups):
-            none = Chains(np.empty(0), np.empty(0), e, e)
+            none = Chains.of(hull, e, e)
             return Locator(slot, none, none)
         run = np.repeat(np.arange(len(groups)), ends - starts)
         # the lexicographic maximum R: greatest x, then greatest y
@@ -147,7 +189,7 @@ class Locator:
         mine, slot, px, py = mine.take(sel), slot.take(sel), px.take(sel), py.take(sel)
         # on or left of the lower chain, then on or right of the upper one
         a, b = low.edge(slot, px)
-        turn = orientation(low.x.take(a), low.y.take(a), low.x.take(b), low.y.take(b), px, py)
+        turn = low.turn(a, b, px, py)
         ok = turn >= 0
         ok &= ((px != low.x.take(a)) | (py != low.y.take(a))) & (
             (px != low.x.take(b)) | (py != low.y.take(b))
@@ -159,7 +201,7 @@ class Locator:
         rest = np.flatnonzero(ok & ~segment)
         slot, px, py = slot.take(rest), px.take(rest), py.take(rest)
         a, b = up.edge(slot, px)
-        fit = orientation(up.x.take(a), up.y.take(a), up.x.take(b), up.y.take(b), px, py) <= 0
+        fit = up.turn(a, b, px, py) <= 0
         fit &= ((px != up.x.take(a)) | (py != up.y.take(a))) & (
             (px != up.x.take(b)) | (py != up.y.take(b))
         )

@@ -360,3 +360,120 @@ def surely_left(
         detsum = np.abs(left) + np.abs(right)
         result: npt.NDArray[np.bool_] = (det > _CCW_ERR_A * detsum) & (detsum >= _TINY)
     return result
+
+
+_FRAME_SLOPE = 2.0**-60
+"""Shears have slopes zero or ``+-2**-k``, ``0 <= k <= 60``."""
+_FRAME_HIGH = 2.0**900
+_FRAME_LOW = 2.0**-900
+"""Coordinates of magnitude in ``[_FRAME_LOW, _FRAME_HIGH]`` (or zero) scale by such a
+slope and sum with no overflow or underflow: their sheared offsets are exact."""
+_FRAME_ERR = 8 * _EPS
+_NEAR_SLOPE = 2.0**-20
+"""Edges get a frame when their slope in it is this close to the shear's (``|rise| <=
+_NEAR_SLOPE * |run|``): lines of exact relations with simple slopes, up to rounding.
+Other edges' samples are rarely so close to them that the guide's chords leave them."""
+_HALF_OCTAVE = 0.7071067811865476
+
+
+def _frame_safe(r: FloatArray, q: FloatArray) -> npt.NDArray[np.bool_]:
+    with np.errstate(invalid="ignore"):
+        ok = (np.abs(r) <= _FRAME_HIGH) & (np.abs(q) <= _FRAME_HIGH)
+        ok &= (r == 0) | (np.abs(r) >= _FRAME_LOW)
+    result: npt.NDArray[np.bool_] = ok
+    return result
+
+
+Frames = tuple[
+    npt.NDArray[np.int8], FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray
+]
+"""Per edge ``(kind, slope, high, low, origin, run, rise)``, see :func:`edge_frames`."""
+
+
+def edge_frames(ax: FloatArray, ay: FloatArray, bx: FloatArray, by: FloatArray) -> Frames:
+    """Each edge ``a -> b`` in a sheared frame where :func:`frame_orientation` places
+    points against it cheaply: ``(kind, slope, high, low, origin, run, rise)``.
+
+    The frame reads points as ``(r, q)``: ``(x, y)`` (kind 1) or, for steep edges,
+    ``(y, x)`` (kind 2, where orientations change sign); ``slope`` ``s`` is zero or the
+    power of two nearest the edge's slope in the frame, and a point's offset ``w = q -
+    s*r`` is exact as two floats. ``(high, low)`` is the edge's start's offset,
+    ``origin`` its ``r``, ``run`` and ``rise`` the rounded ``r_b - r_a`` and ``w_b -
+    w_a`` (the latter the rounded sum of two exact differences, so zero exactly when the
+    ends have one offset); kind 0 where any of that may not hold (magnitudes outside the
+    safe range, differences of offsets that round) and where the slope is not within
+    ``_NEAR_SLOPE`` of the shear's. Shearing keeps orientations, so that
+    of ``(a, b, p)`` is ``run * (w_p - w_a) - rise * (r_p - r_a)``: for edges of exact
+    relations with simple slopes (``y = 2*x + 3``, ``|n|``, ``x + 5`` rounded) ``rise`` is
+    zero or tiny and the float value of that has a small error bound, where the
+    unsheared one has none to speak of.
+    """
+    with np.errstate(all="ignore"):
+        swap = np.abs(by - ay) > np.abs(bx - ax)
+        ar, aq = np.where(swap, ay, ax), np.where(swap, ax, ay)
+        br, bq = np.where(swap, by, bx), np.where(swap, bx, by)
+        steep = (bq - aq) / (br - ar)
+        mantissa, exponent = np.frexp(steep)
+        exponent = np.where(np.abs(mantissa) > _HALF_OCTAVE, exponent, exponent - 1)
+        slope = np.where(
+            np.abs(steep) >= _FRAME_SLOPE, np.copysign(np.ldexp(1.0, exponent), steep), 0.0
+        )
+        slope = np.where(np.abs(slope) <= 1.0, slope, 0.0)
+        high, low = _two_sum(aq, -(slope * ar))
+        end_high, end_low = _two_sum(bq, -(slope * br))
+        run = br - ar
+        top, top_tail = _two_diff(end_high, high)
+        tail, tail_tail = _two_diff(end_low, low)
+        rise = top + tail
+        ok = _frame_safe(ar, aq) & _frame_safe(br, bq) & (run != 0) & np.isfinite(run)
+        ok &= (top_tail == 0) & (tail_tail == 0)
+        ok &= np.isfinite(rise) & np.isfinite(high) & np.isfinite(low)
+        ok &= np.abs(rise) <= _NEAR_SLOPE * np.abs(run)
+    kind = np.where(ok, np.where(swap, 2, 1), 0).astype(np.int8)
+    return kind, slope, high, low, ar, run, rise
+
+
+def frame_orientation(
+    frames: Frames, px: FloatArray, py: FloatArray
+) -> tuple[SignArray, npt.NDArray[np.bool_]]:
+    """The sign of ``orient2d(a, b, p)`` for each point and edge in its frame
+    (:func:`edge_frames`, kinds 1 and 2), and where it is certain.
+
+    ``w_p - w_a`` is ``(h_p - high) + (l_p - low)`` exactly. With ``rise`` zero (``a``,
+    ``b`` and every point of the edge's line have one offset) the sign is that of ``run``
+    times that of the offsets' difference: of ``h_p - high`` if nonzero (rounding is
+    monotone, so the offsets differ as their roundings do), else of the tails'.
+    Otherwise the float value of ``run * (w_p - w_a) - rise * (r_p - r_a)`` decides where
+    it exceeds its error bound, ``8 * 2**-53`` of its terms' magnitudes plus ``2 * 2**-53``
+    of itself (the roundings of ``run``, ``rise``, ``w_p - w_a``, ``r_p - r_a``, both
+    products and the difference add up to less than ``5 * 2**-53`` and ``3 * 2**-53`` of
+    the terms and ``2**-53`` of the result); underflow is excluded by a floor on that
+    bound, overflow by the comparisons failing on infinities and NaN. Undecided: NaN
+    points, magnitudes outside the frame's safe range, values too close to the line.
+    """
+    kind, slope, high, low, origin, run, rise = frames
+    swap = kind == 2
+    with np.errstate(all="ignore"):
+        r = np.where(swap, py, px)
+        q = np.where(swap, px, py)
+        ph, pl = _two_sum(q, -(slope * r))
+        # each difference is zero exactly when its operands are equal, and of their sign
+        e1 = ph - high
+        e2 = pl - low
+        exact = np.sign(np.where(e1 != 0, e1, e2))
+        det = run * (e1 + e2)
+        shift = rise * (r - origin)
+        det -= shift
+        bound = np.abs(e1) + np.abs(e2)
+        bound *= np.abs(run)
+        bound += np.abs(shift)
+        bound *= _FRAME_ERR
+        bound += 2 * _EPS * np.abs(det)
+        flat = rise == 0
+        # NaN and infinite values fail these comparisons: undecided
+        decided = flat | ((np.abs(det) > bound) & (bound >= _FRAME_LOW))
+        decided &= _frame_safe(r, q) & (kind > 0)
+        value = np.where(flat, np.sign(run) * exact, np.sign(det))
+    value = np.where(swap, -value, value)
+    sign = np.where(decided, value, 0.0).astype(np.int8)
+    return sign, decided
