@@ -87,3 +87,22 @@ def algorithm_6(points: Sequence[Point], chunk_size: int) -> list[Point]:
             polygon = quickhull(pending + polygon)
             pending = []
     return quickhull(pending + polygon)
+
+
+def turn(a: Point, b: Point, p: Point) -> int:
+    """The sign of the turn a -> b -> p, exactly: 1 left, -1 right, 0 on the line."""
+    ax, ay, bx, by, px, py = (Fraction(v) for v in (*a, *b, *p))
+    det = (ax - px) * (by - py) - (ay - py) * (bx - px)
+    return (det > 0) - (det < 0)
+
+
+def covered(vertices: list[Point], p: Point) -> bool:
+    """In the closed hull of ``vertices`` (counter-clockwise), and none of them; hulls of
+    one point or a vertical segment cover nothing (the locator has no chain for them)."""
+    if len(vertices) < 2 or vertices[0][0] == max(v[0] for v in vertices) or p in vertices:
+        return False
+    if len(vertices) == 2:
+        (lx, _), (rx, _) = vertices
+        return turn(vertices[0], vertices[1], p) == 0 and lx <= p[0] <= rx
+    pairs = zip(vertices, vertices[1:] + vertices[:1], strict=True)
+    return all(turn(a, b, p) >= 0 for a, b in pairs)

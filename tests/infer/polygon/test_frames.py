@@ -6,8 +6,6 @@ discards only samples in the closed hull that are none of its vertices."""
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 import numpy as np
 import pytest
 
@@ -15,13 +13,7 @@ from imrosc.infer.core import FloatArray
 from imrosc.infer.polygon.guide import Guide
 from imrosc.infer.polygon.hull import GroupSet, hulls
 from imrosc.infer.polygon.predicates import edge_frames, frame_orientation
-from tests.infer.polygon.test_locate import _covered
-
-
-def _sign(a: tuple[float, float], b: tuple[float, float], p: tuple[float, float]) -> int:
-    ax, ay, bx, by, px, py = (Fraction(v) for v in (*a, *b, *p))
-    det = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-    return (det > 0) - (det < 0)
+from tests.infer.polygon.reference import covered, turn
 
 
 def _relation(kind: int, rng: np.random.Generator, n: int) -> tuple[FloatArray, FloatArray]:
@@ -63,7 +55,7 @@ def test_frame_orientation_is_exact_where_it_decides(seed: int) -> None:
         sign, decided = frame_orientation(frames, px, py)
         assert not (decided & (frames[0] == 0)).any()
         for t in np.flatnonzero(decided).tolist():
-            expected = _sign((ax[t], ay[t]), (bx[t], by[t]), (px[t], py[t]))
+            expected = turn((ax[t], ay[t]), (bx[t], by[t]), (px[t], py[t]))
             assert sign[t] == expected
         if kind in (0, 2, 3) and not trial % 2:
             on_lines += int((frames[0] > 0).sum())
@@ -112,6 +104,6 @@ def test_the_guide_discards_only_non_vertices_of_the_closed_hull(seed: int) -> N
     for g, vx, vy in zip(hull.group.tolist(), hull.x.tolist(), hull.y.tolist(), strict=True):
         vertices.setdefault(g, []).append((vx, vy))
     for k in np.flatnonzero(found).tolist():
-        assert _covered(vertices[int(pair[k])], (float(x[k]), float(y[k])))
+        assert covered(vertices[int(pair[k])], (float(x[k]), float(y[k])))
     # the edges of exact relations are full of samples the frames discard
     assert found.mean() > 0.9

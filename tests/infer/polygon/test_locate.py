@@ -4,7 +4,6 @@ of exactly collinear points (segments), of few integers and of scattered floats 
 
 from __future__ import annotations
 
-from fractions import Fraction
 from itertools import pairwise
 
 import numpy as np
@@ -13,24 +12,7 @@ from hypothesis import strategies as st
 
 from imrosc.infer.polygon.hull import GroupSet, hulls
 from imrosc.infer.polygon.locate import Locator
-
-
-def _turn(a: tuple[float, float], b: tuple[float, float], p: tuple[float, float]) -> int:
-    ax, ay, bx, by, px, py = (Fraction(v) for v in (*a, *b, *p))
-    det = (ax - px) * (by - py) - (ay - py) * (bx - px)
-    return (det > 0) - (det < 0)
-
-
-def _covered(vertices: list[tuple[float, float]], p: tuple[float, float]) -> bool:
-    """In the closed hull of ``vertices`` (counter-clockwise), and none of them; hulls of
-    one point or a vertical segment cover nothing (the locator has no chain for them)."""
-    if len(vertices) < 2 or vertices[0][0] == max(v[0] for v in vertices) or p in vertices:
-        return False
-    if len(vertices) == 2:
-        (lx, _), (rx, _) = vertices
-        return _turn(vertices[0], vertices[1], p) == 0 and lx <= p[0] <= rx
-    pairs = zip(vertices, vertices[1:] + vertices[:1], strict=True)
-    return all(_turn(a, b, p) >= 0 for a, b in pairs)
+from tests.infer.polygon.reference import covered
 
 
 @st.composite
@@ -74,7 +56,7 @@ def test_covered_is_the_closed_hull_less_its_vertices(
     qx = np.asarray([q[1] for q in queries])
     qy = np.asarray([q[2] for q in queries])
     found = locator.covered(pair, qx, qy).tolist()
-    expected = [_covered(vertices.get(g, []), (x, y)) for g, x, y in queries]
+    expected = [covered(vertices.get(g, []), (x, y)) for g, x, y in queries]
     assert found == expected
 
 
@@ -102,6 +84,6 @@ def test_many_samples_per_hull_locate_as_few_do() -> None:
     assert locator.covered(group[shuffled], xs[shuffled], ys[shuffled]).tolist() == (
         in_order[shuffled].tolist()
     )
-    expected = [_covered(vertices[g], (x, y)) for g, x, y in points]
+    expected = [covered(vertices[g], (x, y)) for g, x, y in points]
     assert in_order.tolist() == expected
     assert sum(expected[:400]) > 390  # the V's samples lie on its edges
