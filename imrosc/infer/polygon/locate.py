@@ -48,8 +48,8 @@ class Chains:
     y: FloatArray
     start: IntArray
     size: IntArray
-    # per vertex, the frame of the edge it starts (edge_frames; kind 0 for none)
-    frames: Frames | None = None
+    frames: Frames
+    """Per vertex, the frame of the edge it starts (:func:`edge_frames`; kind 0 for none)."""
 
     @staticmethod
     def of(hull: GroupSet, index: IntArray, size: IntArray) -> Chains:
@@ -65,20 +65,17 @@ class Chains:
         """The exact sign of ``orient2d`` of each edge ``a -> b`` (``b = a + 1``) and point:
         in the edge's sheared frame where that decides (samples of exact relations crowd
         such edges), else by :func:`orientation`."""
-        assert self.frames is not None
-        fast = np.flatnonzero(self.frames[0].take(a))
-        if not len(fast):
-            return orientation(
-                self.x.take(a), self.y.take(a), self.x.take(b), self.y.take(b), px, py
-            )
         out = np.empty(len(a), np.int8)
-        at = a.take(fast)
-        frames = tuple(part.take(at) for part in self.frames)
-        sign, decided = frame_orientation(frames, px.take(fast), py.take(fast))  # type: ignore[arg-type]
-        out[fast] = sign
-        rest = np.ones(len(a), bool)
-        rest[fast[decided]] = False
-        slow = np.flatnonzero(rest)
+        slow = np.arange(len(a))
+        fast = np.flatnonzero(self.frames[0].take(a))
+        if len(fast):
+            at = a.take(fast)
+            frames = tuple(part.take(at) for part in self.frames)
+            sign, decided = frame_orientation(frames, px.take(fast), py.take(fast))  # type: ignore[arg-type]
+            out[fast] = sign
+            rest = np.ones(len(a), bool)
+            rest[fast[decided]] = False
+            slow = np.flatnonzero(rest)
         if len(slow):
             sa, sb = a.take(slow), b.take(slow)
             out[slow] = orientation(
