@@ -340,3 +340,9 @@ def discover_bags(path: Path) -> tuple[list[Path], list[Diagnostic]]:
     if is_ros2_part and _is_ros2_bag(path.parent):
         return [path.parent], []
     return [], [_not_a_bag(path)]
+
+
+def publisher_of(connection: Connection) -> str | None:
+    """The node that published on a connection of a bag: ROS 1's ``callerid`` (``None``
+    where the bag does not say, as in ROS 2 bags)."""
+    return getattr(connection.ext, "callerid", None) or None

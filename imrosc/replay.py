@@ -4,7 +4,10 @@ The very engine the monitor runs (``imrosc.runtime``) gets each message flattene
 flattener the monitor uses, each service call, parameter set and architecture snapshot
 from the ``/imrosc/*`` records, and the clock of the bag. A bag without architecture
 records gives its connections' publishers (ROS 1 ``callerid``), each from its connection's
-first message on, which tells publishers only, as in inference. Each bag is one run: the
+first message on, which tells publishers only, as in inference. Each ROS 1 message comes with
+its connection's publisher, as a live monitor hears it: a publisher the architecture does
+not know breaks its ``max_pubs`` invariants and is checked by no other
+(``Engine.intruder``). Each bag is one run: the
 engine is reset between bags. A bag missing topics the invariants read gets a warning; a bag
 holding none of them is not read at all.
 """
@@ -20,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from imrosc import records
-from imrosc.bags import BagError, MessageError, open_bag, recovered
+from imrosc.bags import BagError, MessageError, open_bag, publisher_of, recovered
 from imrosc.checking.recorded import RECORDS, record_call
 from imrosc.checking.run import ChunkedChecker, gc_paused
 from imrosc.graph.bags import PublisherStart, publisher_starts
@@ -215,7 +218,8 @@ class Replayer:
                     topic = connection.topic
                     flatten = self.flatteners.get(topic)
                     if flatten is not None:
-                        found += engine.message(topic, time, flatten(message))
+                        values = flatten(message)
+                        found += engine.message(topic, time, values, publisher_of(connection))
                     else:
                         found += self._record(topic, time, message)
                 found += publishers.until(engine, reader.end_time)

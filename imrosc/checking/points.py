@@ -97,6 +97,20 @@ class TopicRows:
             1,
         )
 
+    def kept(self, rows: npt.NDArray[np.bool_]) -> TopicRows:
+        """Only the ``rows`` flagged (the carried rows among them: they are the chunks'
+        before, never dropped)."""
+        return TopicRows(
+            self.pos[rows],
+            self.time[rows],
+            self.numeric[rows],
+            [s[rows] for s in self.strings],
+            self.names,
+            self.numeric_at,
+            self.string_at,
+            int(np.count_nonzero(rows[: self.carried])),
+        )
+
     def named(self, row: int) -> dict[str, Any]:
         """A row's values by variable name (what a condition on the topic reads)."""
         values: dict[str, Any] = {}

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from imrosc import records
-from imrosc.bags import BagError, MessageError, open_bag, recovered
+from imrosc.bags import BagError, MessageError, open_bag, publisher_of, recovered
 from imrosc.graph.bags import PublisherStart, publisher_starts
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import Alarm, Fed
@@ -247,7 +247,14 @@ class ChunkedChecker:
             rows[topic] = _joined(carried, fresh) if carried is not None else fresh
         for topic, carried in self.carry.items():
             rows.setdefault(topic, carried)
-        clock = self._engine_pass(buffer, rows, skipped, values_of)
+        dropped: set[int] = set()
+        clock = self._engine_pass(buffer, rows, skipped, values_of, dropped)
+        if dropped:  # unknown publishers' messages: no point's sample, no input's value
+            gone = np.fromiter(dropped, np.int64, len(dropped))
+            for topic, topic_rows in rows.items():
+                kept = ~np.isin(topic_rows.pos, gone)
+                if not kept.all():
+                    rows[topic] = topic_rows.kept(kept)
         found = Found()
         for point in self.points:
             point.check(rows, clock, found)
@@ -265,9 +272,13 @@ class ChunkedChecker:
         rows: Mapping[str, TopicRows],
         skipped: set[int],
         values_of: Mapping[int, tuple[str, int]],
+        dropped: set[int],
     ) -> tuple[Any, Any]:
         """Feed the engine what it checks itself, message by message; the chunk's clock
-        events (positions and times) for the vectorised points' timers."""
+        events (positions and times) for the vectorised points' timers. The positions of
+        messages from publishers the architecture does not know (``Engine.intruder``) go
+        into ``dropped``: the engine reported them, and no point checks their values."""
+        guarded = self.engine.guarded
         engine = self.engine
         result = self.result
         events: list[int] = []
@@ -302,6 +313,16 @@ class ChunkedChecker:
                 continue
             events.append(position)
             times.append(now)
+            if topic in guarded:
+                publisher = publisher_of(connection)
+                if publisher is not None:
+                    self._engine_call(position, engine.advance(now), True)
+                    refused = engine.intruder(topic, now, publisher)
+                    if refused:
+                        self._engine_call(position, refused, False)
+                        dropped.add(position)
+                        self.due = engine.next_due()
+                        continue
             if topic in self.engine_topics:
                 name, row = values_of[position]
                 topic_rows = rows[name]

@@ -412,18 +412,31 @@ class Checking:
         return found, raised, alarmed
 
     def check_values(
-        self, topic: str, now: float, values: Any
+        self, topic: str, now: float, values: Any, publisher: Optional[str] = None
     ) -> Tuple[List[Any], List[Any], List[Any], List[Any]]:
         """A message's checks, with :attr:`lock` held: the clock moved to ``now``, the
         message's flattened ``values`` checked (``None``: a message nothing checks) and
         told to the precheck of the conditions it feeds; the violations the clock found and
         those the message caused, the alarms raised and the violations that belong to an
-        alarm."""
+        alarm. ``publisher``: the node that sent it, where the middleware tells it (``None``
+        for the monitor's own messages): a publisher the architecture does not know breaks
+        its ``max_pubs`` invariants and nothing else (``Engine.intruder``), so on a blocked
+        topic its messages are withheld and the known publishers' go on."""
         found: List[Any] = self.engine.advance(now)
-        caused: List[Any] = self.engine.message(topic, now, values) if values is not None else []
+        caused: List[Any] = []
+        if publisher is not None:
+            caused = self.engine.intruder(topic, now, publisher)
+        intruder = bool(caused)
+        if values is not None and not intruder:
+            caused = self.engine.message(topic, now, values)
         raised, alarmed = take_alarms(self.engine, found + caused)
         precheck = self.precheck
-        if precheck is not None and values is not None and topic in precheck.condition_topics:
+        if (
+            precheck is not None
+            and values is not None
+            and not intruder
+            and topic in precheck.condition_topics
+        ):
             precheck.message(topic, now, values)
         return found, caused, raised, alarmed
 

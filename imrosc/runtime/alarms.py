@@ -212,6 +212,8 @@ class AlarmTracker:
         self._counts: Dict[str, Dict[str, int]] = {}
         """Per point: how many of ``_recent``'s entries each invariant has."""
         self._agreeing: Set[str] = set()
+        self._intruders: Set[Tuple[str, str]] = set()
+        """``(invariant, publisher)`` of the unknown publishers heard in this run."""
         self.raised: List[Alarm] = []
         self.fed: List[Fed] = []
         """``(time, point, invariant, samples of its episode so far, counted by agreement,
@@ -318,15 +320,43 @@ class AlarmTracker:
         self.raised += raised
         return raised
 
+    def intruder(self, found: Sequence[Violation]) -> List[Alarm]:
+        """The violations of one message from a publisher its topic's ``max_pubs``
+        invariants do not allow (:meth:`.arch.ArchChecks.intruder`, observed: the
+        publisher): the first message of each unknown publisher raises an alarm at once (an
+        event), and every message of it belongs to that alarm for the rest of the run.
+
+        >>> tracker = AlarmTracker(AlarmRule(persist=5))
+        >>> v = Violation(1.0, "d", "i1", "architecture", "max_pubs", "", ["/x"], "")
+        >>> len(tracker.intruder([v])), len(tracker.intruder([v._replace(time=2.0)]))
+        (1, 0)
+        >>> len(tracker.alarmed([v._replace(time=2.0)], []))
+        1
+        """
+        raised: List[Alarm] = []
+        for v in found:
+            key = (v.invariant, _publisher(v.observed))
+            if key not in self._intruders:
+                self._intruders.add(key)
+                raised.append(Alarm(v.time, v.point, "event", (v.invariant,), v))
+        self.raised += raised
+        return raised
+
     def alarmed(self, found: Sequence[Violation], raised: Sequence[Alarm]) -> List[Violation]:
         """Those of ``found`` that belong to an alarm: one that ``raised`` it, or one whose
         invariant's episode or point's agreement is in alarm. A monitor withholds a blocked
         message for these, and lets the others through."""
         ids = {id(a.violation) for a in raised}
         out: List[Violation] = []
+        intruders = self._intruders
         for v in found:
             episode = self._episodes.get(v.point, {}).get(v.invariant)
-            if id(v) in ids or (episode is not None and episode[2]) or v.point in self._agreeing:
+            if (
+                id(v) in ids
+                or (episode is not None and episode[2])
+                or v.point in self._agreeing
+                or (intruders and (v.invariant, _publisher(v.observed)) in intruders)
+            ):
                 out.append(v)
         return out
 
@@ -334,6 +364,13 @@ class AlarmTracker:
         """The alarms raised since the last call."""
         raised, self.raised = self.raised, []
         return raised
+
+
+def _publisher(observed: Any) -> str:
+    """The publisher an intruder's violation observed (a list of one name)."""
+    if isinstance(observed, (list, tuple)) and len(observed) == 1:
+        return str(observed[0])
+    return repr(observed)
 
 
 def alarms_json(alarms: Sequence[Alarm]) -> List[Dict[str, Any]]:

@@ -36,6 +36,10 @@ ANONYMOUS = re.compile(r"^(.*?[^/_])(?:_\d+)?_\d{10,}$")
 (rospy ``_<pid>_<time in ms>``, roscpp and rosbag ``_<time in ns>``)."""
 ANONYMOUS_SUFFIX = "_*"
 """What replaces the numbers of an anonymous name (``*`` is in no ROS name)."""
+PLAYERS = frozenset({"/play_*", "/rosbag2_player"})
+"""The nodes of ``rosbag play`` (``/play_<time>``, an anonymous name) and ``ros2 bag play``
+(:func:`node_name` forms): they publish what a recording holds on behalf of the nodes that
+published it then, so no publisher check refuses them."""
 
 
 def node_name(name: str) -> str:
@@ -101,6 +105,37 @@ class ArchChecks:
             found.append(self._violation(time, inv, is_max, nodes, current, wrong))
         return found
 
+    def publisher_bounds(self, topic: str) -> List[FrozenSet[str]]:
+        """The node sets of the ``max_pubs`` invariants of ``topic``: the publishers each
+        allows (none: this point does not bound who publishes on ``topic``)."""
+        return [
+            nodes
+            for kind, resource, is_max, nodes, _ in self.items
+            if kind == "pub" and is_max and resource == topic
+        ]
+
+    def intruder(self, time: float, topic: str, publisher: str) -> List[Violation]:
+        """The violations of one message on ``topic`` from ``publisher``: one per
+        ``max_pubs`` invariant of ``topic`` that does not allow it (observed: the publisher
+        as it named itself). Unlike :meth:`check`, not edge-triggered: every message of an
+        unknown publisher breaks the invariant (what the alarms make of that:
+        :meth:`.alarms.AlarmTracker.intruder`).
+
+        >>> check = ArchChecks([{"id": "i1", "family": "architecture", "kind": "max_pubs",
+        ...     "text": "max_pubs(/t) = {/a}", "variables": ["pubs(/t)"],
+        ...     "params": {"resource": "/t", "nodes": ["/a"]}}], "d")
+        >>> [v.observed for v in check.intruder(1.0, "/t", "/b")], check.intruder(1.0, "/t", "/a")
+        ([['/b']], [])
+        """
+        name = node_name(publisher)
+        if name in PLAYERS:
+            return []
+        found: List[Violation] = []
+        for kind, resource, is_max, nodes, inv in self.items:
+            if kind == "pub" and is_max and resource == topic and name not in nodes:
+                found.append(self._violation(time, inv, True, nodes, frozenset(), {publisher}))
+        return found
+
     def _violation(
         self,
         time: float,
@@ -108,7 +143,7 @@ class ArchChecks:
         is_max: bool,
         nodes: FrozenSet[str],
         current: FrozenSet[str],
-        wrong: FrozenSet[str],
+        wrong: Iterable[str],
     ) -> Violation:
         """``max_*``: observed the unexpected nodes; ``min_*``: observed the nodes there,
         expected naming the missing ones."""

@@ -14,7 +14,18 @@ from __future__ import annotations
 
 import math
 import operator
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import (
+    Any,
+    Callable,
+    Dict,
+    FrozenSet,
+    List,
+    Mapping,
+    Optional,
+    Sequence,
+    Tuple,
+    Union,
+)
 
 import numpy as np
 
@@ -354,7 +365,25 @@ class Engine:
         self._timed = [
             p for p in self.points.values() if p.intervals or (p.windows and p.min_frequency > 0)
         ]
+        self._guard_publishers()
         self.reset()
+
+    def _guard_publishers(self) -> None:
+        """Per topic that a ``max_pubs`` invariant bounds, the architecture points that bound
+        it (:attr:`guarded`) and the publishers every one of them allows (:attr:`known`: the
+        common case, told apart by a set lookup)."""
+        self.guarded: Dict[str, List[_Point]] = {}
+        bounds: Dict[str, List[FrozenSet[str]]] = {}
+        for point in self._arch_points:
+            assert point.arch is not None
+            for topic in sorted({item[1] for item in point.arch.items}):
+                nodes = point.arch.publisher_bounds(topic)
+                if nodes:
+                    self.guarded.setdefault(topic, []).append(point)
+                    bounds.setdefault(topic, []).extend(nodes)
+        self.known: Dict[str, FrozenSet[str]] = {
+            topic: frozenset.intersection(*sets) for topic, sets in bounds.items()
+        }
 
     def compile(self) -> Tuple[int, int]:
         """Compile every point's value checks with numba where it can (:mod:`.compiled`),
@@ -469,6 +498,7 @@ class Engine:
         point.detectors = [d for d in point.detectors if d.invariant["id"] != invariant]
         if point.arch is not None:
             point.arch.items = [item for item in point.arch.items if item[4]["id"] != invariant]
+            self._guard_publishers()
         return True
 
     def hand_over(self, keys: Sequence[str]) -> None:
@@ -504,11 +534,46 @@ class Engine:
             found += self._event(point, time, point.events[("publish", topic)])
         return found
 
-    def message(self, topic: str, time: float, values: Union[Sequence[Any], np.ndarray]) -> Found:
+    def intruder(self, topic: str, time: float, publisher: str) -> Found:
+        """Whether a message on ``topic`` from ``publisher`` (its node) comes from a
+        publisher the architecture does not know: the violations of the ``max_pubs``
+        invariants of ``topic`` in force (their point's condition holds) that do not allow
+        it, each an alarm at the publisher's first message and every message of it in that
+        alarm (:meth:`AlarmTracker.intruder`); empty when the publisher is allowed or no
+        invariant in force bounds the topic. Such a message is not the system's data: its
+        values are checked by no other invariant (:meth:`message` refuses it)."""
+        points = self.guarded.get(topic)
+        if points is None or publisher in self.known[topic]:
+            return []
+        found: Found = []
+        for point in points:
+            assert point.arch is not None
+            if point.filters and not point.accepts(np.empty(0), self.latest_named):
+                continue
+            found += point.arch.intruder(time, topic, publisher)
+        if found:
+            self.alarms.intruder(found)
+        return found
+
+    def message(
+        self,
+        topic: str,
+        time: float,
+        values: Union[Sequence[Any], np.ndarray],
+        publisher: Optional[str] = None,
+    ) -> Found:
         """A message on ``topic`` flattened in the order of its layout (the file's
         ``topics[topic].variables``): a sequence of values, or a float64 array of them (kept
-        as the latest values, not copied; it must not change afterwards)."""
+        as the latest values, not copied; it must not change afterwards). ``publisher``
+        (its node, where the source tells it): a message of a publisher the architecture
+        does not know (:meth:`intruder`) gives the architecture's violations only and is
+        otherwise ignored: no other invariant checks it, it is no topic's latest value and
+        no event, so the data invariants check what the known publishers send."""
         found = self.advance(time) if self._timed else []
+        if publisher is not None and topic in self.guarded:
+            refused = self.intruder(topic, time, publisher)
+            if refused:
+                return found + refused
         split = self._split.get(topic)
         if split is not None:
             numeric_of, strings_of = split

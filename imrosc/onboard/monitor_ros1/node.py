@@ -250,9 +250,10 @@ class Monitor(common.Checking):
         else:
             flatten = self.flatteners.get(topic)
             values = flatten(message) if flatten is not None else None
+        publisher = self.publisher(message)
         with self.lock:
             now = time.time() if self.wall_clock else rospy.get_time()
-            found, caused, raised, alarmed = self.check_values(topic, now, values)
+            found, caused, raised, alarmed = self.check_values(topic, now, values, publisher)
         relay = self.relays.get(topic)
         if relay is not None:
             self.last_relayed = time.time()
@@ -261,6 +262,16 @@ class Monitor(common.Checking):
             else:
                 rospy.logwarn_throttle(1.0, common.blocked_line(topic, caused, alarmed))
         self.report(found + caused, raised, alarmed)
+
+    def publisher(self, message: Any) -> Optional[str]:
+        """The node that sent ``message`` (the ``callerid`` of the connection rospy received
+        it on); ``None`` for the monitor's own messages (an action published on a watched
+        topic) or when rospy does not say."""
+        header = getattr(message, "_connection_header", None)
+        callerid = header.get("callerid") if isinstance(header, dict) else None
+        if not callerid or callerid in self.own:
+            return None
+        return str(callerid)
 
     def read(self, message: Any, topic: str, raw: Tuple[wire.Reader, Any]) -> Optional[List[Any]]:
         """The values of a message relayed as bytes; bytes the plan cannot read are decoded
