@@ -106,12 +106,14 @@ class ArchChecks:
         return found
 
     def publisher_bounds(self, topic: str) -> List[FrozenSet[str]]:
-        """The node sets of the ``max_pubs`` invariants of ``topic``: the publishers each
-        allows (none: this point does not bound who publishes on ``topic``)."""
+        """The node sets of the ``max_pubs`` invariants of ``topic`` that name a publisher:
+        the publishers each allows (none: this point does not tell who publishes on
+        ``topic``). An empty set (the graph learnt no publisher of a topic whose messages
+        were recorded: an incomplete graph) tells nobody apart, so it refuses no message."""
         return [
             nodes
             for kind, resource, is_max, nodes, _ in self.items
-            if kind == "pub" and is_max and resource == topic
+            if kind == "pub" and is_max and resource == topic and nodes
         ]
 
     def intruder(self, time: float, topic: str, publisher: str) -> List[Violation]:
@@ -119,7 +121,8 @@ class ArchChecks:
         ``max_pubs`` invariant of ``topic`` that does not allow it (observed: the publisher
         as it named itself). Unlike :meth:`check`, not edge-triggered: every message of an
         unknown publisher breaks the invariant (what the alarms make of that:
-        :meth:`.alarms.AlarmTracker.intruder`).
+        :meth:`.alarms.AlarmTracker.intruder`). An invariant that allows nobody
+        (:meth:`publisher_bounds`) refuses nobody.
 
         >>> check = ArchChecks([{"id": "i1", "family": "architecture", "kind": "max_pubs",
         ...     "text": "max_pubs(/t) = {/a}", "variables": ["pubs(/t)"],
@@ -132,7 +135,7 @@ class ArchChecks:
             return []
         found: List[Violation] = []
         for kind, resource, is_max, nodes, inv in self.items:
-            if kind == "pub" and is_max and resource == topic and name not in nodes:
+            if kind == "pub" and is_max and resource == topic and nodes and name not in nodes:
                 found.append(self._violation(time, inv, True, nodes, frozenset(), {publisher}))
         return found
 

@@ -187,3 +187,14 @@ def test_replay_tells_publishers_apart_by_callerid_both_ways(tmp_path: Path) -> 
     }
     assert {(a.time, a.rule, a.point) for a in by_message.alarms} == {(0.501, "event", "d")}
     assert by_message.checked == {"v": 40}  # the car's messages, and only those
+
+
+def test_a_bound_that_names_no_publisher_refuses_nobody() -> None:
+    """``max_pubs(/a/pose) = {}``: the graph learnt no publisher of a topic whose messages
+    were recorded (architecture records that left it out). It tells no publisher apart, so
+    the messages stay the system's data."""
+    doc = document()
+    doc["invariants"][-1]["params"]["nodes"] = []
+    engine = Engine(doc)
+    assert "/a/pose" not in engine.guarded
+    assert engine.message("/a/pose", 0.0, [50.0], "/car")[0].invariant == "x_max"
