@@ -233,7 +233,9 @@ def test_an_extra_publisher_is_reported_and_unregistered(monitored: Monitored) -
     """The master forgets the intruder: it tells the subscribers (roscpp ones drop their
     connection to it; rospy ones keep what they have) and no later subscriber hears it. The
     topic is watched, not blocked: the system's rospy subscribers still hear the intruder, so
-    the monitor keeps its own connection and goes on checking what the intruder sends."""
+    the monitor keeps its own connection, and each message the intruder sends breaks
+    ``max_pubs`` (in the alarm its first raised) and no other invariant: its values are not
+    the system's data (``Engine.intruder``)."""
     ros = monitored.ros
     since = time.time()
     intruder = ros.node("car.py", name="intruder", namespace="/a")
@@ -248,8 +250,14 @@ def test_an_extra_publisher_is_reported_and_unregistered(monitored: Monitored) -
         assert {m["callerid"] for m in late.wait_count(10)} == {"/a/car"}
         since = time.time()
         ros.inject("/a/intruder", "out_of_range:1")
-        bad = monitored.wait_report(Z_BOUNDS, since)
-        assert (bad["observed"], bad["point"]) == (50.0, "v")
+        monitored.wait_report("max_pubs(/a/car_pose) = {/a/car}", since)
+        time.sleep(1.0)
+        reports = monitored.reports(since)
+        intruding = [r for r in reports if r["text"] == "max_pubs(/a/car_pose) = {/a/car}"]
+        assert len(intruding) >= 5  # the intruder publishes at 20 Hz: every message
+        assert all(r["observed"] == ["/a/intruder"] and r["alarm"] for r in intruding)
+        assert all(r["rule"] is None for r in intruding)  # no new alarm, no new action
+        assert Z_BOUNDS not in {r["text"] for r in reports}  # its 50 m poses are not data
     finally:
         ros.stop(intruder)
 
