@@ -9,7 +9,9 @@ generated flatteners. The node
 * subscribes to every topic of the invariants file with the real message class, flattens
   each message and feeds it to the engine; a blocked topic's message is republished on
   ``/m/<topic>`` unless one of its violations belongs to an alarm (the rewritten launch file
-  remaps the topic's subscribers there);
+  remaps the topic's subscribers there); a message's publisher is its connection's
+  ``callerid``, and one the architecture does not know breaks ``max_pubs`` and nothing else
+  (``Engine.intruder``), so its messages are withheld and the known publishers' relayed;
 * serves ``/m/<service>`` for every watched or blocked service, forwards the call to the real
   service and feeds the call to the engine; for a blocked service it refuses a request that
   breaks an invariant of the request in alarm before forwarding it and withholds a response
