@@ -529,7 +529,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         broken: collections.Counter[str] = collections.Counter()
         for lane in lanes:
             broken += alarms(lane.ros)
-        report(rows, scenarios, broken, elapsed, len(lanes), cpu)
+        if args.trials > 0:  # --trials 0: record (or reuse), infer, classify and build only
+            report(rows, scenarios, broken, elapsed, len(lanes), cpu)
     finally:
         for lane in lanes:
             lane.ros.shutdown()
