@@ -310,6 +310,14 @@ class Process:
         finally:
             impl.release()
 
+    def wake_all(self) -> None:
+        """Wake every thread that waits on ROS time or on this process's condition."""
+        cond = self.rospy.rostime.get_rostime_cond()
+        with cond:
+            cond.notify_all()
+        with self.cond:
+            self.cond.notify_all()
+
     def release(self, message: Any) -> None:
         """``/lockstep/go``: timers up to its time may run."""
         cond = self.rospy.rostime.get_rostime_cond()
@@ -330,6 +338,10 @@ class Process:
         # latched: the simulator, connecting later, still hears the last report
         self.publisher = self.rospy.Publisher(REPORT_TOPIC, String, queue_size=None, latch=True)
         self.rospy.on_shutdown(lambda: self.report(bye=True))
+        # once shut down, the threads asleep on ROS time or held see it at once (they would
+        # otherwise look again only after their wait's timeout: a trial's eleven processes,
+        # stopped one after the other, took that long each)
+        self.rospy.core.add_shutdown_hook(lambda _reason: self.wake_all())
         self.report()
 
 
