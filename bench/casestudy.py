@@ -12,7 +12,7 @@ at a time, each lane a roscore of its own (``DIR/ros/<n>``, its ROS logs in
 ``DIR/ros/<n>/ros_log``) recording in a folder of its own (``DIR/lanes/<n>``): the lockstep
 makes a run the same whatever runs beside it, so the lanes change the bench's wall time,
 not its outcomes. A run of the graph is CPU-bound (one to one and a half cores for the
-lockstep, the nodes and the monitor, plus 3-4 CPU seconds to start and stop its ten Python
+lockstep, the nodes and the monitor, plus 4.5-6 CPU seconds to start and stop its ten Python
 processes), so two lanes on two cores are what pays (``examples/landing_system/README.md``
 gives the figures).
 
@@ -529,7 +529,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         broken: collections.Counter[str] = collections.Counter()
         for lane in lanes:
             broken += alarms(lane.ros)
-        report(rows, scenarios, broken, elapsed, len(lanes), cpu)
+        if args.trials > 0:  # --trials 0: record (or reuse), infer, classify and build only
+            report(rows, scenarios, broken, elapsed, len(lanes), cpu)
     finally:
         for lane in lanes:
             lane.ros.shutdown()

@@ -25,7 +25,19 @@ def _coordinator() -> Any:
     coordinator.reports = {"/a/thief": {}, "/monitor": {}}
     coordinator.sent, coordinator.received, coordinator.services = {}, {}, {}
     coordinator.unbalanced, coordinator.closed = set(), set()
+    coordinator.channels, coordinator.inbox = {}, []
+    coordinator.state = _State()
+    coordinator.own_version = coordinator.state.version
     return coordinator
+
+
+class _State:
+    """The simulator's own lockstep state, as the coordinator reads it."""
+
+    def __init__(self) -> None:
+        self.busy = 0
+        self.version = 0
+        self.sleepers: dict[int, int | None] = {}
 
 
 def _report(**counts: Any) -> dict[str, Any]:
@@ -52,3 +64,52 @@ def test_an_open_channel_still_balances() -> None:
     assert coordinator.unbalanced == {("/a/car_pose", "/a/thief", "/monitor")}
     coordinator.apply("/monitor", _report(received={"/a/car_pose</a/thief": 2}))
     assert coordinator.unbalanced == set()
+
+
+def _timing(
+    time: int, next_: int | None, released: int = 0, waiting: bool = False
+) -> dict[str, Any]:
+    return {"sim": True, "time": time, "next": next_, "released": released, "waiting": waiting}
+
+
+def test_the_release_goes_to_the_processes_with_a_timer_due_only() -> None:
+    coordinator = _coordinator()
+    coordinator.reports = {
+        "/a/uav": _timing(20, 20),  # due at 20
+        "/a/car": _timing(20, 50),  # next due at 50: nothing to release at 20
+        "/a/car_ctrl": _timing(0, None, waiting=True),  # asleep since before time started
+    }
+    assert coordinator.due_now(20) == {"/a/uav", "/a/car_ctrl"}
+    assert coordinator.due_now(50) == {"/a/uav", "/a/car", "/a/car_ctrl"}
+
+
+def test_the_graph_settles_once_every_process_is_at_the_step_and_its_timers_ran() -> None:
+    coordinator = _coordinator()
+    coordinator.reports = {"/a/uav": _timing(10, 20), "/a/car": _timing(20, 50)}
+    assert not coordinator.settled(20, released=False)  # /a/uav has not the step's clock
+    assert coordinator.unsettled(20) == ["/a/uav is at 0.00 s"]
+    coordinator.reports["/a/uav"] = _timing(20, 20)
+    assert coordinator.settled(20, released=False)
+    assert not coordinator.settled(20, released=True)  # its timer at 20 has not run
+    coordinator.reports["/a/uav"] = _timing(20, 40, released=20)
+    assert coordinator.settled(20, released=True)
+    coordinator.apply("/a/uav", _report(sent={"/a/subject_pose>/a/car": 1}))
+    assert not coordinator.settled(20, released=True)  # a message in flight
+    assert coordinator.settled(20, released=True) == (coordinator.unsettled(20, True) == [])
+
+
+def test_a_message_stamped_with_its_step_gives_its_stamp() -> None:
+    module = _module()
+
+    class Stamp:
+        def to_nsec(self) -> int:
+            return 1_230_000_000
+
+    class Header:
+        stamp = Stamp()
+
+    class Pose:
+        header = Header()
+
+    assert module.stamp_of(Pose()) == 1_230_000_000
+    assert module.stamp_of(object()) is None

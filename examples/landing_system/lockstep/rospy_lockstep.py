@@ -18,15 +18,24 @@ rospy when it is imported (``sitecustomize.py``), with no change to the nodes' c
   after it, which its sender counted: the counts cannot balance). The release of a step
   (below) is not counted: the simulator waits for a report after it from each process
   whose timers it wakes (its last report said one was due).
+* **Fewer reports**: a report is left out when a later one must reach the simulator before
+  it can settle anyway: after a message of a batch rospy read at once but the last, while
+  more data waits on a counted connection (its callback reports), and after a sensor
+  message of the simulator stamped ahead of the process's clock (a step with no
+  ``/clock``: the process reports when its clock gets there). A report is written straight
+  to the simulator's connection (a ``std_msgs/String`` is its length and its bytes), and
+  the simulator's thread is woken by a report only when its wait may be over.
 * **Idle**: no callback or service handler runs, and every thread that sleeps on ROS time
   (``rospy.sleep``, ``Rate``, ``Timer``) is back asleep with a deadline after the current
   time. Threads that wait on the wall clock (a heartbeat) are not tracked: what they
   publish is counted, which holds the step until their subscribers have it.
 * **Two phases per step**: the simulator publishes ``/clock`` (and its sensors' messages)
   and waits until every process has them; only then does it release the step's timers
-  (``/lockstep/go``): a thread sleeping on ROS time wakes once both the clock and the
-  release passed its deadline. So no message a timer sends at time t can reach a process
-  that still lives at the time before (the release follows every process's clock).
+  (``/lockstep/go``, to the processes that reported a timer due: the others have nothing
+  to release): a thread sleeping on ROS time wakes once both the clock and the release
+  passed its deadline (a new clock wakes it only then). So no message a timer sends at
+  time t can reach a process that still lives at the time before (the release follows
+  every process's clock).
 * **Synchronous ticks**: a message (but the simulator's) that arrives while a timer of its
   subscriber is pending at the current time is handed to its callback only once that timer
   ran, so every timer at time t sees what was published before t and the simulator's
@@ -59,6 +68,8 @@ import importlib.abc
 import importlib.util
 import json
 import os
+import select
+import struct
 import sys
 import threading
 import time
@@ -110,6 +121,8 @@ class Process:
         self.last_links = -1
         self.report_lock = threading.Lock()
         self.string: Any = None
+        self.sockets: set[Any] = set()
+        """The sockets of the connections that brought this process counted messages."""
         self.listeners: list[Any] = []
         """Called (no arguments) on every change: the coordinator in the simulator."""
 
@@ -117,24 +130,25 @@ class Process:
         return int(self.rospy.rostime.get_rostime().to_nsec())
 
     # ----- activity (called with self.cond held)
-    def timers_pending(self, until: int) -> bool:
-        """A thread sleeping on ROS time is due at or before ``until`` (ns), or awake."""
-        self.awake &= {t.ident for t in threading.enumerate()}
-        if self.awake:
-            return True
-        started = self.now() > 0
+    def timers_pending(self, until: int, now: int | None = None) -> bool:
+        """A thread sleeping on ROS time is due at or before ``until`` (ns), or awake
+        (``now``: the current time, when known)."""
+        if self.awake:  # but threads that ended meanwhile
+            self.awake &= {t.ident for t in threading.enumerate()}
+            if self.awake:
+                return True
+        started = (self.now() if now is None else now) > 0
         for deadline in self.sleepers.values():
             if (deadline is None and started) or (deadline is not None and deadline <= until):
                 return True
         return False
 
-    def idle(self) -> bool:
+    def idle(self, now: int) -> bool:
         """No callback runs, no timer released to run, and no held message about to be
-        handed over (one held for a timer still waiting for its release is idle)."""
-        now = self.now()
-        if self.busy or self.timers_pending(min(now, self.released)):
+        handed over (one held for a timer still waiting for its release) at ``now`` (ns)."""
+        if self.busy or self.timers_pending(min(now, self.released), now):
             return False
-        return self.holding == 0 or self.timers_pending(now)
+        return self.holding == 0 or self.timers_pending(now, now)
 
     def changed(self) -> None:
         self.version += 1
@@ -164,13 +178,39 @@ class Process:
             self.holding -= 1
             self.busy += 1
 
-    def end(self, counts: dict[str, int] | None = None, key: str = "") -> None:
+    def end(
+        self,
+        counts: dict[str, int] | None = None,
+        key: str = "",
+        ahead: int | None = None,
+        quiet: bool = False,
+    ) -> None:
+        """A callback ended. Its report is left out when a later one is sure to come before
+        the simulator can settle: a message from the simulator stamped ``ahead`` (ns) of this
+        process's time (a sensor message of a step whose ``/clock`` has not come, or never
+        comes: this process reports when its time reaches the step's), more data waiting
+        on a counted connection (the callback that takes it in reports), or ``quiet``: the
+        next message of the same read follows."""
         with self.cond:
             self.busy -= 1
             if counts is not None:
                 counts[key] = counts.get(key, 0) + 1
             self.changed()
-        self.report()
+            if quiet or (ahead is not None and ahead > self.now()):
+                return
+        if not self.more_coming():
+            self.report()
+
+    def more_coming(self) -> bool:
+        """Data waits to be read on a connection of this process's counted subscribers."""
+        sockets = [s for s in list(self.sockets) if s.fileno() >= 0]
+        if not sockets:
+            return False
+        try:
+            ready, _, _ = select.select(sockets, [], [], 0)
+        except (OSError, ValueError):
+            return False
+        return bool(ready)
 
     def count(self, counts: dict[str, int], keys: Iterable[str]) -> None:
         with self.cond:
@@ -218,7 +258,7 @@ class Process:
         with self.report_lock:
             with self.cond:
                 now = self.now()
-                if not bye and not self.idle():
+                if not bye and not self.idle(now):
                     return
                 key = (now, self.ready, self.version, self.links_version, bye)
                 if key == self.last:
@@ -246,8 +286,37 @@ class Process:
                     self.last_links = self.links_version
                     state["links"] = self.links()
                 text = json.dumps(state, separators=(",", ":"))
-            with contextlib.suppress(Exception):
-                self.publisher.publish(self.string(text))
+            self.send(text)
+
+    def send(self, text: str) -> None:
+        """Write a report to the simulator's connection(s) as ``Publisher.publish`` would,
+        without its generic path (the message built, serialized through a buffer): a
+        ``std_msgs/String`` is its length and its bytes, after the message's length. Kept
+        as the latched message for a subscriber that connects later."""
+        payload = text.encode("utf-8")
+        data = struct.pack("<II", len(payload) + 4, len(payload)) + payload
+        impl = self.publisher.impl
+        if impl is None or impl.closed:
+            return
+        impl.acquire()
+        try:
+            impl.latch = self.string(text)
+            for connection in list(impl.connections):
+                try:
+                    connection.write_data(data)
+                except Exception:  # a connection that closed: rospy drops it too
+                    with contextlib.suppress(Exception):
+                        impl.remove_connection(connection)
+        finally:
+            impl.release()
+
+    def wake_all(self) -> None:
+        """Wake every thread that waits on ROS time or on this process's condition."""
+        cond = self.rospy.rostime.get_rostime_cond()
+        with cond:
+            cond.notify_all()
+        with self.cond:
+            self.cond.notify_all()
 
     def release(self, message: Any) -> None:
         """``/lockstep/go``: timers up to its time may run."""
@@ -269,7 +338,17 @@ class Process:
         # latched: the simulator, connecting later, still hears the last report
         self.publisher = self.rospy.Publisher(REPORT_TOPIC, String, queue_size=None, latch=True)
         self.rospy.on_shutdown(lambda: self.report(bye=True))
+        # once shut down, the threads asleep on ROS time or held see it at once (they would
+        # otherwise look again only after their wait's timeout: a trial's eleven processes,
+        # stopped one after the other, took that long each)
+        self.rospy.core.add_shutdown_hook(lambda _reason: self.wake_all())
         self.report()
+
+
+def stamp_of(message: Any) -> int | None:
+    """The header stamp of a message (ns), None without one."""
+    stamp = getattr(getattr(message, "header", None), "stamp", None)
+    return None if stamp is None else int(stamp.to_nsec())
 
 
 _INSTALLED: list[Process] = []
@@ -287,7 +366,7 @@ def install(rospy: Any) -> Process:
         return _INSTALLED[0]
     import genpy  # type: ignore[import-not-found]
     from rospy import rostime, timer, topics  # type: ignore[import-not-found]
-    from rospy.impl import tcpros_service  # type: ignore[import-not-found]
+    from rospy.impl import simtime, tcpros_service  # type: ignore[import-not-found]
 
     state = Process(rospy)
     _INSTALLED.append(state)
@@ -327,6 +406,28 @@ def install(rospy: Any) -> Process:
     original_sleep = timer.sleep
     timer.sleep = sleep
     rospy.sleep = sleep
+
+    def set_rostime(t: Any) -> None:
+        """rospy's ``_set_rostime`` (``/clock``), waking the threads asleep on ROS time only
+        when one of them is due (or waits for time to start, or time went back): the others
+        would only look at the clock and sleep again, at every step."""
+        if isinstance(t, genpy.Time):
+            t = rostime.Time(t.secs, t.nsecs)
+        elif not isinstance(t, rostime.Time):
+            raise ValueError(f"must be Time instance: {t.__class__}")
+        old = rostime._rostime_current
+        rostime._rostime_current = t
+        ns = t.to_nsec()
+        with state.cond:
+            due = old is None or t < old or state.awake
+            due = due or any(d is None or d <= ns for d in state.sleepers.values())
+        if due:
+            cond = rostime.get_rostime_cond()
+            with cond:
+                cond.notify_all()
+
+    rostime._set_rostime = set_rostime
+    simtime._set_rostime = set_rostime
 
     original_init = rospy.init_node
 
@@ -392,12 +493,18 @@ def install(rospy: Any) -> Process:
         # the simulator's messages (the clock, the release, sensors) are the step's inputs,
         # all delivered before the release: never held
         hold = source != state.simulator
-        for msg in msgs:  # one by one: each message held and counted on its own
+        sock = getattr(connection, "socket", None)
+        if sock is not None:
+            state.sockets.add(sock)
+        last = len(msgs) - 1
+        for k, msg in enumerate(msgs):  # one by one: each message held and counted on its own
             state.begin(hold, state.received, key)
             try:
                 original_receive(impl, [msg], connection)
             finally:
-                state.end()
+                # the simulator's sensor messages are stamped with their step
+                ahead = stamp_of(msg) if not hold and topic != CLOCK else None
+                state.end(ahead=ahead, quiet=k < last)  # the next one reports
         return None
 
     topics._SubscriberImpl.receive_callback = receive_callback
@@ -548,9 +655,14 @@ class Coordinator:
         a relay outside the lockstep (``imrosc record``'s) serves one name and calls
         another."""
         self.unbalanced: set[tuple[str, str, str]] = set()
+        self.channels: dict[tuple[str, str, str], tuple[str, str, str]] = {}
+        """The channel of each key of a node's counts (``topic>to``, ``topic<from``)."""
         self.closed: set[tuple[str, str, str]] = set()
         """Channels whose subscriber closed the connection: no longer balanced."""
         self.own_version = -1
+        self.awaiting: tuple[int, bool, set[str]] | None = None
+        """What :meth:`settle` waits for (time, after the release, the processes released)
+        while it waits."""
         self.stalls = 0
         state.publisher = None  # nobody needs the simulator's own reports
         state.listeners.append(self.wake)
@@ -566,7 +678,14 @@ class Coordinator:
             return
         with self.state.cond:
             self.inbox.append(report)
-            self.state.cond.notify_all()
+            waiting = self.awaiting
+            # the simulator's thread is woken only when its wait may be over: the graph
+            # settled, or (after the release) a process with a timer due to release
+            if waiting is not None and (
+                self.settled(waiting[0], waiting[1])
+                or (waiting[1] and self.due_now(waiting[0]) - waiting[2])
+            ):
+                self.state.cond.notify_all()
 
     # ----- the balance (called with the condition held)
     def participants(self) -> set[str]:
@@ -585,19 +704,24 @@ class Coordinator:
 
     def apply(self, node: str, report: dict[str, Any]) -> None:
         """Take a node's counts in place of its last ones."""
-        members = self.participants()
         touched = []
+        channels = self.channels
+        sent, received = self.sent, self.received
         for key, n in report["sent"].items():
-            topic, _, to = key.rpartition(">")
-            channel = (topic, node, to)
-            if self.sent.get(channel) != n:
-                self.sent[channel] = n
+            channel = channels.get((node, ">", key))
+            if channel is None:
+                topic, _, to = key.rpartition(">")
+                channel = channels[(node, ">", key)] = (topic, node, to)
+            if sent.get(channel) != n:
+                sent[channel] = n
                 touched.append(channel)
         for key, n in report["received"].items():
-            topic, _, source = key.rpartition("<")
-            channel = (topic, source, node)
-            if self.received.get(channel) != n:
-                self.received[channel] = n
+            channel = channels.get((node, "<", key))
+            if channel is None:
+                topic, _, source = key.rpartition("<")
+                channel = channels[(node, "<", key)] = (topic, source, node)
+            if received.get(channel) != n:
+                received[channel] = n
                 touched.append(channel)
         for key in report.get("closed", ()):
             topic, _, source = key.rpartition("<")
@@ -606,9 +730,14 @@ class Coordinator:
                 self.closed.add(channel)
                 touched.append(channel)
         calls, served = report["calls"], report["served"]
-        self.services[node] = {s: (calls.get(s, 0), served.get(s, 0)) for s in {*calls, *served}}
-        for channel in touched:
-            self.check(channel, members)
+        if calls or served or node in self.services:
+            self.services[node] = {
+                s: (calls.get(s, 0), served.get(s, 0)) for s in {*calls, *served}
+            }
+        if touched:
+            members = self.participants()
+            for channel in touched:
+                self.check(channel, members)
 
     def recheck(self) -> None:
         members = self.participants()
@@ -649,6 +778,21 @@ class Coordinator:
             )
         if joined:
             self.recheck()
+
+    def settled(self, now: int, released: bool) -> bool:
+        """Whether :meth:`unsettled` would say nothing (quicker). Called with the condition
+        held."""
+        self.take_reports()
+        if self.state.busy or self.unbalanced:
+            return False
+        for report in self.reports.values():
+            if report["sim"] and report["time"] < now:
+                return False
+            if released and report["released"] < now and (report["next"] or now + 1) <= now:
+                return False
+        made = sum(m for per_node in self.services.values() for m, _ in per_node.values())
+        done = sum(d for per_node in self.services.values() for _, d in per_node.values())
+        return made == done
 
     def unsettled(self, now: int, released: bool = False) -> list[str]:
         """Why the graph has not settled at ``now`` (ns), before or after the step's
@@ -697,32 +841,70 @@ class Coordinator:
 
     def step(self, stamp: Any) -> None:
         """The step at ``stamp`` (a ``rospy.Time``), once its ``/clock`` and sensor messages
-        are published: wait until every process has them, release the step's timers, wait
-        until the graph has reacted."""
+        are published: wait until every process has them, release the step's timers in the
+        processes that have one due, wait until the graph has reacted."""
         now = int(stamp.to_nsec())
         self.settle(now)
-        self.go.publish(self.clock(clock=stamp))
-        self.settle(now, released=True)
+        self.settle(now, stamp)
 
-    def settle(self, now: int, released: bool = False, timeout: float = 30.0) -> bool:
-        """Wait until the graph has reacted to time ``now`` (ns). False (and a warning) when
-        it did not within ``timeout`` wall seconds: the step goes on (counted in
-        :attr:`stalls`)."""
+    def due_now(self, now: int) -> set[str]:
+        """The processes with a timer due at ``now`` (ns) or that may have one (a sleep that
+        began before time started): those the step's release goes to. Called with the
+        condition held, the graph settled at ``now``."""
+        due = {
+            name
+            for name, report in self.reports.items()
+            if report.get("waiting", True) or (report["next"] is not None and report["next"] <= now)
+        }
+        if self.state.sleepers:
+            due.add(self.name)
+        return due
+
+    def release(self, stamp: Any, names: set[str]) -> None:
+        """``/lockstep/go`` at ``stamp`` to the subscribers ``names`` only: a process with
+        no timer due has nothing to release (its next due step releases it up to then)."""
+        impl = self.go.impl
+        message = self.clock(clock=stamp)
+        for connection in list(impl.connections):
+            if connection.endpoint_id in names:
+                impl.acquire()
+                try:
+                    impl.publish(message, connection_override=connection)
+                finally:
+                    impl.release()
+
+    def settle(self, now: int, stamp: Any = None, timeout: float = 30.0) -> bool:
+        """Wait until the graph has reacted to time ``now`` (ns); with ``stamp`` (the step's
+        time), after releasing the timers due then (to each process once, as soon as it
+        reports one due: a timer that began after the release sees it too). False (and a
+        warning) when it did not within ``timeout`` wall seconds: the step goes on (counted
+        in :attr:`stalls`)."""
+        released = stamp is not None
+        sent: set[str] = set()
         deadline = time.monotonic() + timeout
-        with self.state.cond:
-            while True:
+        while True:
+            with self.state.cond:
                 why = self.unsettled(now, released)
                 if not why or self.state.rospy.is_shutdown():
                     return True
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    self.stalls += 1
-                    self.forget_the_dead()
-                    self.state.rospy.logwarn(
-                        "lockstep: not settled at %.2f s: %s", now / 1e9, why[:4]
-                    )
-                    return False
-                self.state.cond.wait(min(left, 1.0))
+                wake = self.due_now(now) - sent if released else set()
+                if not wake:
+                    left = deadline - time.monotonic()
+                    if left <= 0:
+                        self.stalls += 1
+                        self.forget_the_dead()
+                        self.state.rospy.logwarn(
+                            "lockstep: not settled at %.2f s: %s", now / 1e9, why[:4]
+                        )
+                        return False
+                    self.awaiting = (now, released, sent)
+                    try:
+                        self.state.cond.wait(min(left, 1.0))
+                    finally:
+                        self.awaiting = None
+                    continue
+            sent |= wake
+            self.release(stamp, wake)
 
     def forget_the_dead(self) -> None:
         for name, report in list(self.reports.items()):
