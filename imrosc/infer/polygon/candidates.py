@@ -63,6 +63,11 @@ EXPANDING = 0.05
 _BY_BLOCKS = 0.15
 """Pairs whose cross would enumerate this fraction of the rows go by blocks instead."""
 
+_CROSS_AT_MOST = 0.6
+"""Pairs whose cross would enumerate more than this fraction of the rows go by blocks."""
+_CROSS_GAIN = 1.5
+"""A pair goes by its cross after all when its open blocks hold this many times the rows."""
+
 _BLOCK = 1 << 15
 """Samples filtered together (keeps the temporaries in cache)."""
 
@@ -510,13 +515,16 @@ def _general(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: G
     if not len(pairs):
         return GroupSet.empty()
     plan = _plan(chunk, pairs, pi, pj, guide)
-    blocks = (plan.cost >= _BY_BLOCKS) | (guide.locator.slot[pairs] >= 0)
+    loose = guide.locator.slot[pairs] >= 0
+    blocks = (plan.cost >= _BY_BLOCKS) | loose
+    # a cross that fits however badly may still beat the blocks (samples that do not move
+    # smoothly leave most blocks open): the blocks' own count decides
+    fallback = np.where(loose | (plan.cost >= _CROSS_AT_MOST), np.inf, plan.cost)
+    by_blocks, back = _by_blocks(chunk, pairs[blocks], pi, pj, guide, fallback[blocks])
     crossed = np.flatnonzero(~blocks)
+    crossed = np.sort(np.concatenate([crossed, np.flatnonzero(blocks)[back]]))
     return GroupSet.concat(
-        [
-            _by_cross(chunk, pairs[crossed], pi, pj, guide, _take_plan(plan, crossed)),
-            _by_blocks(chunk, pairs[blocks], pi, pj, guide),
-        ]
+        [_by_cross(chunk, pairs[crossed], pi, pj, guide, _take_plan(plan, crossed)), by_blocks]
     )
 
 
@@ -595,13 +603,21 @@ def _by_cross(
     return GroupSet.concat(found)
 
 
-def _by_blocks(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide) -> GroupSet:
+def _by_blocks(
+    chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide, cross: FloatArray
+) -> tuple[GroupSet, IntArray]:
     """Candidates of ``pairs`` from the rows of the blocks of consecutive rows whose
     bounding box the table cannot place strictly inside the hull (if it can, so is every
     row of the block: the hull's interior is convex), refined block size by block size.
-    Pairs without a table have every row located exactly instead."""
+    Pairs without a table have every row located exactly instead.
+
+    ``cross`` is each pair's cross cost (the fraction of rows it would enumerate, infinite
+    where none may serve): the pairs whose open blocks hold more than ``_CROSS_GAIN`` times
+    that fraction of the rows are left out, their positions in ``pairs`` returned."""
+    none = np.empty(0, np.int64)
     if not len(pairs) or not chunk.rows:
-        return GroupSet.empty()
+        return GroupSet.empty(), none
+    every_pair = pairs
     loose = pairs[guide.locator.slot[pairs] >= 0]
     every = np.arange(chunk.rows, dtype=np.int64)
     found = _rows(
@@ -628,9 +644,18 @@ def _by_blocks(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide:
         slot, block = _open_blocks(chunk, pairs, pi, pj, guide, size, slot, block)
     starts = block * BLOCKS[-1]
     lengths = np.minimum(BLOCKS[-1], chunk.rows - starts)
+    tabled = np.flatnonzero(guide.locator.slot[every_pair] < 0)  # rows of ``pairs``
+    opened = np.bincount(slot, weights=lengths, minlength=len(pairs))
+    over = np.flatnonzero(opened > _CROSS_GAIN * cross[tabled] * chunk.rows)
+    back = tabled[over]
+    if len(over):
+        stay = np.ones(len(pairs), bool)
+        stay[over] = False
+        keep = np.flatnonzero(stay[slot])
+        slot, starts, lengths = slot.take(keep), starts.take(keep), lengths.take(keep)
     row = ragged_arange(starts, lengths)
     found += _rows(chunk, pairs, pi, pj, np.repeat(slot, lengths), row, guide, located=False)
-    return GroupSet.concat(found)
+    return GroupSet.concat(found), back
 
 
 def _open_blocks(
