@@ -297,6 +297,24 @@ def _identical(chunk: Chunk, wanted: BoolArray) -> dict[int, int]:
     return root
 
 
+def _negated(chunk: Chunk, wanted: BoolArray) -> BoolArray:
+    """``(variables, variables)``: where one wanted column is the other's negation, value
+    for value (NaN where the other has NaN). Such a pair's samples lie on the line ``y =
+    -x`` exactly (negation is exact), so its hull, like an identical pair's, is the
+    segment between the samples of least and greatest ``x``."""
+    out = np.zeros((len(wanted), len(wanted)), bool)
+    first: dict[bytes, list[int]] = {}
+    variables = np.flatnonzero(wanted).tolist()
+    for var in variables:
+        first.setdefault(chunk.values[var].tobytes(), []).append(var)
+    for var in variables:
+        negation = -chunk.values[var]
+        for other in first.get(negation.tobytes(), []):
+            if np.array_equal(negation, chunk.values[other], equal_nan=True):
+                out[var, other] = out[other, var] = True
+    return out
+
+
 def _grouped(chunk: Chunk, var: int, pairs: IntArray, pi: IntArray, pj: IntArray) -> GroupSet:
     """Candidates of pairs where ``var`` takes few values: per value, the partner's ends.
 
@@ -740,7 +758,7 @@ def _classes(
     wanted[pj[rest]] = True
     root = _identical(chunk, wanted)
     lookup = np.array([root.get(v, -1 - v) for v in range(len(few))], np.int64)
-    twin = rest & (lookup[pi] == lookup[pj])
+    twin = rest & ((lookup[pi] == lookup[pj]) | _negated(chunk, wanted)[pi, pj])
     return groups, np.flatnonzero(twin), np.flatnonzero(rest & ~twin)
 
 
