@@ -15,15 +15,18 @@ reduced without touching most (pair, row) combinations, using what the
   box) go by blocks of consecutive rows instead: a block whose bounding box has its four
   corners inside the hull has every row inside (the hull's interior is convex), so only
   the rows of the other blocks are read, refining 256-row blocks into 32-row ones. Smooth
-  signals (positions, integrated quantities) have small boxes: few blocks stay open;
+  signals (positions, integrated quantities) have small boxes: few blocks stay open.
+  Rows drawn independently leave most blocks open: a pair whose open blocks would hold
+  more than ``_CROSS_GAIN`` times the rows of its cross (if it costs under
+  ``_CROSS_AT_MOST``) goes by the cross after all;
 * every row so found is tested against the pair's polar table (a sector lookup, a compare);
 * pairs without a table whose hull is a segment or a sliver (a variable that is a linear
   function of the other, up to rounding) have every row located exactly in their hull
   (:mod:`~imrosc.infer.polygon.locate`);
 * pairs where a variable takes few values (constants, flags, modes, whatever their type)
   keep, per value, only the rows with the least and greatest partner value, found in the
-  partner's tails; pairs of identical columns keep their two end points; pairs without
-  any hull keep all.
+  partner's tails; pairs of identical (or exactly negated) columns keep their two end
+  points; pairs without any hull keep all.
 
 Everything discarded is provably in the current hull and none of its vertices, hence no
 vertex of ``hull(current hull | chunk)``: the exact hull of the current vertices plus the
