@@ -39,6 +39,7 @@ hull, inside the final one, tightens the guide before the whole chunk is filtere
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -70,6 +71,12 @@ _CROSS_AT_MOST = 0.6
 """Pairs whose cross would enumerate more than this fraction of the rows go by blocks."""
 _CROSS_GAIN = 1.5
 """A pair goes by its cross after all when its open blocks hold this many times the rows."""
+
+_NEGATED_HEAD = 64
+"""Rows whose bytes pick the candidate negated columns (see :func:`_negated`)."""
+
+_RUNS = 8
+"""A block of samples of fewer runs of one pair than this is filtered run by run."""
 
 _BLOCK = 1 << 15
 """Samples filtered together (keeps the temporaries in cache)."""
@@ -306,14 +313,15 @@ def _negated(chunk: Chunk, wanted: BoolArray) -> BoolArray:
     -x`` exactly (negation is exact), so its hull, like an identical pair's, is the
     segment between the samples of least and greatest ``x``."""
     out = np.zeros((len(wanted), len(wanted)), bool)
-    first: dict[bytes, list[int]] = {}
     variables = np.flatnonzero(wanted).tolist()
+    # the first rows' bytes pick the candidates, compared in full
+    head = chunk.values[:, :_NEGATED_HEAD]
+    first: dict[bytes, list[int]] = {}
     for var in variables:
-        first.setdefault(chunk.values[var].tobytes(), []).append(var)
+        first.setdefault(head[var].tobytes(), []).append(var)
     for var in variables:
-        negation = -chunk.values[var]
-        for other in first.get(negation.tobytes(), []):
-            if np.array_equal(negation, chunk.values[other], equal_nan=True):
+        for other in first.get((-head[var]).tobytes(), []):
+            if np.array_equal(-chunk.values[var], chunk.values[other], equal_nan=True):
                 out[var, other] = out[other, var] = True
     return out
 
@@ -722,16 +730,35 @@ def _rows(
     found: list[GroupSet] = []
     for first in range(0, len(row), _BLOCK):
         r = row[first : first + _BLOCK]
-        pair = pairs.take(slot[first : first + _BLOCK])
+        part = slot[first : first + _BLOCK]
+        pair = pairs.take(part)
         x = values.take(pi.take(pair) * chunk.rows + r)
         y = values.take(pj.take(pair) * chunk.rows + r)
         with np.errstate(invalid="ignore"):
             # pairs with a locator have no table: only exact location discards anything
-            drop = guide.locator.covered(pair, x, y) if located else guide.inside(pair, x, y)
+            if located:
+                drop = guide.locator.covered(pair, x, y)
+            else:
+                drop = _inside_by_runs(guide, part, pair, x, y)
             keep = ~drop & ~(np.isnan(x) | np.isnan(y))
         sel = np.flatnonzero(keep)
         found.append(GroupSet(pair.take(sel), x.take(sel), y.take(sel), r.take(sel)))
     return found
+
+
+def _inside_by_runs(
+    guide: Guide, slot: IntArray, pair: IntArray, x: FloatArray, y: FloatArray
+) -> BoolArray:
+    """``guide.inside(pair, x, y)``; samples that come in a few long runs of one pair
+    (``slot`` non-decreasing) are looked up run by run, with the pair's scalars."""
+    change = np.flatnonzero(slot[1:] != slot[:-1]) + 1
+    if len(change) >= _RUNS or np.any(slot[change] < slot[change - 1]):
+        return guide.inside(pair, x, y)
+    out = np.empty(len(pair), bool)
+    bounds = [0, *change.tolist(), len(pair)]
+    for lo, hi in itertools.pairwise(bounds):
+        out[lo:hi] = guide.inside_run(int(pair[lo]), x[lo:hi], y[lo:hi])
+    return out
 
 
 def _classify(
