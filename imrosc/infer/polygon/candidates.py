@@ -15,15 +15,18 @@ reduced without touching most (pair, row) combinations, using what the
   box) go by blocks of consecutive rows instead: a block whose bounding box has its four
   corners inside the hull has every row inside (the hull's interior is convex), so only
   the rows of the other blocks are read, refining 256-row blocks into 32-row ones. Smooth
-  signals (positions, integrated quantities) have small boxes: few blocks stay open;
+  signals (positions, integrated quantities) have small boxes: few blocks stay open.
+  Rows drawn independently leave most blocks open: a pair whose open blocks would hold
+  more than ``_CROSS_GAIN`` times the rows of its cross (if it costs under
+  ``_CROSS_AT_MOST``) goes by the cross after all;
 * every row so found is tested against the pair's polar table (a sector lookup, a compare);
 * pairs without a table whose hull is a segment or a sliver (a variable that is a linear
   function of the other, up to rounding) have every row located exactly in their hull
   (:mod:`~imrosc.infer.polygon.locate`);
 * pairs where a variable takes few values (constants, flags, modes, whatever their type)
   keep, per value, only the rows with the least and greatest partner value, found in the
-  partner's tails; pairs of identical columns keep their two end points; pairs without
-  any hull keep all.
+  partner's tails; pairs of identical (or exactly negated) columns keep their two end
+  points; pairs without any hull keep all.
 
 Everything discarded is provably in the current hull and none of its vertices, hence no
 vertex of ``hull(current hull | chunk)``: the exact hull of the current vertices plus the
@@ -36,6 +39,7 @@ hull, inside the final one, tightens the guide before the whole chunk is filtere
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -62,6 +66,17 @@ EXPANDING = 0.05
 
 _BY_BLOCKS = 0.15
 """Pairs whose cross would enumerate this fraction of the rows go by blocks instead."""
+
+_CROSS_AT_MOST = 0.6
+"""Pairs whose cross would enumerate more than this fraction of the rows go by blocks."""
+_CROSS_GAIN = 1.5
+"""A pair goes by its cross after all when its open blocks hold this many times the rows."""
+
+_NEGATED_HEAD = 64
+"""Rows whose bytes pick the candidate negated columns (see :func:`_negated`)."""
+
+_RUNS = 8
+"""A block of samples of fewer runs of one pair than this is filtered run by run."""
 
 _BLOCK = 1 << 15
 """Samples filtered together (keeps the temporaries in cache)."""
@@ -292,6 +307,25 @@ def _identical(chunk: Chunk, wanted: BoolArray) -> dict[int, int]:
     return root
 
 
+def _negated(chunk: Chunk, wanted: BoolArray) -> BoolArray:
+    """``(variables, variables)``: where one wanted column is the other's negation, value
+    for value (NaN where the other has NaN). Such a pair's samples lie on the line ``y =
+    -x`` exactly (negation is exact), so its hull, like an identical pair's, is the
+    segment between the samples of least and greatest ``x``."""
+    out = np.zeros((len(wanted), len(wanted)), bool)
+    variables = np.flatnonzero(wanted).tolist()
+    # the first rows' bytes pick the candidates, compared in full
+    head = chunk.values[:, :_NEGATED_HEAD]
+    first: dict[bytes, list[int]] = {}
+    for var in variables:
+        first.setdefault(head[var].tobytes(), []).append(var)
+    for var in variables:
+        for other in first.get((-head[var]).tobytes(), []):
+            if np.array_equal(-chunk.values[var], chunk.values[other], equal_nan=True):
+                out[var, other] = out[other, var] = True
+    return out
+
+
 def _grouped(chunk: Chunk, var: int, pairs: IntArray, pi: IntArray, pj: IntArray) -> GroupSet:
     """Candidates of pairs where ``var`` takes few values: per value, the partner's ends.
 
@@ -510,13 +544,16 @@ def _general(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: G
     if not len(pairs):
         return GroupSet.empty()
     plan = _plan(chunk, pairs, pi, pj, guide)
-    blocks = (plan.cost >= _BY_BLOCKS) | (guide.locator.slot[pairs] >= 0)
+    loose = guide.locator.slot[pairs] >= 0
+    blocks = (plan.cost >= _BY_BLOCKS) | loose
+    # a cross that fits however badly may still beat the blocks (samples that do not move
+    # smoothly leave most blocks open): the blocks' own count decides
+    fallback = np.where(loose | (plan.cost >= _CROSS_AT_MOST), np.inf, plan.cost)
+    by_blocks, back = _by_blocks(chunk, pairs[blocks], pi, pj, guide, fallback[blocks])
     crossed = np.flatnonzero(~blocks)
+    crossed = np.sort(np.concatenate([crossed, np.flatnonzero(blocks)[back]]))
     return GroupSet.concat(
-        [
-            _by_cross(chunk, pairs[crossed], pi, pj, guide, _take_plan(plan, crossed)),
-            _by_blocks(chunk, pairs[blocks], pi, pj, guide),
-        ]
+        [_by_cross(chunk, pairs[crossed], pi, pj, guide, _take_plan(plan, crossed)), by_blocks]
     )
 
 
@@ -595,13 +632,21 @@ def _by_cross(
     return GroupSet.concat(found)
 
 
-def _by_blocks(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide) -> GroupSet:
+def _by_blocks(
+    chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide, cross: FloatArray
+) -> tuple[GroupSet, IntArray]:
     """Candidates of ``pairs`` from the rows of the blocks of consecutive rows whose
     bounding box the table cannot place strictly inside the hull (if it can, so is every
     row of the block: the hull's interior is convex), refined block size by block size.
-    Pairs without a table have every row located exactly instead."""
+    Pairs without a table have every row located exactly instead.
+
+    ``cross`` is each pair's cross cost (the fraction of rows it would enumerate, infinite
+    where none may serve): the pairs whose open blocks hold more than ``_CROSS_GAIN`` times
+    that fraction of the rows are left out, their positions in ``pairs`` returned."""
+    none = np.empty(0, np.int64)
     if not len(pairs) or not chunk.rows:
-        return GroupSet.empty()
+        return GroupSet.empty(), none
+    every_pair = pairs
     loose = pairs[guide.locator.slot[pairs] >= 0]
     every = np.arange(chunk.rows, dtype=np.int64)
     found = _rows(
@@ -628,9 +673,18 @@ def _by_blocks(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide:
         slot, block = _open_blocks(chunk, pairs, pi, pj, guide, size, slot, block)
     starts = block * BLOCKS[-1]
     lengths = np.minimum(BLOCKS[-1], chunk.rows - starts)
+    tabled = np.flatnonzero(guide.locator.slot[every_pair] < 0)  # rows of ``pairs``
+    opened = np.bincount(slot, weights=lengths, minlength=len(pairs))
+    over = np.flatnonzero(opened > _CROSS_GAIN * cross[tabled] * chunk.rows)
+    back = tabled[over]
+    if len(over):
+        stay = np.ones(len(pairs), bool)
+        stay[over] = False
+        keep = np.flatnonzero(stay[slot])
+        slot, starts, lengths = slot.take(keep), starts.take(keep), lengths.take(keep)
     row = ragged_arange(starts, lengths)
     found += _rows(chunk, pairs, pi, pj, np.repeat(slot, lengths), row, guide, located=False)
-    return GroupSet.concat(found)
+    return GroupSet.concat(found), back
 
 
 def _open_blocks(
@@ -676,16 +730,35 @@ def _rows(
     found: list[GroupSet] = []
     for first in range(0, len(row), _BLOCK):
         r = row[first : first + _BLOCK]
-        pair = pairs.take(slot[first : first + _BLOCK])
+        part = slot[first : first + _BLOCK]
+        pair = pairs.take(part)
         x = values.take(pi.take(pair) * chunk.rows + r)
         y = values.take(pj.take(pair) * chunk.rows + r)
         with np.errstate(invalid="ignore"):
             # pairs with a locator have no table: only exact location discards anything
-            drop = guide.locator.covered(pair, x, y) if located else guide.inside(pair, x, y)
+            if located:
+                drop = guide.locator.covered(pair, x, y)
+            else:
+                drop = _inside_by_runs(guide, part, pair, x, y)
             keep = ~drop & ~(np.isnan(x) | np.isnan(y))
         sel = np.flatnonzero(keep)
         found.append(GroupSet(pair.take(sel), x.take(sel), y.take(sel), r.take(sel)))
     return found
+
+
+def _inside_by_runs(
+    guide: Guide, slot: IntArray, pair: IntArray, x: FloatArray, y: FloatArray
+) -> BoolArray:
+    """``guide.inside(pair, x, y)``; samples that come in a few long runs of one pair
+    (``slot`` non-decreasing) are looked up run by run, with the pair's scalars."""
+    change = np.flatnonzero(slot[1:] != slot[:-1]) + 1
+    if len(change) >= _RUNS or np.any(slot[change] < slot[change - 1]):
+        return guide.inside(pair, x, y)
+    out = np.empty(len(pair), bool)
+    bounds = [0, *change.tolist(), len(pair)]
+    for lo, hi in itertools.pairwise(bounds):
+        out[lo:hi] = guide.inside_run(int(pair[lo]), x[lo:hi], y[lo:hi])
+    return out
 
 
 def _classify(
@@ -715,7 +788,7 @@ def _classes(
     wanted[pj[rest]] = True
     root = _identical(chunk, wanted)
     lookup = np.array([root.get(v, -1 - v) for v in range(len(few))], np.int64)
-    twin = rest & (lookup[pi] == lookup[pj])
+    twin = rest & ((lookup[pi] == lookup[pj]) | _negated(chunk, wanted)[pi, pj])
     return groups, np.flatnonzero(twin), np.flatnonzero(rest & ~twin)
 
 

@@ -310,9 +310,41 @@ class Guide:
         inside its hull by its sector's chord, or, in a sector facing one edge, on that edge's
         inner side or its line by the edge's frame (then in the closed hull and none of its
         vertices, see :func:`_edge_frames`)."""
+        return self._lookup(
+            x,
+            y,
+            (self.cx.take(pair), self.cy.take(pair), self.ix.take(pair), self.iy.take(pair)),
+            pair * self.buckets,
+            self.planes,
+            self.frames,
+        )
+
+    def inside_run(self, pair: int, x: FloatArray, y: FloatArray) -> BoolArray:
+        """:meth:`inside` for samples of one pair (the same arithmetic, with the pair's
+        centre and scales as scalars and its own table)."""
+        lo, hi = pair * self.buckets, (pair + 1) * self.buckets
+        return self._lookup(
+            x,
+            y,
+            (self.cx[pair], self.cy[pair], self.ix[pair], self.iy[pair]),
+            None,
+            tuple(plane[lo:hi] for plane in self.planes),  # type: ignore[arg-type]
+            tuple(plane[lo:hi] for plane in self.frames),  # type: ignore[arg-type]
+        )
+
+    def _lookup(
+        self,
+        x: FloatArray,
+        y: FloatArray,
+        centre: tuple[FloatArray | np.float64, ...],
+        offset: IntArray | None,
+        planes: tuple[FloatArray, FloatArray, FloatArray],
+        frames: Frames,
+    ) -> BoolArray:
+        cx, cy, ix, iy = centre
         with np.errstate(all="ignore"):
-            u = (x - self.cx.take(pair)) * self.ix.take(pair)
-            v = (y - self.cy.take(pair)) * self.iy.take(pair)
+            u = (x - cx) * ix
+            v = (y - cy) * iy
             # the diamond angle, shifted by 4 to stay positive, wrapped to a sector
             p = v / (np.abs(u) + np.abs(v))
             turn = np.where(u >= 0, p, 2 - p)
@@ -320,17 +352,18 @@ class Guide:
             turn *= self.buckets / 4
             cell = turn.astype(np.int64)
             cell &= self.buckets - 1
-            cell += pair * self.buckets
-            nx, ny, level = self.planes
+            if offset is not None:
+                cell += offset
+            nx, ny, level = planes
             result: BoolArray = nx.take(cell) * u + ny.take(cell) * v < level.take(cell)
             miss = np.flatnonzero(~result)
             if len(miss):
                 cell = cell.take(miss)
-                sel = np.flatnonzero(self.frames[0].take(cell))
+                sel = np.flatnonzero(frames[0].take(cell))
                 if len(sel):
                     miss, cell = miss.take(sel), cell.take(sel)
-                    frames = tuple(plane.take(cell) for plane in self.frames)
-                    sign, decided = frame_orientation(frames, x.take(miss), y.take(miss))
+                    faced = tuple(plane.take(cell) for plane in frames)
+                    sign, decided = frame_orientation(faced, x.take(miss), y.take(miss))
                     result[miss[decided & (sign >= 0)]] = True
         return result
 

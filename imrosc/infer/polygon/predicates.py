@@ -460,20 +460,27 @@ def frame_orientation(
         # each difference is zero exactly when its operands are equal, and of their sign
         e1 = ph - high
         e2 = pl - low
-        exact = np.sign(np.where(e1 != 0, e1, e2))
-        det = run * (e1 + e2)
-        shift = rise * (r - origin)
-        det -= shift
-        bound = np.abs(e1) + np.abs(e2)
-        bound *= np.abs(run)
-        bound += np.abs(shift)
-        bound *= _FRAME_ERR
-        bound += 2 * _EPS * np.abs(det)
-        flat = rise == 0
-        # NaN and infinite values fail these comparisons: undecided
-        decided = flat | ((np.abs(det) > bound) & (bound >= _FRAME_LOW))
-        decided &= _frame_safe(r, q) & (kind > 0)
-        value = np.where(flat, np.sign(run) * exact, np.sign(det))
+        value = np.sign(np.where(e1 != 0, e1, e2))
+        value *= np.sign(run)
+        decided = _frame_safe(r, q) & (kind > 0)
+        # edges of exact relations have ``rise`` zero: the float determinant is only
+        # needed for the others, computed on them alone
+        tilted = np.flatnonzero(rise != 0)
+        if len(tilted):
+            if len(tilted) < len(rise):
+                e1, e2, r = e1.take(tilted), e2.take(tilted), r.take(tilted)
+                origin, run, rise = origin.take(tilted), run.take(tilted), rise.take(tilted)
+            det = run * (e1 + e2)
+            shift = rise * (r - origin)
+            det -= shift
+            bound = np.abs(e1) + np.abs(e2)
+            bound *= np.abs(run)
+            bound += np.abs(shift)
+            bound *= _FRAME_ERR
+            bound += 2 * _EPS * np.abs(det)
+            # NaN and infinite values fail these comparisons: undecided
+            decided[tilted] &= (np.abs(det) > bound) & (bound >= _FRAME_LOW)
+            value[tilted] = np.sign(det)
     value = np.where(swap, -value, value)
     sign = np.where(decided, value, 0.0).astype(np.int8)
     return sign, decided

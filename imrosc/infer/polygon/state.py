@@ -244,9 +244,9 @@ class PolygonState:
             found = heads(chunk, self.pi, self.pj, self.guide, todo, _HEAD)
             found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
             self._absorb(found, nothing, refresh=True)
-        found = self._uncovered(candidates(chunk, self.pi, self.pj, self.guide))
+        found = candidates(chunk, self.pi, self.pj, self.guide)
         found.at = chunk.valid_rank(self.pi, self.pj, found.group, found.at)
-        self._absorb(found, chunk.valid_counts(self.pi, self.pj))
+        self._absorb(self._uncovered(self._new_places(found)), chunk.valid_counts(self.pi, self.pj))
 
     def _uncovered(self, found: GroupSet) -> GroupSet:
         """``found`` without the samples located exactly in their pair's closed hull and
@@ -262,6 +262,23 @@ class PolygonState:
             part = slice(first, first + _LOCATE_BLOCK)
             keep[part] = ~locator.covered(found.group[part], found.x[part], found.y[part])
         return found.take(np.flatnonzero(keep))
+
+    def _new_places(self, found: GroupSet) -> GroupSet:
+        """``found`` (``at`` relative to the old counts) without the samples that already
+        are vertices: the head start of a chunk puts its likely vertices in the hulls
+        before the chunk is filtered, which finds those samples again. A sample that is a
+        vertex with its ``at`` changes nothing; dropping it spares re-hulling every pair it
+        alone touched. (Recent vertices are those with ``at`` at least the old count.)"""
+        if not len(found) or not len(self.hull):
+            return found
+        base = self.count[self.hull.group]
+        recent = np.flatnonzero(self.hull.at >= base)
+        if not len(recent):
+            return found
+        width = int(max(found.at.max(), self.hull.at[recent].max() - base[recent].min())) + 1
+        vertex = self.hull.group[recent] * width + (self.hull.at[recent] - base[recent])
+        again = np.isin(found.group * width + found.at, vertex)
+        return found.take(np.flatnonzero(~again))
 
     def end_run(self) -> None:
         """Hulls do not depend on runs."""
