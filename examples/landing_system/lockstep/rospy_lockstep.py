@@ -704,25 +704,9 @@ class Coordinator:
 
     def apply(self, node: str, report: dict[str, Any]) -> None:
         """Take a node's counts in place of its last ones."""
-        touched = []
-        channels = self.channels
-        sent, received = self.sent, self.received
-        for key, n in report["sent"].items():
-            channel = channels.get((node, ">", key))
-            if channel is None:
-                topic, _, to = key.rpartition(">")
-                channel = channels[(node, ">", key)] = (topic, node, to)
-            if sent.get(channel) != n:
-                sent[channel] = n
-                touched.append(channel)
-        for key, n in report["received"].items():
-            channel = channels.get((node, "<", key))
-            if channel is None:
-                topic, _, source = key.rpartition("<")
-                channel = channels[(node, "<", key)] = (topic, source, node)
-            if received.get(channel) != n:
-                received[channel] = n
-                touched.append(channel)
+        touched: list[tuple[str, str, str]] = []
+        self._take(node, ">", report["sent"], self.sent, touched)
+        self._take(node, "<", report["received"], self.received, touched)
         for key in report.get("closed", ()):
             topic, _, source = key.rpartition("<")
             channel = (topic, source, node)
@@ -738,6 +722,28 @@ class Coordinator:
             members = self.participants()
             for channel in touched:
                 self.check(channel, members)
+
+    def _take(
+        self,
+        node: str,
+        way: str,
+        counts: dict[str, int],
+        table: dict[tuple[str, str, str], int],
+        touched: list[tuple[str, str, str]],
+    ) -> None:
+        """Take a node's sent (``way`` ``>``, keys ``topic>to``) or received (``<``, keys
+        ``topic<source``) counts into ``table``, keyed by channel (topic, source, to); the
+        channels whose count changed go to ``touched``."""
+        channels = self.channels
+        for key, n in counts.items():
+            channel = channels.get((node, way, key))
+            if channel is None:
+                topic, _, other = key.rpartition(way)
+                channel = (topic, node, other) if way == ">" else (topic, other, node)
+                channels[(node, way, key)] = channel
+            if table.get(channel) != n:
+                table[channel] = n
+                touched.append(channel)
 
     def recheck(self) -> None:
         members = self.participants()
