@@ -141,7 +141,7 @@ def test_exact_families_ignore_chunking(
     assert folded == again == joined
 
 
-@settings(max_examples=40, deadline=None)
+@settings(SETTINGS, max_examples=40)
 @given(cases())
 def test_all_families_together_fold_equals_merge(
     case: tuple[dict[str, list[Any]], list[int], list[int], list[int]],
