@@ -214,7 +214,7 @@ def test_a_check_that_raises_stops_the_ros2_monitor(tmp_path: Path, ros2_python:
     package = demo_package(tmp_path)
     engine = package / "demo_monitor" / "imrosc" / "runtime" / "engine.py"
     source = engine.read_text(encoding="utf-8")
-    needle = "        found = self.advance(time) if self._timed else []\n        split ="
+    needle = "        found = self.advance(time) if self._timed else []\n        if publisher"
     assert source.count(needle) == 1
     injected = '        if topic == "/a/level":\n            raise RuntimeError("injected")\n'
     engine.write_text(source.replace(needle, injected + needle), encoding="utf-8")
