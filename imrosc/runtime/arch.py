@@ -110,9 +110,14 @@ class ArchChecks:
         the publishers each allows (none: this point does not tell who publishes on
         ``topic``). An empty set (the graph learnt no publisher of a topic whose messages
         were recorded: an incomplete graph) tells nobody apart, so it refuses no message."""
+        return [nodes for nodes, _ in self._publisher_items(topic)]
+
+    def _publisher_items(self, topic: str) -> List[Tuple[FrozenSet[str], Mapping[str, Any]]]:
+        """The ``max_pubs`` invariants of ``topic`` that name a publisher, with their node
+        sets."""
         return [
-            nodes
-            for kind, resource, is_max, nodes, _ in self.items
+            (nodes, inv)
+            for kind, resource, is_max, nodes, inv in self.items
             if kind == "pub" and is_max and resource == topic and nodes
         ]
 
@@ -133,11 +138,11 @@ class ArchChecks:
         name = node_name(publisher)
         if name in PLAYERS:
             return []
-        found: List[Violation] = []
-        for kind, resource, is_max, nodes, inv in self.items:
-            if kind == "pub" and is_max and resource == topic and nodes and name not in nodes:
-                found.append(self._violation(time, inv, True, nodes, frozenset(), {publisher}))
-        return found
+        return [
+            self._violation(time, inv, True, nodes, frozenset(), {publisher})
+            for nodes, inv in self._publisher_items(topic)
+            if name not in nodes
+        ]
 
     def _violation(
         self,
