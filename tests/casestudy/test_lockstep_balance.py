@@ -150,3 +150,17 @@ def test_clock_goes_to_a_process_sent_to_since_the_last_due_step_but_not_at_this
     coordinator.before = {"/vicon/car>/a/car": 4, "/vicon/uav>/a/uav": 5, "/x>/a/idle": 1}
     # /a/car has this step's pose (it reports), /a/uav only poses of steps nobody waited at
     assert coordinator.unreported() == {"/a/uav"}
+
+
+def test_a_release_waits_for_the_simulators_messages_sent_before_it() -> None:
+    process = _module().Process(None)
+    # the release of 20 ms, after the simulator sent this process three poses
+    process.pending = (20_000_000, {"/vicon/uav</vicon": 3})
+    process.done = {"/vicon/uav</vicon": 2, "/a/other</a/car": 9}
+    with process.cond:
+        assert not process.take_release()
+    assert process.released == 0  # its timer would miss the step's pose
+    process.done["/vicon/uav</vicon"] = 3
+    with process.cond:
+        assert process.take_release()
+    assert (process.released, process.pending) == (20_000_000, None)

@@ -31,11 +31,14 @@ rospy when it is imported (``sitecustomize.py``), with no change to the nodes' c
   (``rospy.sleep``, ``Rate``, ``Timer``) is back asleep with a deadline after the current
   time. Threads that wait on the wall clock (a heartbeat) are not tracked: what they
   publish is counted, which holds the step until their subscribers have it.
-* **Two phases per step**: the simulator publishes its sensors' messages and waits until
-  every process has them; only then does it release the step's timers (``/lockstep/go``,
-  to the processes that reported a timer due: the others have nothing to release): a
-  thread sleeping on ROS time wakes once both the clock and the release passed its
-  deadline (a new clock wakes it only then).
+* **The release**: the simulator publishes its sensors' messages, then releases the
+  step's timers (``/lockstep/go``, to the processes that reported a timer due: the others
+  have nothing to release). A release gives how many messages the simulator sent that
+  process so far per topic, and takes effect once the process took them in: a timer at t
+  sees the simulator's messages of t. A thread sleeping on ROS time wakes once both the
+  clock and the release passed its deadline (a new clock wakes it only then). While a
+  process still takes its time from ``/clock`` (below), the simulator waits until every
+  process has the step's ``/clock`` and messages before it releases (two phases).
 * **The clock on a board**: the simulator writes the time of each step where it waits (a
   due step) to a file in shared memory (:class:`Board`) before it publishes anything then;
   a process sets its clock from it before it takes in any message (or service call), and
@@ -184,6 +187,11 @@ class Process:
         """Threads that slept on ROS time and are out of that sleep now."""
         self.released = 0
         """The time (ns) up to which timers may run (``/lockstep/go``)."""
+        self.pending: tuple[int, dict[str, int]] | None = None
+        """A release that waits for the simulator's messages sent before it: its time and,
+        per ``topic<simulator``, how many (:meth:`release`)."""
+        self.done: dict[str, int] = {}
+        """Per ``topic<publisher``, the messages whose callback ended."""
         self.ready = False
         """The node's set-up is done (it spins, or a thread sleeps on ROS time)."""
         self.publisher: Any = None
@@ -283,21 +291,31 @@ class Process:
         key: str = "",
         ahead: int | None = None,
         quiet: bool = False,
+        done: str | None = None,
     ) -> None:
-        """A callback ended. Its report is left out when a later one is sure to come before
-        the simulator can settle: a message from the simulator stamped ``ahead`` (ns) of this
-        process's time (a sensor message of a step whose ``/clock`` has not come, or never
-        comes: this process reports when its time reaches the step's), more data waiting
-        on a counted connection (the callback that takes it in reports), or ``quiet``: the
-        next message of the same read follows."""
+        """A callback ended (``done``: of a message on ``topic<publisher``, which a release
+        may wait for). Its report is left out when a later one is sure to
+        come before the simulator can settle: a message from the simulator stamped ``ahead``
+        (ns) of this process's time (a sensor message of a step where the simulator does not
+        wait: the next due step makes this process report), more data waiting on a counted
+        connection (the callback that takes it in reports), or ``quiet``: the next message
+        of the same read follows."""
+        waiting = False
         with self.cond:
             self.busy -= 1
             if counts is not None:
                 counts[key] = counts.get(key, 0) + 1
+            if done is not None:
+                self.done[done] = self.done.get(done, 0) + 1
+                waiting = self.pending is not None
             self.changed()
-            if quiet or (ahead is not None and ahead > self.now()):
-                return
-        if not self.more_coming():
+            silent = quiet or (ahead is not None and ahead > self.now())
+        if waiting:
+            cond = self.rospy.rostime.get_rostime_cond()
+            with cond, self.cond:
+                if self.take_release():
+                    cond.notify_all()
+        if not silent and not self.more_coming():
             self.report()
 
     def more_coming(self) -> bool:
@@ -419,23 +437,39 @@ class Process:
             self.cond.notify_all()
 
     def release(self, message: Any) -> None:
-        """``/lockstep/go``: timers up to its time may run, this process's clock at that time
-        (which a process that reads the board may not have had)."""
+        """``/lockstep/go``: this process's clock at its time (which a process that reads
+        the board may not have had), and timers up to that time may run once this process
+        took in the simulator's messages sent before it (it gives their count per topic):
+        the step's sensor messages, which the simulator need not wait for before it
+        releases (:meth:`Coordinator.step`)."""
+        data = json.loads(message.data)
+        step = int(data["t"])
         cond = self.rospy.rostime.get_rostime_cond()
-        step = int(message.clock.to_nsec())
         with cond:
             with self.cond:
                 self.advance(step)
-                self.released = max(self.released, step)
-                self.cond.notify_all()  # no report of its own: a woken timer's sleep makes one
-            cond.notify_all()
+                self.pending = (step, data.get("expect") or {})
+                self.take_release()
+            cond.notify_all()  # no report of its own: a woken timer's sleep makes one
+
+    def take_release(self) -> bool:
+        """The pending release takes effect if the messages it waits for are in. Called
+        with ROS time's condition and this process's held."""
+        if self.pending is None:
+            return False
+        step, expect = self.pending
+        if any(self.done.get(key, 0) < count for key, count in expect.items()):
+            return False
+        self.pending = None
+        self.released = max(self.released, step)
+        self.cond.notify_all()
+        return True
 
     def start(self) -> None:
         """After ``init_node``: the report topic, and a last report at shutdown."""
-        from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
         from std_msgs.msg import String  # type: ignore[import-not-found]
 
-        self.rospy.Subscriber(GO_TOPIC, Clock, self.release)
+        self.rospy.Subscriber(GO_TOPIC, String, self.release)
 
         self.string = String
         # latched: the simulator, connecting later, still hears the last report
@@ -612,7 +646,7 @@ def install(rospy: Any) -> Process:
             finally:
                 # the simulator's sensor messages are stamped with their step
                 ahead = stamp_of(msg) if not hold and not clock else None
-                state.end(ahead=ahead, quiet=k < last)  # the next one reports
+                state.end(ahead=ahead, quiet=k < last, done=key)
         return None
 
     topics._SubscriberImpl.receive_callback = receive_callback
@@ -759,7 +793,8 @@ class Coordinator:
         """The simulator's sent counts (``topic>to``) before the current step's messages."""
         self.at_due: dict[str, int] = {}
         """... after the last due step's."""
-        self.go = state.rospy.Publisher(GO_TOPIC, Clock, queue_size=None)
+        self.string = String
+        self.go = state.rospy.Publisher(GO_TOPIC, String, queue_size=None)
         self.state = state
         self.name = state.rospy.get_caller_id()
         self.inbox: list[dict[str, Any]] = []
@@ -1023,7 +1058,11 @@ class Coordinator:
                 self.publish_clock(stamp, poke.__contains__)
             with self.state.cond:
                 self.at_due = dict(self.state.sent)
-        self.settle(now)
+        with self.state.cond:
+            self.take_reports()
+            direct = bool(self.reports) and all(r.get("board") for r in self.reports.values())
+        if not direct:  # a process that takes its time from /clock must have it first
+            self.settle(now)
         self.settle(now, stamp)
 
     def due_now(self, now: int) -> set[str]:
@@ -1041,11 +1080,22 @@ class Coordinator:
 
     def release(self, stamp: Any, names: set[str]) -> None:
         """``/lockstep/go`` at ``stamp`` to the subscribers ``names`` only: a process with
-        no timer due has nothing to release (its next due step releases it up to then)."""
+        no timer due has nothing to release (its next due step releases it up to then).
+        Each release gives how many messages the simulator sent that process so far, per
+        topic: its timers wait until it took them in."""
         impl = self.go.impl
-        message = self.clock(clock=stamp)
+        now = int(stamp.to_nsec())
+        with self.state.cond:
+            sent = dict(self.state.sent)
         for connection in list(impl.connections):
-            if connection.endpoint_id in names:
+            name = connection.endpoint_id
+            if name in names:
+                expect = {}
+                for key, count in sent.items():
+                    topic, _, to = key.rpartition(">")
+                    if to == name:
+                        expect[f"{topic}<{self.name}"] = count
+                message = self.string(json.dumps({"t": now, "expect": expect}))
                 impl.acquire()
                 try:
                     impl.publish(message, connection_override=connection)
