@@ -1,9 +1,11 @@
-"""The lockstep's balance of channels (``examples/landing_system/lockstep``), without ROS: a
-channel whose subscriber closed the connection no longer holds the clock."""
+"""The lockstep's bookkeeping (``examples/landing_system/lockstep``), without ROS: the
+balance of channels (a channel whose subscriber closed the connection no longer holds the
+clock), the release, the board that gives the processes their time."""
 
 from __future__ import annotations
 
 import importlib.util
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +40,8 @@ class _State:
         self.busy = 0
         self.version = 0
         self.sleepers: dict[int, int | None] = {}
+        self.sent: dict[str, int] = {}
+        self.cond = threading.Condition()
 
 
 def _report(**counts: Any) -> dict[str, Any]:
@@ -113,3 +117,50 @@ def test_a_message_stamped_with_its_step_gives_its_stamp() -> None:
 
     assert module.stamp_of(Pose()) == 1_230_000_000
     assert module.stamp_of(object()) is None
+
+
+def test_a_process_that_reads_the_board_need_not_be_at_the_step() -> None:
+    coordinator = _coordinator()
+    # it had no /clock at 20: its clock comes from the board when a message comes
+    coordinator.reports = {"/a/uav": {**_timing(10, 20), "board": True}, "/a/car": _timing(20, 50)}
+    assert coordinator.settled(20, released=False)
+    assert not coordinator.settled(20, released=True)  # but its timer due at 20 must run
+    coordinator.reports["/a/car"] = _timing(10, 50)  # no board: it needs the step's /clock
+    assert coordinator.unsettled(20) == ["/a/car is at 0.00 s"]
+
+
+def test_the_board_gives_the_last_time_written(tmp_path: Path) -> None:
+    module = _module()
+    path = str(tmp_path / "board")
+    simulator = module.Board(path, create=True)
+    node = module.Board(path)
+    assert node.read() == 0
+    for value in (20_000_000, 30_000_000, 12_340_000_000):
+        simulator.write(value)
+        assert node.read() == value
+    simulator.close(unlink=True)
+    node.close()
+    assert not Path(path).exists()
+
+
+def test_clock_goes_to_a_process_sent_to_since_the_last_due_step_but_not_at_this_one() -> None:
+    coordinator = _coordinator()
+    coordinator.state.sent = {"/vicon/car>/a/car": 5, "/vicon/uav>/a/uav": 5, "/x>/a/idle": 1}
+    coordinator.at_due = {"/vicon/car>/a/car": 3, "/vicon/uav>/a/uav": 3, "/x>/a/idle": 1}
+    coordinator.before = {"/vicon/car>/a/car": 4, "/vicon/uav>/a/uav": 5, "/x>/a/idle": 1}
+    # /a/car has this step's pose (it reports), /a/uav only poses of steps nobody waited at
+    assert coordinator.unreported() == {"/a/uav"}
+
+
+def test_a_release_waits_for_the_simulators_messages_sent_before_it() -> None:
+    process = _module().Process(None)
+    # the release of 20 ms, after the simulator sent this process three poses
+    process.pending = (20_000_000, {"/vicon/uav</vicon": 3})
+    process.done = {"/vicon/uav</vicon": 2, "/a/other</a/car": 9}
+    with process.cond:
+        assert not process.take_release()
+    assert process.released == 0  # its timer would miss the step's pose
+    process.done["/vicon/uav</vicon"] = 3
+    with process.cond:
+        assert process.take_release()
+    assert (process.released, process.pending) == (20_000_000, None)

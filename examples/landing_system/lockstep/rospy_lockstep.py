@@ -11,31 +11,44 @@ rospy when it is imported (``sitecustomize.py``), with no change to the nodes' c
   (``topic<publisher``), the service calls it made that were answered and those its
   handlers answered (summed over the services: a relay outside the lockstep serves one
   name and calls another; a call refused or failed is counted by neither side). When it is idle it
-  publishes its counts and its ``/clock`` time on ``/lockstep/report``. The simulator
-  (:class:`Coordinator`) advances only when every process reports idle at the current time
-  and every channel between them balances (sent = received): then no message is in flight
-  and no callback runs anywhere (a process whose report is stale has received something
-  after it, which its sender counted: the counts cannot balance). The release of a step
+  publishes its counts and its time on ``/lockstep/report``. The simulator
+  (:class:`Coordinator`) advances only when every process reports idle (at the current
+  time, if it does not read the board) and every channel between them balances
+  (sent = received): then no message is in flight and no callback runs anywhere (a
+  process whose report is stale has received something after it, which its sender
+  counted: the counts cannot balance). The release of a step
   (below) is not counted: the simulator waits for a report after it from each process
   whose timers it wakes (its last report said one was due).
 * **Fewer reports**: a report is left out when a later one must reach the simulator before
   it can settle anyway: after a message of a batch rospy read at once but the last, while
   more data waits on a counted connection (its callback reports), and after a sensor
-  message of the simulator stamped ahead of the process's clock (a step with no
-  ``/clock``: the process reports when its clock gets there). A report is written straight
-  to the simulator's connection (a ``std_msgs/String`` is its length and its bytes), and
-  the simulator's thread is woken by a report only when its wait may be over.
+  message of the simulator stamped ahead of the process's clock (a step where the
+  simulator does not wait: the next due step makes the process report). A report is
+  written straight to the simulator's connection (a ``std_msgs/String`` is its length and
+  its bytes), and the simulator's thread is woken by a report only when its wait may be
+  over.
 * **Idle**: no callback or service handler runs, and every thread that sleeps on ROS time
   (``rospy.sleep``, ``Rate``, ``Timer``) is back asleep with a deadline after the current
   time. Threads that wait on the wall clock (a heartbeat) are not tracked: what they
   publish is counted, which holds the step until their subscribers have it.
-* **Two phases per step**: the simulator publishes ``/clock`` (and its sensors' messages)
-  and waits until every process has them; only then does it release the step's timers
-  (``/lockstep/go``, to the processes that reported a timer due: the others have nothing
-  to release): a thread sleeping on ROS time wakes once both the clock and the release
-  passed its deadline (a new clock wakes it only then). So no message a timer sends at
-  time t can reach a process that still lives at the time before (the release follows
-  every process's clock).
+* **The release**: the simulator publishes its sensors' messages, then releases the
+  step's timers (``/lockstep/go``, to the processes that reported a timer due: the others
+  have nothing to release). A release gives how many messages the simulator sent that
+  process so far per topic, and takes effect once the process took them in: a timer at t
+  sees the simulator's messages of t. A thread sleeping on ROS time wakes once both the
+  clock and the release passed its deadline (a new clock wakes it only then). While a
+  process still takes its time from ``/clock`` (below), the simulator waits until every
+  process has the step's ``/clock`` and messages before it releases (two phases).
+* **The clock on a board**: the simulator writes the time of each step where it waits (a
+  due step) to a file in shared memory (:class:`Board`) before it publishes anything then;
+  a process sets its clock from it before it takes in any message (or service call), and
+  from the release, which carries the step's time. So ``/clock`` need not go to every
+  process at every due step (each would take it in and report): it goes only to the
+  processes that do not read the board (outside the lockstep, or not yet: a process
+  opens it at its first ``/clock``), and to one the simulator sent messages since its last
+  due step but none at this one (nothing else would make it report them). No message a
+  timer sends at time t reaches a process that lives at the time before: the board holds
+  t while it is in flight.
 * **Synchronous ticks**: a message (but the simulator's) that arrives while a timer of its
   subscriber is pending at the current time is handed to its callback only once that timer
   ran, so every timer at time t sees what was published before t and the simulator's
@@ -67,7 +80,9 @@ import contextlib
 import importlib.abc
 import importlib.util
 import json
+import mmap
 import os
+import re
 import select
 import struct
 import sys
@@ -83,6 +98,69 @@ UNLINKED = frozenset({REPORT_TOPIC, "/rosout", "/rosout_agg"})
 UNCOUNTED = UNLINKED | {GO_TOPIC}
 """Not counted: the release is awaited through the reports of the processes it wakes."""
 CLOCK = "/clock"
+
+
+class Board:
+    """The time of the simulator's last due step (ns), in a file in shared memory that the
+    simulator writes (``create``) and its processes read: a process that takes in a message
+    sets its clock from it, so ``/clock`` need not go to every process at every due step.
+
+    The simulator writes it before it publishes anything at that step, and moves on only once
+    every message sent meanwhile was taken in: a message from another process is read while
+    the board holds the step it was sent at. A sequence number around the value (odd while it
+    is written) keeps a reader from a half-written one (a sensor message of a step where the
+    simulator does not wait is read while the simulator may be writing the next)."""
+
+    SIZE = 16
+
+    def __init__(self, path: str, create: bool = False) -> None:
+        self.path = path
+        flags = os.O_RDWR | (os.O_CREAT | os.O_TRUNC if create else 0)
+        fd = os.open(path, flags, 0o600)
+        try:
+            if create:
+                os.ftruncate(fd, self.SIZE)
+            self.map = mmap.mmap(fd, self.SIZE)
+        finally:
+            os.close(fd)
+        self.sequence = 0
+
+    def write(self, value: int) -> None:
+        """(The simulator) the time of the due step it begins (ns)."""
+        self.sequence += 1
+        struct.pack_into("<q", self.map, 0, self.sequence)
+        struct.pack_into("<q", self.map, 8, value)
+        self.sequence += 1
+        struct.pack_into("<q", self.map, 0, self.sequence)
+
+    def read(self) -> int:
+        while True:
+            before = struct.unpack_from("<q", self.map, 0)[0]
+            value: int = struct.unpack_from("<q", self.map, 8)[0]
+            if before % 2 == 0 and struct.unpack_from("<q", self.map, 0)[0] == before:
+                return value
+
+    def close(self, unlink: bool = False) -> None:
+        with contextlib.suppress(Exception):
+            self.map.close()
+        if unlink:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)
+
+
+def master_uri() -> str:
+    import rosgraph  # type: ignore[import-not-found]
+
+    return str(rosgraph.get_master_uri())
+
+
+def board_path(master_uri: str) -> str:
+    """The board of the simulator started beside this process (the same parent, the same
+    master)."""
+    folder = "/dev/shm" if os.access("/dev/shm", os.W_OK) else "/tmp"
+    return os.path.join(
+        folder, f"rospy_lockstep_{re.sub(r'[^0-9A-Za-z]+', '_', master_uri)}_{os.getppid()}"
+    )
 
 
 class Process:
@@ -109,6 +187,11 @@ class Process:
         """Threads that slept on ROS time and are out of that sleep now."""
         self.released = 0
         """The time (ns) up to which timers may run (``/lockstep/go``)."""
+        self.pending: tuple[int, dict[str, int]] | None = None
+        """A release that waits for the simulator's messages sent before it: its time and,
+        per ``topic<simulator``, how many (:meth:`release`)."""
+        self.done: dict[str, int] = {}
+        """Per ``topic<publisher``, the messages whose callback ended."""
         self.ready = False
         """The node's set-up is done (it spins, or a thread sleeps on ROS time)."""
         self.publisher: Any = None
@@ -125,9 +208,33 @@ class Process:
         """The sockets of the connections that brought this process counted messages."""
         self.listeners: list[Any] = []
         """Called (no arguments) on every change: the coordinator in the simulator."""
+        self.board: Board | None = None
+        """The simulator's :class:`Board`, once this process had a ``/clock`` from it."""
+        self.set_time: Any = None
+        """rospy's ``_set_rostime`` as patched (:func:`install`)."""
 
     def now(self) -> int:
         return int(self.rospy.rostime.get_rostime().to_nsec())
+
+    def advance(self, ns: int) -> None:
+        """Set this process's clock to ``ns`` unless it is there or later already."""
+        rostime = self.rospy.rostime
+        current = rostime._rostime_current
+        if current is None or current.to_nsec() < ns:
+            self.set_time(rostime.Time(ns // 1_000_000_000, ns % 1_000_000_000))
+
+    def catch_up(self) -> None:
+        """Before a message of the graph is taken in: this process's clock at the
+        simulator's last due step (the board), which it may not have had (``/clock`` goes
+        only where it is needed)."""
+        if self.board is not None:
+            self.advance(self.board.read())
+
+    def clocked(self) -> None:
+        """A ``/clock`` came: read the board from now on (the simulator created it before)."""
+        if self.board is None:
+            with contextlib.suppress(OSError, ValueError):
+                self.board = Board(board_path(master_uri()))
 
     # ----- activity (called with self.cond held)
     def timers_pending(self, until: int, now: int | None = None) -> bool:
@@ -184,21 +291,31 @@ class Process:
         key: str = "",
         ahead: int | None = None,
         quiet: bool = False,
+        done: str | None = None,
     ) -> None:
-        """A callback ended. Its report is left out when a later one is sure to come before
-        the simulator can settle: a message from the simulator stamped ``ahead`` (ns) of this
-        process's time (a sensor message of a step whose ``/clock`` has not come, or never
-        comes: this process reports when its time reaches the step's), more data waiting
-        on a counted connection (the callback that takes it in reports), or ``quiet``: the
-        next message of the same read follows."""
+        """A callback ended (``done``: of a message on ``topic<publisher``, which a release
+        may wait for). Its report is left out when a later one is sure to
+        come before the simulator can settle: a message from the simulator stamped ``ahead``
+        (ns) of this process's time (a sensor message of a step where the simulator does not
+        wait: the next due step makes this process report), more data waiting on a counted
+        connection (the callback that takes it in reports), or ``quiet``: the next message
+        of the same read follows."""
+        waiting = False
         with self.cond:
             self.busy -= 1
             if counts is not None:
                 counts[key] = counts.get(key, 0) + 1
+            if done is not None:
+                self.done[done] = self.done.get(done, 0) + 1
+                waiting = self.pending is not None
             self.changed()
-            if quiet or (ahead is not None and ahead > self.now()):
-                return
-        if not self.more_coming():
+            silent = quiet or (ahead is not None and ahead > self.now())
+        if waiting:
+            cond = self.rospy.rostime.get_rostime_cond()
+            with cond, self.cond:
+                if self.take_release():
+                    cond.notify_all()
+        if not silent and not self.more_coming():
             self.report()
 
     def more_coming(self) -> bool:
@@ -281,6 +398,7 @@ class Process:
                     "calls": self.calls,
                     "served": self.served,
                     "closed": sorted(self.closed),
+                    "board": self.board is not None,
                 }
                 if self.links_version != self.last_links:
                     self.last_links = self.links_version
@@ -319,20 +437,39 @@ class Process:
             self.cond.notify_all()
 
     def release(self, message: Any) -> None:
-        """``/lockstep/go``: timers up to its time may run."""
+        """``/lockstep/go``: this process's clock at its time (which a process that reads
+        the board may not have had), and timers up to that time may run once this process
+        took in the simulator's messages sent before it (it gives their count per topic):
+        the step's sensor messages, which the simulator need not wait for before it
+        releases (:meth:`Coordinator.step`)."""
+        data = json.loads(message.data)
+        step = int(data["t"])
         cond = self.rospy.rostime.get_rostime_cond()
         with cond:
             with self.cond:
-                self.released = max(self.released, int(message.clock.to_nsec()))
-                self.cond.notify_all()  # no report of its own: a woken timer's sleep makes one
-            cond.notify_all()
+                self.advance(step)
+                self.pending = (step, data.get("expect") or {})
+                self.take_release()
+            cond.notify_all()  # no report of its own: a woken timer's sleep makes one
+
+    def take_release(self) -> bool:
+        """The pending release takes effect if the messages it waits for are in. Called
+        with ROS time's condition and this process's held."""
+        if self.pending is None:
+            return False
+        step, expect = self.pending
+        if any(self.done.get(key, 0) < count for key, count in expect.items()):
+            return False
+        self.pending = None
+        self.released = max(self.released, step)
+        self.cond.notify_all()
+        return True
 
     def start(self) -> None:
         """After ``init_node``: the report topic, and a last report at shutdown."""
-        from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
         from std_msgs.msg import String  # type: ignore[import-not-found]
 
-        self.rospy.Subscriber(GO_TOPIC, Clock, self.release)
+        self.rospy.Subscriber(GO_TOPIC, String, self.release)
 
         self.string = String
         # latched: the simulator, connecting later, still hears the last report
@@ -428,6 +565,7 @@ def install(rospy: Any) -> Process:
 
     rostime._set_rostime = set_rostime
     simtime._set_rostime = set_rostime
+    state.set_time = set_rostime
 
     original_init = rospy.init_node
 
@@ -487,8 +625,10 @@ def install(rospy: Any) -> Process:
         if topic in UNCOUNTED:
             return original_receive(impl, msgs, connection)
         source = connection.callerid_pub
-        if topic == CLOCK:
+        clock = topic == CLOCK
+        if clock:
             state.simulator = source
+            state.clocked()
         key = f"{topic}<{source}"
         # the simulator's messages (the clock, the release, sensors) are the step's inputs,
         # all delivered before the release: never held
@@ -498,13 +638,15 @@ def install(rospy: Any) -> Process:
             state.sockets.add(sock)
         last = len(msgs) - 1
         for k, msg in enumerate(msgs):  # one by one: each message held and counted on its own
+            if not clock:
+                state.catch_up()
             state.begin(hold, state.received, key)
             try:
                 original_receive(impl, [msg], connection)
             finally:
                 # the simulator's sensor messages are stamped with their step
-                ahead = stamp_of(msg) if not hold and topic != CLOCK else None
-                state.end(ahead=ahead, quiet=k < last)  # the next one reports
+                ahead = stamp_of(msg) if not hold and not clock else None
+                state.end(ahead=ahead, quiet=k < last, done=key)
         return None
 
     topics._SubscriberImpl.receive_callback = receive_callback
@@ -548,6 +690,7 @@ def install(rospy: Any) -> Process:
             service.handler = counted
             service.lockstep_counted = True
         handled.ok = False
+        state.catch_up()
         state.begin(False)
         try:
             original_handle(service, transport, request)
@@ -637,12 +780,21 @@ class Coordinator:
     channels' balance is kept up to date report by report (a step brings a few dozen).
     """
 
-    def __init__(self, state: Process) -> None:
+    def __init__(self, state: Process, clock: Any = None) -> None:
         from rosgraph_msgs.msg import Clock  # type: ignore[import-not-found]
         from std_msgs.msg import String  # type: ignore[import-not-found]
 
         self.clock = Clock
-        self.go = state.rospy.Publisher(GO_TOPIC, Clock, queue_size=None)
+        self.clock_publisher = clock
+        """``/clock`` (:meth:`tick` publishes it where it is needed)."""
+        self.board = Board(board_path(master_uri()), create=True)
+        state.rospy.on_shutdown(lambda: self.board.close(unlink=True))
+        self.before: dict[str, int] = {}
+        """The simulator's sent counts (``topic>to``) before the current step's messages."""
+        self.at_due: dict[str, int] = {}
+        """... after the last due step's."""
+        self.string = String
+        self.go = state.rospy.Publisher(GO_TOPIC, String, queue_size=None)
         self.state = state
         self.name = state.rospy.get_caller_id()
         self.inbox: list[dict[str, Any]] = []
@@ -664,6 +816,7 @@ class Coordinator:
         """What :meth:`settle` waits for (time, after the release, the processes released)
         while it waits."""
         self.stalls = 0
+        state.simulator = self.name
         state.publisher = None  # nobody needs the simulator's own reports
         state.listeners.append(self.wake)
         state.rospy.Subscriber(REPORT_TOPIC, String, self.on_report)
@@ -792,7 +945,7 @@ class Coordinator:
         if self.state.busy or self.unbalanced:
             return False
         for report in self.reports.values():
-            if report["sim"] and report["time"] < now:
+            if report["sim"] and report["time"] < now and not report.get("board"):
                 return False
             if released and report["released"] < now and (report["next"] or now + 1) <= now:
                 return False
@@ -808,7 +961,7 @@ class Coordinator:
         if self.state.busy:
             why.append("the simulator's callbacks run")
         for name, report in self.reports.items():
-            if report["sim"] and report["time"] < now:
+            if report["sim"] and report["time"] < now and not report.get("board"):
                 why.append(f"{name} is at {report['time'] / 1e9:.2f} s")
             elif released and report["released"] < now and (report["next"] or now + 1) <= now:
                 why.append(f"{name}'s timers have not run")
@@ -845,12 +998,71 @@ class Coordinator:
                     return True
         return False
 
+    def tick(self, stamp: Any) -> bool:
+        """The step at ``stamp`` (a ``rospy.Time``) begins, before the simulator publishes its
+        messages; whether it is due (:meth:`due`). A due step's time goes on the board and
+        ``/clock`` to the processes that do not read the board (those outside the lockstep,
+        a recorder, among them); the others take their time from the board when a message
+        comes, and from the release when a timer is due."""
+        with self.state.cond:
+            self.before = dict(self.state.sent)
+        if not self.due(stamp):
+            return False
+        now = int(stamp.to_nsec())
+        self.board.write(now)
+        self.state.advance(now)
+        with self.state.cond:
+            self.take_reports()
+            reading = {name for name, report in self.reports.items() if report.get("board")}
+        if self.clock_publisher is not None:
+            self.publish_clock(stamp, lambda name: name not in reading)
+        return True
+
+    def publish_clock(self, stamp: Any, to: Any) -> None:
+        """``/clock`` at ``stamp`` to the subscribers (but the simulator) ``to(name)`` says."""
+        impl = self.clock_publisher.impl
+        message = self.clock(clock=stamp)
+        for connection in list(impl.connections):
+            name = connection.endpoint_id
+            if name != self.name and to(name):
+                impl.acquire()
+                try:
+                    impl.publish(message, connection_override=connection)
+                finally:
+                    impl.release()
+
+    def unreported(self) -> set[str]:
+        """The processes the simulator sent messages to since its last due step but none
+        at this one: nothing makes them report what they took in (a sensor message of a step
+        that is not due leaves its report out)."""
+        since, now = set(), set()
+        with self.state.cond:
+            sent = dict(self.state.sent)
+        for key, count in sent.items():
+            name = key.rpartition(">")[2]
+            if count > self.at_due.get(key, 0):
+                since.add(name)
+            if count > self.before.get(key, 0):
+                now.add(name)
+        return since - now
+
     def step(self, stamp: Any) -> None:
-        """The step at ``stamp`` (a ``rospy.Time``), once its ``/clock`` and sensor messages
-        are published: wait until every process has them, release the step's timers in the
+        """The due step at ``stamp`` (a ``rospy.Time``; :meth:`tick`), once its sensor
+        messages are published: wait until every process has them (``/clock`` to a process
+        that would not report without: :meth:`unreported`), release the step's timers in the
         processes that have one due, wait until the graph has reacted."""
         now = int(stamp.to_nsec())
-        self.settle(now)
+        if self.clock_publisher is not None:
+            poke = self.unreported()
+            if poke:
+                self.publish_clock(stamp, poke.__contains__)
+            with self.state.cond:
+                self.at_due = dict(self.state.sent)
+        with self.state.cond:
+            self.take_reports()
+            direct = bool(self.reports) and all(r.get("board") for r in self.reports.values())
+        if not direct:  # a process that takes its time from /clock must have it first
+            self.settle(now)
         self.settle(now, stamp)
 
     def due_now(self, now: int) -> set[str]:
@@ -868,11 +1080,22 @@ class Coordinator:
 
     def release(self, stamp: Any, names: set[str]) -> None:
         """``/lockstep/go`` at ``stamp`` to the subscribers ``names`` only: a process with
-        no timer due has nothing to release (its next due step releases it up to then)."""
+        no timer due has nothing to release (its next due step releases it up to then).
+        Each release gives how many messages the simulator sent that process so far, per
+        topic: its timers wait until it took them in."""
         impl = self.go.impl
-        message = self.clock(clock=stamp)
+        now = int(stamp.to_nsec())
+        with self.state.cond:
+            sent = dict(self.state.sent)
         for connection in list(impl.connections):
-            if connection.endpoint_id in names:
+            name = connection.endpoint_id
+            if name in names:
+                expect = {}
+                for key, count in sent.items():
+                    topic, _, to = key.rpartition(">")
+                    if to == name:
+                        expect[f"{topic}<{self.name}"] = count
+                message = self.string(json.dumps({"t": now, "expect": expect}))
                 impl.acquire()
                 try:
                     impl.publish(message, connection_override=connection)

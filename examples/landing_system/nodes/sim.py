@@ -64,7 +64,7 @@ def main() -> None:
     rospy.Subscriber("/a/cmd_attitude", Twist, on_command, queue_size=1)
     rospy.Subscriber("/a/car_drive", UInt8, on_drive, queue_size=10)
     lockstep = rospy_lockstep.process() if rospy_lockstep is not None else None
-    coordinator = rospy_lockstep.Coordinator(lockstep) if lockstep is not None else None
+    coordinator = rospy_lockstep.Coordinator(lockstep, clock) if lockstep is not None else None
     if coordinator is not None:
         coordinator.start()
     else:
@@ -80,10 +80,11 @@ def main() -> None:
             trace.write(f"{world.t:.2f} {world.command} {world.uav}\n")
         outcome = world.step()
         stamp = rospy.Time.from_sec(world.t)
-        # in lockstep, /clock only where a timer of the graph is due: in between no node
-        # runs but to take in the motion capture, which the next due step waits for
-        due = coordinator is None or coordinator.due(stamp)
-        if due:
+        # in lockstep, only the steps where a timer of the graph is due count (in between
+        # no node runs but to take in the motion capture, which the next due step waits
+        # for), and /clock goes only where it is needed (the coordinator publishes it)
+        due = coordinator is not None and coordinator.tick(stamp)
+        if coordinator is None:
             clock.publish(Clock(clock=stamp))
         p, u = world.platform, world.uav
         if p.present:
