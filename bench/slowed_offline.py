@@ -17,7 +17,11 @@ Its responses (columns):
   (``/a/car_pose`` is blocked, and every message of an alarmed episode is withheld until
   the frequency holds again, 0.75 s into the fast stretch);
 * ``block+hold``: the stale poses withheld and every landing called off while the alarm
-  lasts.
+  lasts;
+* ``frozen``: no frequency alarm; every landing called off once its platform pose is 0.5 s
+  old (the waypoint frozen while landing, ``var(task_waypose.pose.position.x)`` at point
+  ``b?1`` as a monitor learnt without ``freq(/a/car_pose)`` alarms live), the stale poses
+  relayed, a landed UAV left alone (the point is the landing's).
 
 With a monitor a shutdown over anything but the platform is called off too (the live
 monitor's shutdown height, ``a?cmd_subject_ctrl_state.data==5``).
@@ -53,7 +57,7 @@ sys.path.insert(0, str(ROOT / "examples" / "landing_system" / "nodes"))
 
 import landing_core as core  # noqa: E402
 
-MODES = ("none", "once", "block+once", "block+hold")
+MODES = ("none", "once", "block+once", "block+hold", "frozen")
 
 
 def alarmed(t: float) -> bool:
@@ -149,7 +153,7 @@ def trial(
         if step % 5 == 0:
             platform = world.platform
             slow = world.t % 10.0 >= 5.0
-            alarm = mode != "none" and alarmed(world.t)
+            alarm = mode not in ("none", "frozen") and alarmed(world.t)
             if not slow or world.t - sent >= 2.0 - 1e-9:
                 sent = world.t
                 if not (alarm and mode.startswith("block")):
@@ -160,7 +164,11 @@ def trial(
             raised = alarm and not was_alarmed
             was_alarmed = alarm
             held = alarm and mode.endswith("hold") and state in (core.LAND, core.SHUTDOWN)
-            if raised or held:
+            last = control.last_car
+            frozen = mode == "frozen" and state == core.LAND and last is not None
+            if frozen and last is not None and world.t - last[0] >= 0.5:
+                told = core.TASK  # the landing's waypoint froze: the landing called off
+            elif (raised or held) and mode != "frozen":
                 told = core.TASK  # the monitor commands the task state
             elif mode != "none" and state == core.SHUTDOWN and uav.resting == "floor":
                 told = core.TASK  # a shutdown over the floor (the shutdown height)
