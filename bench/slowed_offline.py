@@ -1,22 +1,48 @@
-"""The slowed link (Table 5.1, s5) offline: what a monitor's response can do for it, and what
-the controller would need. No ROS: ``landing_core`` as ``offline_trial`` runs it.
+"""The slowed link (Table 5.1, s5) offline: what the monitor's responses can do for it, and
+what the controller would need. No ROS: ``landing_core`` as ``offline_trial`` runs it.
 
     python bench/slowed_offline.py [--seeds 20] [--timeout 120]
 
-``/a/car_pose`` goes out at 0.5 Hz for 5 s in every 10 s. A monitor is idealised as the live
-one alarms on ``15 <= freq(/a/car_pose) <= 25`` (1 s window): from 0.3 s into each slow
-stretch until 0.75 s into the next fast one. Its responses (columns):
+``/a/car_pose`` goes out at 0.5 Hz for 5 s in every 10 s (``car.py``: a pose, then the next
+2 s later). The monitor is idealised as the live one alarms on ``15 <= freq(/a/car_pose) <=
+25`` (1 s window): from 0.3 s into each slow stretch until 0.75 s into the next fast one.
+Its responses (columns):
 
 * ``none``: no monitor;
-* ``once``: the task state commanded when the alarm is raised (a landing under way is
-  called off), the stale poses relayed: the generated monitor's rule (actions once per alarm);
-* ``hold``: every landing begun while the alarm lasts is called off, the stale poses relayed;
-* ``block+hold``: the same, the stale poses withheld (the controller hears none).
+* ``once``: the generated monitor's rule (actions once per alarm): the task state commanded
+  when the alarm is raised, whatever the controller is doing (a landing under way is called
+  off, and so is a touchdown: the controller takes an uncommanded task state in its
+  shutdown state as a call-off too, the fragile platform's rescue), the stale poses relayed;
+* ``block+once``: the same with the stale poses withheld, as the example's monitor does
+  (``/a/car_pose`` is blocked, and every message of an alarmed episode is withheld until
+  the frequency holds again, 0.75 s into the fast stretch);
+* ``block+hold``: the stale poses withheld and every landing called off while the alarm
+  lasts;
+* ``frozen``: no frequency alarm; every landing called off once its platform pose is 0.5 s
+  old (the waypoint frozen while landing, ``var(task_waypose.pose.position.x)`` at point
+  ``b?1`` as a monitor learnt without ``freq(/a/car_pose)`` alarms live), the stale poses
+  relayed, a landed UAV left alone (the point is the landing's).
 
-Controllers (rows): the example's (``as is``); one that moves the platform's last pose on by
-its estimated velocity while the pose is late (``predicting``: up to 3 s); one whose position
-loop integrates only within 0.3 m of its waypoint (``near integral``); both. Printed: the
-trials that landed on the platform, of ``--seeds`` (seeds 0, 1, ...).
+With a monitor a shutdown over anything but the platform is called off too (the live
+monitor's shutdown height, ``a?cmd_subject_ctrl_state.data==5``).
+
+Controllers (rows), the example's (``as is``) and variants of it, each a change a real
+controller could have:
+
+* ``predicting``: moves the platform's last pose on by its estimated velocity while the
+  pose is late (dead reckoning, up to 3 s);
+* ``near integral``: its position loop integrates only within 0.3 m of the waypoint;
+* ``heard``: decides to land only when a platform pose arrives (the 1.5 s over the platform
+  judged on what it hears: a withheld pose starts no landing);
+* ``disarm``: once its motors have been off for 2 s it is landed for good and takes no
+  command to fly again (PX4's auto-disarm after landing, ``COM_DISARM_LAND``, 2 s); the last
+  row disarms after 0.5 s.
+
+``--resume``: the platform drives on again when a landing is re-initiated (in the example
+it stays stopped after the first touchdown's task 3: nothing sends it task 1 again).
+
+Printed: the trials that landed on the platform, of ``--seeds`` (seeds 0, 1, ...), with the
+mean simulated time to land.
 """
 
 from __future__ import annotations
@@ -31,7 +57,7 @@ sys.path.insert(0, str(ROOT / "examples" / "landing_system" / "nodes"))
 
 import landing_core as core  # noqa: E402
 
-MODES = ("none", "once", "hold", "block+hold")
+MODES = ("none", "once", "block+once", "block+hold", "frozen")
 
 
 def alarmed(t: float) -> bool:
@@ -40,21 +66,39 @@ def alarmed(t: float) -> bool:
     return phase >= 5.3 or phase < 0.75
 
 
-class Predicting(core.LandingController):
-    """Moves the platform's last pose on by its estimated velocity while it is late."""
+class Variant(core.LandingController):
+    """The example's controller with the variants of the module's docstring switched on."""
+
+    predict: float = 0.0
+    """Dead reckoning horizon (s): 0, none."""
+    heard_only: bool = False
+    disarm: float | None = None
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.heard = False
+
+    def see_car(self, t: float, x: float, y: float, z: float, yaw: float | None = None) -> None:
+        super().see_car(t, x, y, z, yaw)
+        self.heard = True
 
     def step(
         self, t: float, state: int, uav: tuple[float, float, float], vz: float
     ) -> tuple[int, tuple[float, float, float] | None, int | None]:
-        heard = self.last_car
-        if heard is not None and t - heard[0] > 0.1:
-            age = min(t - heard[0], 3.0)
+        disarm = self.disarm
+        if disarm is not None and self.commanded == core.SHUTDOWN and t - self.since >= disarm:
+            state = core.SHUTDOWN  # disarmed: a command to fly is not taken
+        last, landing_time = self.last_car, self.landing_time
+        if last is not None and self.predict > 0.0 and t - last[0] > 0.1:
+            age = min(t - last[0], self.predict)
             vx, vy = self.car_velocity
-            self.last_car = (heard[0], heard[1] + vx * age, heard[2] + vy * age, heard[3])
+            self.last_car = (last[0], last[1] + vx * age, last[2] + vy * age, last[3])
+        if self.heard_only and not self.heard:
+            self.landing_time = math.inf  # nothing heard this cycle: no landing begins
         try:
             return super().step(t, state, uav, vz)
         finally:
-            self.last_car = heard
+            self.last_car, self.landing_time, self.heard = last, landing_time, False
 
 
 class NearIntegral(core.Attitude):
@@ -74,63 +118,107 @@ class NearIntegral(core.Attitude):
         return super().command(state, waypoint, pose, velocity, t)
 
 
-CONTROLLERS = {
-    "as is": (core.LandingController, core.Attitude),
-    "predicting": (Predicting, core.Attitude),
-    "near integral": (core.LandingController, NearIntegral),
-    "both": (Predicting, NearIntegral),
+CONTROLLERS: dict[str, tuple[dict[str, object], bool]] = {
+    "as is": ({}, False),
+    "disarm": ({"disarm": 2.0}, False),
+    "heard": ({"heard_only": True}, False),
+    "heard+disarm": ({"heard_only": True, "disarm": 2.0}, False),
+    "predicting": ({"predict": 3.0}, False),
+    "predicting+near": ({"predict": 3.0}, True),
+    "pred+near+heard+disarm": ({"predict": 3.0, "heard_only": True, "disarm": 2.0}, True),
+    "pred+near+heard+disarm0.5": ({"predict": 3.0, "heard_only": True, "disarm": 0.5}, True),
 }
 
 
-def trial(seed: int, mode: str, controller: str, timeout: float) -> bool:
-    """One slowed trial (``offline_trial``'s loop with a monitor's response); whether it
-    landed on the platform."""
+def controller(name: str) -> tuple[Variant, core.Attitude]:
+    """A fresh controller and position loop of the row ``name``."""
+    settings, near = CONTROLLERS[name]
+    control = Variant()
+    for key, value in settings.items():
+        setattr(control, key, value)
+    return control, NearIntegral() if near else core.Attitude()
+
+
+def trial(
+    seed: int, mode: str, name: str, timeout: float, resume: bool = False
+) -> tuple[bool, float]:
+    """One slowed trial (``offline_trial``'s loop with a monitor's response): whether it
+    landed on the platform, and when it ended."""
     world = core.World("slowed", seed, timeout=timeout)
-    control_class, loop_class = CONTROLLERS[controller]
-    control, loop = control_class(), loop_class()
-    state, waypoint, step, was_alarmed = core.STARTUP, None, 0, False
+    control, loop = controller(name)
+    state, waypoint, step, was_alarmed, sent = core.STARTUP, None, 0, False, -9.0
     while True:
         step += 1
-        uav, platform = world.uav, world.platform
+        uav = world.uav
         if step % 5 == 0:
+            platform = world.platform
             slow = world.t % 10.0 >= 5.0
-            late = control.last_car is None or world.t - control.last_car[0] >= 2.0
-            alarm = mode != "none" and alarmed(world.t)
-            if (not slow or late) and not (alarm and mode == "block+hold"):
-                control.see_car(
-                    world.t, platform.x, platform.y, core.PLATFORM_TOP, platform.heading
-                )
+            alarm = mode not in ("none", "frozen") and alarmed(world.t)
+            if not slow or world.t - sent >= 2.0 - 1e-9:
+                sent = world.t
+                if not (alarm and mode.startswith("block")):
+                    control.see_car(
+                        world.t, platform.x, platform.y, core.PLATFORM_TOP, platform.heading
+                    )
             told = state
-            if alarm and state == core.LAND and (mode != "once" or not was_alarmed):
-                told = core.TASK  # the monitor commands the task state
+            raised = alarm and not was_alarmed
             was_alarmed = alarm
+            held = alarm and mode.endswith("hold") and state in (core.LAND, core.SHUTDOWN)
+            last = control.last_car
+            frozen = mode == "frozen" and state == core.LAND and last is not None
+            if frozen and last is not None and world.t - last[0] >= 0.5:
+                told = core.TASK  # the landing's waypoint froze: the landing called off
+            elif (raised or held) and mode != "frozen":
+                told = core.TASK  # the monitor commands the task state
+            elif mode != "none" and state == core.SHUTDOWN and uav.resting == "floor":
+                told = core.TASK  # a shutdown over the floor (the shutdown height)
+            landing = state in (core.LAND, core.SHUTDOWN)
             state, waypoint, task = control.step(world.t, told, (uav.x, uav.y, uav.z), uav.vz)
             if waypoint is not None:
                 loop.see_waypoint(world.t, *waypoint)
             if task == core.TASK_STOP:
                 world.stop_platform()
+            elif resume and landing and state == core.TASK:
+                world.platform.moving = True  # a landing re-initiated: the platform drives on
         if step % 2 == 0:
             world.command = loop.command(
                 state, waypoint, (uav.x, uav.y, uav.z), (uav.vx, uav.vy, uav.vz), world.t
             )
         if world.step() is not None:
-            return world.referee.success
+            return world.referee.success, world.t
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--timeout", type=float, default=120.0)
+    parser.add_argument("--controllers", default=",".join(CONTROLLERS), help="rows to run")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="the platform drives on when a landing is re-initiated (the example's stays "
+        "stopped after the first touchdown: nothing sends it task 1 again)",
+    )
     args = parser.parse_args()
-    seeds = f"seeds 0-{args.seeds - 1}, {args.timeout:g} s"
-    print(f"slowed link offline: landed of {args.seeds} ({seeds})")
-    print(f"  {'controller':14s}" + "".join(f"{mode:>12s}" for mode in MODES))
-    for controller in CONTROLLERS:
+    names = [n for n in args.controllers.split(",") if n]
+    unknown = [n for n in names if n not in CONTROLLERS]
+    if unknown:
+        sys.exit(
+            f"slowed_offline: unknown controller {unknown[0]!r}; one of {', '.join(CONTROLLERS)}"
+        )
+    seeds = f"seeds 0-{args.seeds - 1}, {args.timeout:g} s" + (
+        ", platform resumes" if args.resume else ""
+    )
+    print(f"slowed link offline: landed of {args.seeds} ({seeds}; mean s to land)")
+    print(f"  {'controller':24s}" + "".join(f"{mode:>16s}" for mode in MODES))
+    for name in names:
         cells = []
         for mode in MODES:
-            landed = sum(trial(s, mode, controller, args.timeout) for s in range(args.seeds))
-            cells.append(f"{landed:>12d}")
-        print(f"  {controller:14s}" + "".join(cells), flush=True)
+            runs = [trial(s, mode, name, args.timeout, args.resume) for s in range(args.seeds)]
+            times = [t for ok, t in runs if ok]
+            mean = f"({sum(times) / len(times):.0f})" if times else "(-)"
+            cells.append(f"{len(times):>10d} {mean:>5s}")
+        print(f"  {name:24s}" + "".join(cells), flush=True)
 
 
 if __name__ == "__main__":
