@@ -682,9 +682,37 @@ def _by_blocks(
         stay[over] = False
         keep = np.flatnonzero(stay[slot])
         slot, starts, lengths = slot.take(keep), starts.take(keep), lengths.take(keep)
+    # pairs with every block open: their columns as they are, no gathering
+    whole = np.bincount(slot, weights=lengths, minlength=len(pairs)) == chunk.rows
+    if whole.any():
+        found += _whole(chunk, pairs[whole], pi, pj, guide)
+        rest = np.flatnonzero(~whole[slot])
+        slot, starts, lengths = slot.take(rest), starts.take(rest), lengths.take(rest)
     row = ragged_arange(starts, lengths)
     found += _rows(chunk, pairs, pi, pj, np.repeat(slot, lengths), row, guide, located=False)
     return GroupSet.concat(found), back
+
+
+def _whole(
+    chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide
+) -> list[GroupSet]:
+    """:func:`_rows` of every row of each of ``pairs`` (pairs with a table): the same
+    lookups (:meth:`Guide.inside_run`) on slices of the columns."""
+    found: list[GroupSet] = []
+    for pair in pairs.tolist():
+        i, j = int(pi[pair]), int(pj[pair])
+        for first in range(0, chunk.rows, _BLOCK):
+            x = chunk.values[i, first : first + _BLOCK]
+            y = chunk.values[j, first : first + _BLOCK]
+            with np.errstate(invalid="ignore"):
+                keep = ~guide.inside_run(pair, x, y)
+                if chunk.has_nan[i] or chunk.has_nan[j]:
+                    keep &= ~(np.isnan(x) | np.isnan(y))
+            sel = np.flatnonzero(keep)
+            found.append(
+                GroupSet(np.full(len(sel), pair, np.int64), x.take(sel), y.take(sel), sel + first)
+            )
+    return found
 
 
 def _open_blocks(

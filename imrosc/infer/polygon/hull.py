@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from imrosc.infer.core import FloatArray
-from imrosc.infer.polygon.predicates import orientation
+from imrosc.infer.polygon.predicates import orientation, turn
 
 IntArray = npt.NDArray[np.int64]
 _BIG = np.iinfo(np.int64).max
@@ -208,11 +208,15 @@ def _quickhull(pts: GroupSet) -> tuple[GroupSet, IntArray, IntArray]:
 
 
 def _chain(pts: GroupSet) -> GroupSet:
-    """Monotone chain in lock-step; ``pts`` must hold no repeated point within a group."""
+    """Monotone chain in lock-step; ``pts`` must hold no repeated point within a group.
+
+    Up to ``_CHAIN_ONE_BY_ONE`` points go group by group in Python (:func:`_chains`)."""
     if not len(pts):
         return pts
     order = np.lexsort((pts.y, pts.x, pts.group))
     pts = pts.take(order.astype(np.int64))
+    if len(pts) <= _CHAIN_ONE_BY_ONE:
+        return pts.take(_chains(pts))
     groups, starts, ends = pts.bounds()
     count = ends - starts
     width = int(count.max())
@@ -254,6 +258,36 @@ def _chain(pts: GroupSet) -> GroupSet:
     cols_u = np.arange(len(rows_u)) - np.repeat(np.cumsum(take_u) - take_u, take_u)
     out[np.repeat(offsets + take_l, take_u) + cols_u] = upper[rows_u, cols_u]
     return pts.take(out)
+
+
+_CHAIN_ONE_BY_ONE = 8192
+"""Points settled by the monotone chain below which it runs group by group in Python: a
+few hundred points of a few dozen groups (the usual doubtful groups) cost a lock-step's
+thousands of numpy calls on arrays of a few dozen elements."""
+
+
+def _chains(pts: GroupSet) -> IntArray:
+    """:func:`_chain` on points sorted by group, ``x`` and ``y``, group by group: the rows
+    of the vertices, the same exact turns (:func:`~imrosc.infer.polygon.predicates.turn`)."""
+    out: list[int] = []
+    xs, ys = pts.x.tolist(), pts.y.tolist()
+    _, starts, ends = pts.bounds()
+    for first, stop in zip(starts.tolist(), ends.tolist(), strict=True):
+        if stop - first == 1:
+            out.append(first)
+            continue
+        for rows in (range(first, stop), range(stop - 1, first - 1, -1)):
+            stack: list[int] = []
+            for q in rows:
+                qx, qy = xs[q], ys[q]
+                while len(stack) >= 2:
+                    p1, p2 = stack[-2], stack[-1]
+                    if turn(xs[p1], ys[p1], xs[p2], ys[p2], qx, qy) > 0:
+                        break
+                    stack.pop()
+                stack.append(q)
+            out.extend(stack[:-1])
+    return np.array(out, np.int64)
 
 
 def hulls(pts: GroupSet) -> GroupSet:

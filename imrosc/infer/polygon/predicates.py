@@ -88,6 +88,30 @@ def _exact_sign(ax: float, ay: float, bx: float, by: float, cx: float, cy: float
     return (det > 0) - (det < 0)
 
 
+def turn(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> int:
+    """:func:`orientation` of one triple of (finite) Python floats: the float determinant
+    where stage A's bound decides it (Python's floats round as numpy's do), else the
+    exact sign in integers (:func:`_integer_sign`)."""
+    acx, bcx, acy, bcy = ax - cx, bx - cx, ay - cy, by - cy
+    left = acx * bcy
+    right = acy * bcx
+    det = left - right
+    detsum = abs(left) + abs(right)
+    if abs(det) >= _CCW_ERR_A * detsum and detsum >= _TINY and math.isfinite(det):
+        return (det > 0) - (det < 0)
+    return _integer_sign(ax, ay, bx, by, cx, cy)
+
+
+def _integer_sign(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> int:
+    """The exact sign of ``orient2d``: every float is ``n / 2**k`` exactly, so scaled to
+    one power of two the determinant is a Python integer (no rounding, no overflow)."""
+    ratios = [v.as_integer_ratio() for v in (ax, ay, bx, by, cx, cy)]
+    shift = max(d.bit_length() for _, d in ratios) - 1
+    pax, pay, pbx, pby, pcx, pcy = (n << (shift - d.bit_length() + 1) for n, d in ratios)
+    det = (pax - pcx) * (pby - pcy) - (pay - pcy) * (pbx - pcx)
+    return (det > 0) - (det < 0)
+
+
 def _adaptive(
     ax: FloatArray,
     ay: FloatArray,
