@@ -16,7 +16,6 @@ Inputs must be finite.
 from __future__ import annotations
 
 import math
-from fractions import Fraction
 
 import numpy as np
 import numpy.typing as npt
@@ -79,13 +78,6 @@ def _two_one_diff(
     i, x0 = _two_diff(a0, b)
     x2, x1 = _two_sum(a1, i)
     return x2, x1, x0
-
-
-def _exact_sign(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> int:
-    det = (Fraction(ax) - Fraction(cx)) * (Fraction(by) - Fraction(cy)) - (
-        Fraction(ay) - Fraction(cy)
-    ) * (Fraction(bx) - Fraction(cx))
-    return (det > 0) - (det < 0)
 
 
 def turn(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> int:
@@ -291,7 +283,7 @@ def _stage_d_block(
     easy = np.flatnonzero(safe)
     out[easy] = exact_sum_signs(stacked[easy])
     for k in np.flatnonzero(~safe).tolist():
-        out[k] = _exact_sign(
+        out[k] = _integer_sign(
             float(ax[k]), float(ay[k]), float(bx[k]), float(by[k]), float(cx[k]), float(cy[k])
         )
     return out
