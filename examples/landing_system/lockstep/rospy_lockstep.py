@@ -163,6 +163,21 @@ def board_path(master_uri: str) -> str:
     )
 
 
+def _publish_each(publisher: Any, message_to: Any) -> None:
+    """Publish on each of ``publisher``'s connections what ``message_to(subscriber name)``
+    gives (``None``: nothing to that subscriber)."""
+    impl = publisher.impl
+    for connection in list(impl.connections):
+        message = message_to(connection.endpoint_id)
+        if message is None:
+            continue
+        impl.acquire()
+        try:
+            impl.publish(message, connection_override=connection)
+        finally:
+            impl.release()
+
+
 class Process:
     """This process's half of the lockstep: its counts, its activity, its reports."""
 
@@ -1020,16 +1035,11 @@ class Coordinator:
 
     def publish_clock(self, stamp: Any, to: Any) -> None:
         """``/clock`` at ``stamp`` to the subscribers (but the simulator) ``to(name)`` says."""
-        impl = self.clock_publisher.impl
         message = self.clock(clock=stamp)
-        for connection in list(impl.connections):
-            name = connection.endpoint_id
-            if name != self.name and to(name):
-                impl.acquire()
-                try:
-                    impl.publish(message, connection_override=connection)
-                finally:
-                    impl.release()
+        _publish_each(
+            self.clock_publisher,
+            lambda name: message if name != self.name and to(name) else None,
+        )
 
     def unreported(self) -> set[str]:
         """The processes the simulator sent messages to since its last due step but none
@@ -1083,24 +1093,21 @@ class Coordinator:
         no timer due has nothing to release (its next due step releases it up to then).
         Each release gives how many messages the simulator sent that process so far, per
         topic: its timers wait until it took them in."""
-        impl = self.go.impl
         now = int(stamp.to_nsec())
         with self.state.cond:
             sent = dict(self.state.sent)
-        for connection in list(impl.connections):
-            name = connection.endpoint_id
-            if name in names:
-                expect = {}
-                for key, count in sent.items():
-                    topic, _, to = key.rpartition(">")
-                    if to == name:
-                        expect[f"{topic}<{self.name}"] = count
-                message = self.string(json.dumps({"t": now, "expect": expect}))
-                impl.acquire()
-                try:
-                    impl.publish(message, connection_override=connection)
-                finally:
-                    impl.release()
+
+        def message_to(name: str) -> Any:
+            if name not in names:
+                return None
+            expect = {}
+            for key, count in sent.items():
+                topic, _, to = key.rpartition(">")
+                if to == name:
+                    expect[f"{topic}<{self.name}"] = count
+            return self.string(json.dumps({"t": now, "expect": expect}))
+
+        _publish_each(self.go, message_to)
 
     def settle(self, now: int, stamp: Any = None, timeout: float = 30.0) -> bool:
         """Wait until the graph has reacted to time ``now`` (ns); with ``stamp`` (the step's

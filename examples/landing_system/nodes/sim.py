@@ -118,7 +118,7 @@ def main() -> None:
                 ),
             )
         )
-        if coordinator is not None and due:
+        if due:
             coordinator.step(stamp)
         ahead = start + step * core.DT / speed - time.monotonic() if speed > 0 else 0.0
         if ahead > 0:
