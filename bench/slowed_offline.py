@@ -38,8 +38,7 @@ controller could have:
   command to fly again (PX4's auto-disarm after landing, ``COM_DISARM_LAND``, 2 s); the last
   row disarms after 0.5 s.
 
-``--resume``: the platform drives on again when a landing is re-initiated (in the example
-it stays stopped after the first touchdown's task 3: nothing sends it task 1 again).
+A landing called off sends the platform on again (the controller's task 1), as live.
 
 Printed: the trials that landed on the platform, of ``--seeds`` (seeds 0, 1, ...), with the
 mean simulated time to land.
@@ -139,9 +138,7 @@ def controller(name: str) -> tuple[Variant, core.Attitude]:
     return control, NearIntegral() if near else core.Attitude()
 
 
-def trial(
-    seed: int, mode: str, name: str, timeout: float, resume: bool = False
-) -> tuple[bool, float]:
+def trial(seed: int, mode: str, name: str, timeout: float) -> tuple[bool, float]:
     """One slowed trial (``offline_trial``'s loop with a monitor's response): whether it
     landed on the platform, and when it ended."""
     world = core.World("slowed", seed, timeout=timeout)
@@ -172,14 +169,11 @@ def trial(
                 told = core.TASK  # the monitor commands the task state
             elif mode != "none" and state == core.SHUTDOWN and uav.resting == "floor":
                 told = core.TASK  # a shutdown over the floor (the shutdown height)
-            landing = state in (core.LAND, core.SHUTDOWN)
             state, waypoint, task = control.step(world.t, told, (uav.x, uav.y, uav.z), uav.vz)
             if waypoint is not None:
                 loop.see_waypoint(world.t, *waypoint)
-            if task == core.TASK_STOP:
-                world.stop_platform()
-            elif resume and landing and state == core.TASK:
-                world.platform.moving = True  # a landing re-initiated: the platform drives on
+            if task is not None:
+                world.drive(task)  # a called-off landing sends the platform on again
         if step % 2 == 0:
             world.command = loop.command(
                 state, waypoint, (uav.x, uav.y, uav.z), (uav.vx, uav.vy, uav.vz), world.t
@@ -193,12 +187,6 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--timeout", type=float, default=120.0)
     parser.add_argument("--controllers", default=",".join(CONTROLLERS), help="rows to run")
-    parser.add_argument(
-        "--resume",
-        action="store_true",
-        help="the platform drives on when a landing is re-initiated (the example's stays "
-        "stopped after the first touchdown: nothing sends it task 1 again)",
-    )
     args = parser.parse_args()
     names = [n for n in args.controllers.split(",") if n]
     unknown = [n for n in names if n not in CONTROLLERS]
@@ -206,15 +194,13 @@ def main() -> None:
         sys.exit(
             f"slowed_offline: unknown controller {unknown[0]!r}; one of {', '.join(CONTROLLERS)}"
         )
-    seeds = f"seeds 0-{args.seeds - 1}, {args.timeout:g} s" + (
-        ", platform resumes" if args.resume else ""
-    )
+    seeds = f"seeds 0-{args.seeds - 1}, {args.timeout:g} s"
     print(f"slowed link offline: landed of {args.seeds} ({seeds}; mean s to land)")
     print(f"  {'controller':24s}" + "".join(f"{mode:>16s}" for mode in MODES))
     for name in names:
         cells = []
         for mode in MODES:
-            runs = [trial(s, mode, name, args.timeout, args.resume) for s in range(args.seeds)]
+            runs = [trial(s, mode, name, args.timeout) for s in range(args.seeds)]
             times = [t for ok, t in runs if ok]
             mean = f"({sum(times) / len(times):.0f})" if times else "(-)"
             cells.append(f"{len(times):>10d} {mean:>5s}")

@@ -7,7 +7,8 @@ and at 5 Hz) and the waypoint on ``/a/task_waypose`` (``geometry_msgs/PoseStampe
 calls ``/a/execute_task`` when the task changes, and serves ``/a/poll_status``. Its
 parameters: ``~landing_radius`` (0.15 m), ``~landing_time`` (1.5 s), ``~poll_rate`` (2 Hz).
 A state reported by the state machine that it did not command (the monitor's task command
-during a landing) calls the landing off: it pursues the platform again.
+during a landing) calls the landing off: it tells the platform it tracks it again
+(``/a/execute_task``, task 1: a platform stopped at the touchdown drives on) and pursues it.
 """
 
 from __future__ import annotations

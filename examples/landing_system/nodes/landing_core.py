@@ -18,7 +18,9 @@ Pure Python (no rospy, no numpy): the rospy nodes of this package run it under D
 * :class:`LandingController`: the controller of Figure 3.6 (``/a/car_ctrl``): states startup,
   launch, hover, task, land, shutdown (0-5); it pursues the platform at 0.6 m above it and
   lands when the UAV has been within 15 cm of its centre for 1.5 s, descending at 0.3 m/s
-  until it senses the touchdown, then switches the motors off and stops the platform.
+  until it senses the touchdown, then switches the motors off and stops the platform; a
+  landing called off (a task state it did not command, the monitor's) sends the platform on
+  again (task 1, track) and pursues it.
 * :class:`Attitude`: the position loop of ``/a/pid_ctrl`` (waypoint to roll, pitch, thrust).
 * :class:`Referee`: how a run ends (Table 5.1's criteria): landed (motors off on the platform
   for 5 s), crashed, fallen off, landed elsewhere, or timed out.
@@ -519,6 +521,7 @@ class LandingController:
 
         ``state`` is the state the state machine reports: a command from elsewhere (the
         monitor's) is obeyed as the new current state."""
+        task: int | None = None
         if (
             state != self.commanded
             and state in (TASK, HOVER)
@@ -526,7 +529,8 @@ class LandingController:
         ):
             self._go(state, t)  # someone (the monitor) called the landing off
             self.within_since = self.touch_since = None
-        task: int | None = None
+            if state == TASK:  # tracking again: the platform drives on (after a stop too)
+                task = TASK_TRACK
         if self.home is None:
             self.home = (uav[0], uav[1])
         car = self.last_car
@@ -544,7 +548,7 @@ class LandingController:
                 task = TASK_TRACK
             return self.commanded, (uav[0], uav[1], self.hover_z), task
         if car is None:
-            return self.commanded, (uav[0], uav[1], self.hover_z), None
+            return self.commanded, (uav[0], uav[1], self.hover_z), task
         cx = car[1] + self.lead * self.car_velocity[0]
         cy = car[2] + self.lead * self.car_velocity[1]
         distance = math.hypot(uav[0] - car[1], uav[1] - car[2])
@@ -592,8 +596,11 @@ class Referee:
     scenario: str
     timeout: float
     rested_since: float | None = None
-    landings: int = 0
-    """Touchdowns on the platform with the motors off that did not last (re-initiated)."""
+    reinitiated: int = 0
+    """Landings called off: the controller told the platform it tracks it again (task 1)
+    after it had begun a landing (task 2), whether or not the UAV had touched down."""
+    landing: bool = False
+    """A landing has begun and was not called off since."""
     was_resting: bool = False
     outcome: str | None = None
     detail: str = ""
@@ -607,7 +614,6 @@ class Referee:
         if resting and not self.was_resting:
             self.rested_since = t
         if not resting and self.was_resting:
-            self.landings += 1
             self.rested_since = None
         self.was_resting = resting
         if resting and self.rested_since is not None and t - self.rested_since >= 5.0:
@@ -617,6 +623,14 @@ class Referee:
         if t >= self.timeout:
             return self._end("timeout", f"no landing in {self.timeout:g} s")
         return None
+
+    def task(self, task: int) -> None:
+        """A task the platform was given (``/a/car_drive``): counts the called-off landings."""
+        if task == TASK_LAND:
+            self.landing = True
+        elif task == TASK_TRACK and self.landing:
+            self.reinitiated += 1
+            self.landing = False
 
     def _end(self, outcome: str, detail: str) -> str:
         self.outcome, self.detail = outcome, detail
@@ -672,8 +686,16 @@ class World:
     def occupied(self) -> bool:
         return self.scenario == "occupied"
 
-    def stop_platform(self) -> None:
-        self.platform.moving = False
+    def drive(self, task: int) -> None:
+        """A task for the platform (``/a/car_drive``, what ``/a/execute_task`` passes on):
+        3 (stop) stops it where it is; 0 and 1 (wander, track: the controller tracks it
+        again after a landing it called off, or the monitor's safe task) send it on its
+        vacuum pattern again, from a standstill; 2 (land) changes nothing."""
+        if task == TASK_STOP:
+            self.platform.moving = False
+        elif task in (TASK_WANDER, TASK_TRACK):
+            self.platform.moving = True
+        self.referee.task(task)
 
     def step(self) -> str | None:
         """One physics step; the run's outcome once it is over."""
@@ -771,8 +793,8 @@ def offline_trial(scenario: str, seed: int, timeout: float = 120.0) -> Referee:
             state, waypoint, task = control.step(world.t, state, (uav.x, uav.y, uav.z), uav.vz)
             if waypoint is not None:
                 loop.see_waypoint(world.t, *waypoint)
-            if task == TASK_STOP:
-                world.stop_platform()
+            if task is not None:
+                world.drive(task)
         if step % 2 == 0:
             world.command = loop.command(
                 state, waypoint, (uav.x, uav.y, uav.z), (uav.vx, uav.vy, uav.vz), world.t

@@ -7,9 +7,10 @@ platform's pose on ``/vicon/car`` and the UAV's on ``/vicon/uav``
 false-airport scenario: there is no vehicle). It takes the UAV's command from
 ``/a/cmd_attitude`` (``geometry_msgs/Twist``: angular.x roll, angular.y pitch, linear.z
 thrust in m/s^2, linear.x > 0.5 motors on) and the platform's drive from ``/a/car_drive``
-(``std_msgs/UInt8``, a task id: 3 stops it). When the run is over (Table 5.1's criteria) it
-writes the outcome as JSON to ``~outcome`` (a file; ``~trace``, a file too, gets each step's
-command and UAV state), publishes it on ``/landing/outcome`` (latched) and exits, which
+(``std_msgs/UInt8``, a task id: 3 stops it, 0 and 1 send it on again). When the run is
+over (Table 5.1's criteria) it writes the outcome as JSON to ``~outcome`` (a file;
+``~trace``, a file too, gets each step's command and UAV state), publishes it on
+``/landing/outcome`` (latched) and exits, which
 ends the launch (the node is ``required``).
 
 **Lockstep**: when the graph's processes run with ``rospy_lockstep`` (``LANDING_LOCKSTEP=1``
@@ -58,8 +59,7 @@ def main() -> None:
         world.command = core.Command(msg.angular.x, msg.angular.y, msg.linear.z, msg.linear.x > 0.5)
 
     def on_drive(msg: UInt8) -> None:
-        if msg.data == core.TASK_STOP:
-            world.stop_platform()
+        world.drive(msg.data)
 
     rospy.Subscriber("/a/cmd_attitude", Twist, on_command, queue_size=1)
     rospy.Subscriber("/a/car_drive", UInt8, on_drive, queue_size=10)
@@ -133,7 +133,7 @@ def main() -> None:
         "success": referee.success,
         "detail": referee.detail,
         "time": round(world.t, 2),
-        "reinitiated": referee.landings,
+        "reinitiated": referee.reinitiated,
         "onset": None if world.onset is None else round(world.onset, 2),
         "wall": round(time.monotonic() - start, 2),
         "lockstep": coordinator is not None,
