@@ -17,8 +17,9 @@ Pure Python (no rospy, no numpy): the rospy nodes of this package run it under D
   a point sees gusts of 8 to 38 km/h while the jet passes over it, calm in between.
 * :class:`LandingController`: the controller of Figure 3.6 (``/a/car_ctrl``): states startup,
   launch, hover, task, land, shutdown (0-5); it pursues the platform at 0.6 m above it and
-  lands when the UAV has been within 15 cm of its centre for 1.5 s, descending at 0.3 m/s
-  until it senses the touchdown, then switches the motors off and stops the platform; a
+  lands when the UAV has been within 15 cm of its centre for 1.5 s at its pursuit height,
+  descending at 0.3 m/s (waiting while the platform turns or brakes) until it senses the
+  touchdown, then switches the motors off and stops the platform; a
   landing called off (a task state it did not command, the monitor's) sends the platform on
   again (task 1, track) and pursues it.
 * :class:`Attitude`: the position loop of ``/a/pid_ctrl`` (waypoint to roll, pitch, thrust).
@@ -479,6 +480,19 @@ class LandingController:
     only then does a standstill mean a touchdown, not the top of a climb."""
     home: tuple[float, float] | None = None
     last_car: tuple[float, float, float, float] | None = None
+    track: list[tuple[float, float, float]] = field(default_factory=list)
+    """The platform's positions of the last :attr:`window` s (t, x, y)."""
+    window: float = 0.2
+    speed_change: float = 0.04
+    """The platform's mean speed over :attr:`window` dropping by more than this (m/s) from
+    the window before means it brakes (for a turn in place, or to stop): it counts as
+    turning. Speeds no vehicle drives (over twice its top speed: positions that jump) are
+    no measurement of braking."""
+    brake_settle: float = 0.6
+    """How long (s) after it saw the platform brake it still counts as turning (braking
+    from full speed takes 0.6 s; a turn in place that follows counts by its heading, and
+    :attr:`settle` s after it)."""
+    speeds: list[tuple[float, float]] = field(default_factory=list)
     car_velocity: tuple[float, float] = (0.0, 0.0)
     car_yaw: float | None = None
     turning_until: float = -1.0
@@ -509,6 +523,17 @@ class LandingController:
         if yaw is not None:
             self.car_yaw = yaw
         self.last_car = (t, x, y, z)
+        self.track = [p for p in self.track if t - p[0] < self.window + 0.01] + [(t, x, y)]
+        first = self.track[0]
+        if t - first[0] >= self.window - 0.01:
+            speed = math.hypot(x - first[1], y - first[2]) / (t - first[0])
+            self.speeds = [v for v in self.speeds if t - v[0] <= self.window + 0.01]
+            before = self.speeds[0] if self.speeds else None
+            if before is not None and t - before[0] >= self.window - 0.01:
+                plausible = max(speed, before[1]) <= 2.0 * PLATFORM_SPEED
+                if plausible and before[1] - speed > self.speed_change:
+                    self.turning_until = max(self.turning_until, t + self.brake_settle)
+            self.speeds.append((t, speed))
 
     def _go(self, state: int, t: float) -> int:
         self.commanded, self.since = state, t
@@ -553,7 +578,10 @@ class LandingController:
         cy = car[2] + self.lead * self.car_velocity[1]
         distance = math.hypot(uav[0] - car[1], uav[1] - car[2])
         if self.commanded == TASK:
-            if distance <= self.landing_radius:
+            # over the platform at the pursuit height (after a landing called off the UAV
+            # climbs back first: a landing begun in the climb starts off the platform's pace)
+            level = abs(uav[2] - car[3] - self.approach) <= self.landing_radius
+            if distance <= self.landing_radius and level:
                 if self.within_since is None:
                     self.within_since = t
                 if t - self.within_since >= self.landing_time:
