@@ -238,3 +238,68 @@ def test_the_top_of_a_climb_after_waiting_is_no_touchdown() -> None:
         z, vz = (L.PLATFORM_TOP + L.UAV_REST, 0.0) if k >= 45 else (L.PLATFORM_TOP + 0.1, -0.3)
         state, _, _ = control.step(t + 0.05 * k, L.LAND, (0.0, 0.0, z), vz)
     assert state == L.SHUTDOWN
+
+
+def test_a_landing_waits_over_the_platform_while_it_brakes() -> None:
+    control = L.LandingController()
+    for k in range(21):  # driving along x at 0.3 m/s
+        control.see_car(k * 0.05, 0.3 * k * 0.05, 0.0, L.PLATFORM_TOP, 0.0)
+    control.commanded, control.since, control.land_z = L.LAND, 1.0, L.PLATFORM_TOP + 0.3
+    x, speed, braked = 0.3, 0.3, None
+    for k in range(21, 35):  # it brakes at 0.5 m/s^2
+        t = k * 0.05
+        speed = max(0.0, speed - 0.5 * 0.05)
+        x += speed * 0.05
+        control.see_car(t, x, 0.0, L.PLATFORM_TOP, 0.0)
+        _, waypoint, _ = control.step(t, L.LAND, (x, 0.0, L.PLATFORM_TOP + 0.2), -0.3)
+        assert waypoint is not None
+        if braked is None and waypoint[2] == pytest.approx(L.PLATFORM_TOP + control.hold):
+            braked = t - 1.05
+    assert braked is not None and braked <= 0.25  # seen braking within 0.25 s, waiting
+
+
+def test_positions_that_jump_are_no_braking() -> None:
+    control = L.LandingController()
+    for k in range(30):  # a second source of positions 2 m away, every other pose
+        control.see_car(k * 0.05, 0.0, 2.0 * (k % 2), L.PLATFORM_TOP, 0.0)
+    assert control.turning_until < 0.0
+
+
+def test_a_landing_begins_only_at_the_pursuit_height() -> None:
+    control = L.LandingController()
+    for k in range(60):
+        control.see_car(k * 0.05, 0.0, 0.0, L.PLATFORM_TOP, 0.0)
+    control.commanded, control.since = L.TASK, 0.0
+    climbing = (0.0, 0.0, L.PLATFORM_TOP + 0.3)  # over its centre, climbing after a call-off
+    for k in range(40):
+        state, _, _ = control.step(k * 0.05, L.TASK, climbing, 0.3)
+    assert state == L.TASK  # 2 s over the centre, but below the pursuit height
+    level = (0.0, 0.0, L.PLATFORM_TOP + control.approach)
+    for k in range(40, 80):
+        state, _, task = control.step(k * 0.05, L.TASK, level, 0.0)
+        if state == L.LAND:
+            break
+    assert state == L.LAND and task == L.TASK_LAND and k * 0.05 >= 2.0 + 1.5 - 1e-9
+
+
+def test_a_called_off_landing_sends_the_stopped_platform_on_and_is_counted() -> None:
+    world = L.World("normal", 0)
+    control, t = _landing(0.0)
+    world.drive(L.TASK_LAND)
+    touched = (0.0, 0.0, L.PLATFORM_TOP + L.UAV_REST)
+    control.descended = True
+    for k in range(1, 20):  # touched down: motors off, the platform stopped
+        control.see_car(t + 0.05 * k, 0.0, 0.0, L.PLATFORM_TOP, 0.0)
+        state, _, task = control.step(t + 0.05 * k, L.LAND, touched, 0.0)
+        if task is not None:
+            world.drive(task)
+        if state == L.SHUTDOWN:
+            break
+    assert state == L.SHUTDOWN and not world.platform.moving
+    # the monitor commands the task state: the landing is called off, the platform drives on
+    state, waypoint, task = control.step(t + 1.0, L.TASK, touched, 0.0)
+    assert state == L.TASK and task == L.TASK_TRACK and waypoint is not None
+    world.drive(task)
+    assert world.platform.moving and world.referee.reinitiated == 1
+    world.drive(L.TASK_WANDER)  # the monitor's safe task: the platform wanders, no landing
+    assert world.platform.moving and world.referee.reinitiated == 1
