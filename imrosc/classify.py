@@ -1211,6 +1211,8 @@ def detector_entry(learnt: Learnt) -> dict[str, Any]:
         "held_out_nominal": choice.nominal,
         "held_out_failed": choice.failed,
         "detected": sorted(choice.detected),
+        "horizon": _number(choice.horizon) if math.isfinite(choice.horizon) else None,
+        "prompt": choice.prompt,
         "chance": _number(choice.chance),
         "delays": {run: _number(delay) for run, delay in sorted(choice.delays.items())},
     }
@@ -1229,6 +1231,8 @@ def refused_entry(refused: Refused) -> dict[str, Any]:
         "held_out_nominal": choice.nominal,
         "held_out_failed": choice.failed,
         "detected": sorted(choice.detected),
+        "horizon": _number(choice.horizon) if math.isfinite(choice.horizon) else None,
+        "prompt": choice.prompt,
         "pairs": choice.tried,
         "chance": _number(choice.chance),
         "share": _number(choice.alpha),

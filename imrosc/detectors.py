@@ -30,10 +30,11 @@ threshold. How it is learnt (``docs/families/detector.md``):
    threshold from the onset on), the smallest mean delay on ties, then the strongest
    penalty and the shortest smoothing. No detector is kept when none detects one.
 5. **Refusal**: a detector blind to faults still "detects" a held-out failed run whose
-   largest evidence after the onset lies above the ``n`` held-out nominal extremes, with
-   probability ``1/(n+1)`` (exchangeable ranks). The best pair is kept only when the
-   binomial probability of as many such detections among the held-out failed runs is
-   within its share ``alpha`` (:attr:`Choice.separates`); otherwise :func:`learn` gives
+   largest evidence soon after the onset (within the shortest held-out nominal
+   stretch's length) lies above the ``n`` held-out nominal extremes, with probability at
+   most ``1/(n+1)`` (exchangeable ranks). The best pair is kept only when the binomial
+   probability of as many such detections among the held-out failed runs is within its
+   share ``alpha`` (:attr:`Choice.separates`); otherwise :func:`learn` gives
    :class:`Refused`.
 
 The runs it detected, held out, and its estimated false-alarm probability are what
@@ -170,16 +171,27 @@ class Choice:
     """Held-out failed runs with evidence from their onset on (those it could detect)."""
     tried: int = 1
     """The penalty and smoothing pairs the choice was the best of."""
+    horizon: float = math.inf
+    """Seconds of the shortest held-out nominal stretch with evidence: a detection this
+    soon after the onset is one a blind detector makes at most as often as it exceeds a
+    nominal stretch's largest evidence."""
+
+    @property
+    def prompt(self) -> int:
+        """The held-out failed runs detected within :attr:`horizon` of their onsets."""
+        return sum(delay <= self.horizon for delay in self.delays.values())
 
     @property
     def chance(self) -> float:
         """The probability that a detector whose evidence does not respond to faults at all
-        would have detected as many held-out failed runs: each failed run's largest
-        evidence is then one more draw beside the ``nominal`` held-out extremes, above them
-        all with probability ``1/(n+1)`` (their ranks are exchangeable), and the threshold
-        is at least the largest. Not corrected for the choice among the pairs (they are
-        nested: one fit's scores under five smoothings, penalties a decade apart)."""
-        return binomial_tail(len(self.detected), self.failed, 1.0 / (self.nominal + 1))
+        would have detected as many held-out failed runs within :attr:`horizon` of their
+        onsets: a failed run's largest evidence over that stretch, no longer than any
+        nominal one, is then at most one more draw beside the ``nominal`` held-out
+        extremes, above them all with probability at most ``1/(n+1)`` (their ranks are
+        exchangeable), and the threshold is at least the largest. Not corrected for the
+        choice among the pairs (they are nested: one fit's scores under five smoothings,
+        penalties a decade apart)."""
+        return binomial_tail(self.prompt, self.failed, 1.0 / (self.nominal + 1))
 
     @property
     def separates(self) -> bool:
@@ -235,9 +247,12 @@ def judged(
     share ``alpha`` of the budget, and what it detects (``None`` when no held-out run has a
     nominal sample)."""
     weighed = [(run, evidence(run.times, scored, WINDOW, smooth)) for run, scored in held]
-    nominal = [
-        float(np.nanmax(e[~r.faulty])) for r, e in weighed if (~np.isnan(e[~r.faulty])).any()
-    ]
+    nominal, spans = [], []
+    for run, found in weighed:
+        seen = ~run.faulty & ~np.isnan(found)
+        if seen.any():
+            nominal.append(float(found[seen].max()))
+            spans.append(float(run.times[seen].max() - run.times[seen].min()))
     if not nominal:
         return None
     threshold = threshold_of(nominal, alpha)
@@ -251,7 +266,15 @@ def judged(
         if len(over):
             delays[run.name] = float(run.times[over[0]] - run.start - run.onset)
     return Choice(
-        strength, smooth, threshold, frozenset(delays), delays, len(nominal), alpha, failed
+        strength,
+        smooth,
+        threshold,
+        frozenset(delays),
+        delays,
+        len(nominal),
+        alpha,
+        failed,
+        horizon=min(spans),
     )
 
 
