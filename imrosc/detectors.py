@@ -195,9 +195,9 @@ class Choice:
 
     @property
     def separates(self) -> bool:
-        """Whether chance explains its held-out detections no better than its share of
-        the budget (``alpha``) allows: only then is it kept (with no share asked, 0 or 1,
-        every choice that detects is kept)."""
+        """Whether its held-out detections are beyond chance: :attr:`chance` within its
+        share of the budget (``alpha``). Only then is it kept (with no share asked, 0 or
+        1, every choice that detects is kept)."""
         if not 0.0 < self.alpha < 1.0:
             return bool(self.detected)
         return bool(self.detected) and self.chance <= self.alpha
