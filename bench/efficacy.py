@@ -587,7 +587,23 @@ def refine(
     if result.refined is None or has_errors(result.diagnostics):
         sys.exit(f"classification failed for {config}:\n{render_text(result.diagnostics, 1)}")
     out.write_text(dumps(result.refined))
+    REPORT[0] = result.report
     return result.refined, result.diagnostics
+
+
+REPORT: list[dict[str, Any]] = [{}]
+"""The report of the last classification :func:`refine` ran."""
+
+
+def describe_detectors(report: Mapping[str, Any]) -> str:
+    """The learnt detectors a classification's report lists: kept and refused (chance
+    explains their held-out detections; docs/families/detector.md), with their points."""
+    kept = sorted(d["point"] for d in report.get("detectors", ()))
+    refused = sorted(d["point"] for d in report.get("detectors_refused", ()))
+    return (
+        f"detectors {len(kept)} learnt ({', '.join(kept) or '-'}), "
+        f"{len(refused)} refused ({', '.join(refused) or '-'})"
+    )
 
 
 def describe_warnings(diagnostics: Sequence[Diagnostic]) -> str:
@@ -861,7 +877,8 @@ def learn_alfa(
     print(
         f"  classified: {len(refined['invariants'])} kept, "
         f"{refined['classified']['dropped']} dropped, alarm rule {describe_rule(refined)} "
-        f"({classified:.1f} s); warnings: {describe_warnings(diagnostics)}"
+        f"({classified:.1f} s); warnings: {describe_warnings(diagnostics)}; "
+        f"{describe_detectors(REPORT[0])}"
     )
     return {"inferred": document, "classified": refined}
 
@@ -1080,7 +1097,7 @@ def sim_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
         f'scenario (seeds 300-{299 + len(trained)}) as <fail onset="{SIM_START:g}">: '
         f"{len(refined['invariants'])} kept, {refined['classified']['dropped']} dropped, "
         f"alarm rule {describe_rule(refined)} ({time.monotonic() - tick:.1f} s); "
-        f"warnings: {describe_warnings(diagnostics)}"
+        f"warnings: {describe_warnings(diagnostics)}; {describe_detectors(REPORT[0])}"
     )
     start = START_NS / SECOND
     outcomes: dict[str, list[Outcome]] = {}

@@ -40,6 +40,7 @@ from imrosc.calibrate.rule import HeldOutRun, alarms_under, covered, held_out_ru
 from imrosc.detectors import (
     FOLDS,
     Learnt,
+    Refused,
     Sampled,
     learn,
     learnable,
@@ -1070,8 +1071,9 @@ def run_check(
         )
         learnt: list[Learnt] = []
         if logistic:
-            learnt = learn_detectors(document, runs["success"], onset_runs)
+            learnt, refused = learn_detectors(document, runs["success"], onset_runs)
             report["detectors"] = [detector_entry(d) for d in learnt]
+            report["detectors_refused"] = [refused_entry(r) for r in refused]
             document = {**document, "invariants": [*document["invariants"]]}
             for found_detector in learnt:
                 ident = found_detector.invariant["id"]
@@ -1157,11 +1159,12 @@ def learn_detectors(
     document: Mapping[str, Any],
     success: Mapping[Path, RunOutcome],
     failed: Mapping[Path, RunOutcome],
-) -> list[Learnt]:
+) -> tuple[list[Learnt], list[Refused]]:
     """The fault detectors of the publish points (:mod:`imrosc.detectors`), from the samples
-    of the successful runs and of the failed runs with an onset. Each of the ``m`` points a
-    detector is learnt for gets ``budget / m`` of the document's false-alarm budget per run
-    (Bonferroni): the monitor's detectors together keep the budget."""
+    of the successful runs and of the failed runs with an onset, and the points whose best
+    detector was refused (chance explains its held-out detections). Each of the ``m``
+    points a detector is learnt for gets ``budget / m`` of the document's false-alarm
+    budget per run (Bonferroni): the monitor's detectors together keep the budget."""
     from imrosc.calibrate import DEFAULT_BUDGET
 
     candidates = []
@@ -1177,12 +1180,15 @@ def learn_detectors(
             candidates.append((key, variables, runs))
     budget = float((document.get("calibration") or {}).get("budget", DEFAULT_BUDGET))
     alpha = budget / max(1, len(candidates))
-    found = []
+    found: list[Learnt] = []
+    refused: list[Refused] = []
     for key, variables, runs in candidates:
         learnt = learn(key, variables, runs, alpha)
-        if learnt is not None:
+        if isinstance(learnt, Refused):
+            refused.append(learnt)
+        elif learnt is not None:
             found.append(learnt)
-    return found
+    return found, refused
 
 
 def detector_nominal(learnt: Learnt) -> Nominal:
@@ -1203,8 +1209,33 @@ def detector_entry(learnt: Learnt) -> dict[str, Any]:
         "smooth": choice.smooth,
         "threshold": _number(choice.threshold),
         "held_out_nominal": choice.nominal,
+        "held_out_failed": choice.failed,
         "detected": sorted(choice.detected),
+        "horizon": _number(choice.horizon) if math.isfinite(choice.horizon) else None,
+        "prompt": choice.prompt,
+        "chance": _number(choice.chance),
         "delays": {run: _number(delay) for run, delay in sorted(choice.delays.items())},
+    }
+
+
+def refused_entry(refused: Refused) -> dict[str, Any]:
+    """The report's account of a refused detector: what its best choice detected held
+    out, and how likely chance alone would have done as well."""
+    choice = refused.choice
+    return {
+        "point": refused.point,
+        "variables": refused.variables,
+        "penalty": choice.strength,
+        "smooth": choice.smooth,
+        "threshold": _number(choice.threshold),
+        "held_out_nominal": choice.nominal,
+        "held_out_failed": choice.failed,
+        "detected": sorted(choice.detected),
+        "horizon": _number(choice.horizon) if math.isfinite(choice.horizon) else None,
+        "prompt": choice.prompt,
+        "pairs": choice.tried,
+        "chance": _number(choice.chance),
+        "share": _number(choice.alpha),
     }
 
 

@@ -29,6 +29,13 @@ threshold. How it is learnt (``docs/families/detector.md``):
    cross-fitted evidence detects the most held-out failed runs (evidence above the
    threshold from the onset on), the smallest mean delay on ties, then the strongest
    penalty and the shortest smoothing. No detector is kept when none detects one.
+5. **Refusal**: a detector blind to faults still "detects" a held-out failed run whose
+   largest evidence soon after the onset (within the shortest held-out nominal
+   stretch's length) lies above the ``n`` held-out nominal extremes, with probability at
+   most ``1/(n+1)`` (exchangeable ranks). The best pair is kept only when the binomial
+   probability of as many such detections among the held-out failed runs is within its
+   share ``alpha`` (:attr:`Choice.separates`); otherwise :func:`learn` gives
+   :class:`Refused`.
 
 The runs it detected, held out, and its estimated false-alarm probability are what
 classification's selection weighs it by, as it weighs every invariant.
@@ -36,6 +43,7 @@ classification's selection weighs it by, as it weighs every invariant.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -159,6 +167,40 @@ class Choice:
     """Held-out runs with nominal samples (the threshold's evidence)."""
     alpha: float = 1.0
     """The share of the false-alarm budget the threshold keeps (1: none asked)."""
+    failed: int = 0
+    """Held-out failed runs with evidence from their onset on (those it could detect)."""
+    tried: int = 1
+    """The penalty and smoothing pairs the choice was the best of."""
+    horizon: float = math.inf
+    """Seconds of the shortest held-out nominal stretch with evidence: a detection this
+    soon after the onset is one a blind detector makes at most as often as it exceeds a
+    nominal stretch's largest evidence."""
+
+    @property
+    def prompt(self) -> int:
+        """The held-out failed runs detected within :attr:`horizon` of their onsets."""
+        return sum(delay <= self.horizon for delay in self.delays.values())
+
+    @property
+    def chance(self) -> float:
+        """The probability that a detector whose evidence does not respond to faults at all
+        would have detected as many held-out failed runs within :attr:`horizon` of their
+        onsets: a failed run's largest evidence over that stretch, no longer than any
+        nominal one, is then at most one more draw beside the ``nominal`` held-out
+        extremes, above them all with probability at most ``1/(n+1)`` (their ranks are
+        exchangeable), and the threshold is at least the largest. Not corrected for the
+        choice among the pairs (they are nested: one fit's scores under five smoothings,
+        penalties a decade apart)."""
+        return binomial_tail(self.prompt, self.failed, 1.0 / (self.nominal + 1))
+
+    @property
+    def separates(self) -> bool:
+        """Whether its held-out detections are beyond chance: :attr:`chance` within its
+        share of the budget (``alpha``). Only then is it kept (with no share asked, 0 or
+        1, every choice that detects is kept)."""
+        if not 0.0 < self.alpha < 1.0:
+            return bool(self.detected)
+        return bool(self.detected) and self.chance <= self.alpha
 
     @property
     def false_alarm(self) -> float:
@@ -171,6 +213,17 @@ class Choice:
         short smoothing."""
         delay = sum(self.delays.values()) / len(self.delays) if self.delays else 0.0
         return (len(self.detected), -delay, self.strength, -self.smooth)
+
+
+def binomial_tail(k: int, n: int, p: float) -> float:
+    """``P(X >= k)`` for ``X`` binomial with ``n`` trials of probability ``p``.
+
+    >>> round(binomial_tail(2, 7, 1 / 14), 4), binomial_tail(0, 3, 0.5), binomial_tail(4, 3, 0.5)
+    (0.0842, 1.0, 0.0)
+    """
+    if k <= 0:
+        return 1.0
+    return math.fsum(math.comb(n, j) * p**j * (1.0 - p) ** (n - j) for j in range(k, n + 1))
 
 
 def threshold_of(extremes: Sequence[float], alpha: float) -> float:
@@ -194,18 +247,35 @@ def judged(
     share ``alpha`` of the budget, and what it detects (``None`` when no held-out run has a
     nominal sample)."""
     weighed = [(run, evidence(run.times, scored, WINDOW, smooth)) for run, scored in held]
-    nominal = [
-        float(np.nanmax(e[~r.faulty])) for r, e in weighed if (~np.isnan(e[~r.faulty])).any()
-    ]
+    nominal, spans = [], []
+    for run, found in weighed:
+        seen = ~run.faulty & ~np.isnan(found)
+        if seen.any():
+            nominal.append(float(found[seen].max()))
+            spans.append(float(run.times[seen].max() - run.times[seen].min()))
     if not nominal:
         return None
     threshold = threshold_of(nominal, alpha)
     delays = {}
+    failed = 0
     for run, found in weighed:
+        if run.onset is None or not (~np.isnan(found[run.faulty])).any():
+            continue
+        failed += 1
         over = np.flatnonzero(run.faulty & (found > threshold))
-        if len(over) and run.onset is not None:
+        if len(over):
             delays[run.name] = float(run.times[over[0]] - run.start - run.onset)
-    return Choice(strength, smooth, threshold, frozenset(delays), delays, len(nominal), alpha)
+    return Choice(
+        strength,
+        smooth,
+        threshold,
+        frozenset(delays),
+        delays,
+        len(nominal),
+        alpha,
+        failed,
+        horizon=min(spans),
+    )
 
 
 def choose(runs: Sequence[Run], alpha: float = 1.0) -> Choice | None:
@@ -216,6 +286,7 @@ def choose(runs: Sequence[Run], alpha: float = 1.0) -> Choice | None:
     if len(folds) < 2:
         return None
     best: Choice | None = None
+    tried = 0
     for strength in PENALTIES:
         held: list[tuple[Run, Any]] = []
         for fold in folds:
@@ -226,9 +297,12 @@ def choose(runs: Sequence[Run], alpha: float = 1.0) -> Choice | None:
             held += [(runs[k], model.scores(runs[k])) for k in fold]
         for smooth in SMOOTHING:
             found = judged(held, strength, smooth, alpha)
+            tried += found is not None
             if found is not None and (best is None or found.rank() > best.rank()):
                 best = found
-    return best if best is not None and best.detected else None
+    if best is None or not best.detected:
+        return None
+    return dataclasses.replace(best, tried=tried)
 
 
 def variables_of(point: Mapping[str, Any]) -> list[str]:
@@ -253,16 +327,29 @@ class Learnt:
     choice: Choice
 
 
+@dataclass(frozen=True)
+class Refused:
+    """A point whose best detector's held-out detections chance explains
+    (:attr:`Choice.separates`): none is kept, and the report says why."""
+
+    point: str
+    variables: int
+    choice: Choice
+
+
 def learn(
     key: str, variables: Sequence[str], runs: Sequence[Run], alpha: float = 1.0
-) -> Learnt | None:
+) -> Learnt | Refused | None:
     """The detector of point ``key`` from its runs' samples, its threshold at ``alpha``
-    (``None``: none is kept)."""
+    (``None``: no pair detects a held-out failed run; :class:`Refused`: chance explains
+    what the best one detects)."""
     if not learnable(variables, runs):
         return None
     choice = choose(runs, alpha)
     if choice is None:
         return None
+    if not choice.separates:
+        return Refused(key, len(variables), choice)
     model = fit(runs, choice.strength)
     weights = [float(w) for w in model.weights]
     invariant = {

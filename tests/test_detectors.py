@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -10,7 +11,7 @@ import pytest
 
 from imrosc import classify, detectors
 from imrosc.classify import RunOutcome
-from imrosc.detectors import Choice, Run, Sampled, choose, learn, run_of
+from imrosc.detectors import Choice, Learnt, Refused, Run, Sampled, choose, learn, run_of
 from imrosc.runtime.detector import Detector
 
 RATE = 20.0
@@ -57,7 +58,7 @@ def test_held_out_failed_runs_are_detected_after_their_onset(runs: list[Run]) ->
 
 def test_the_learnt_detector_checks_new_runs_as_it_was_learnt(runs: list[Run]) -> None:
     learnt = learn("p", ["x", "y"], runs)
-    assert learnt is not None
+    assert isinstance(learnt, Learnt)
     invariant = learnt.invariant
     assert invariant["family"] == "detector" and invariant["variables"] == ["x", "y"]
     assert invariant["params"]["threshold"] == learnt.choice.threshold
@@ -102,7 +103,7 @@ def test_the_evidence_of_a_lasting_fault_outweighs_a_good_run_s_passing_moment(
     assert len(smoothed.detected) >= 5  # of the 6 failed runs, each scored held out
     assert all(0.0 <= delay <= 4.0 + 1.0 for delay in smoothed.delays.values())
     learnt = learn("p", ["x"], runs)
-    assert learnt is not None and learnt.invariant["params"]["smooth"] == smoothed.smooth
+    assert isinstance(learnt, Learnt) and learnt.invariant["params"]["smooth"] == smoothed.smooth
     assert f"mean score over {smoothed.smooth:g} s" in learnt.invariant["text"]
     monkeypatch.setattr(detectors, "SMOOTHING", (0.0,))  # each sample's own score
     instant = choose(runs)
@@ -166,6 +167,55 @@ def test_the_detectors_of_a_document_share_its_false_alarm_budget(
         document = {"points": dict.fromkeys(names, point), "calibration": {"budget": 0.08}}
         success = {o.bag: o for o in (_outcome(s, None, names) for s in range(1, 5))}
         failed = {o.bag: o for o in (_outcome(s, 12.0, names) for s in range(5, 11))}
-        found = classify.learn_detectors(document, success, failed)
+        found, _ = classify.learn_detectors(document, success, failed)
         assert shares == [pytest.approx(0.08 / len(names))] * len(names)
         assert {d.invariant["point"] for d in found} <= set(names)
+
+
+def test_a_detector_whose_held_out_detections_chance_explains_is_refused(
+    runs: list[Run],
+) -> None:
+    """A failed run's largest evidence, were the detector blind to faults, would be one more
+    draw beside the ``n`` held-out nominal extremes: above them all with probability
+    ``1/(n+1)``. A detector is kept only when chance explains its held-out detections at
+    most as often as its share of the budget allows."""
+    assert detectors.binomial_tail(2, 7, 1 / 14) == pytest.approx(0.0842, abs=1e-4)
+    assert detectors.binomial_tail(0, 7, 0.5) == 1.0 and detectors.binomial_tail(8, 7, 0.5) == 0
+    # a lasting fault: most held-out failed runs detected, far beyond chance
+    strong = choose(runs, 0.05)
+    assert strong is not None and strong.failed == 6 and strong.tried == 30
+    assert strong.prompt == len(strong.detected)  # each soon after its onset
+    assert strong.chance <= 0.05 and strong.separates
+    assert isinstance(learn("p", ["x", "y"], runs, 0.05), Learnt)
+    # "failed" runs that are not: an onset with no fault after it
+    blind = [_run(seed, None) for seed in range(1, 5)]
+    blind += [run_of(f"run{s}", 100.0 * s, 12.0, _sampled(_samples(s, None))) for s in range(5, 11)]
+    found = choose(blind, 0.05)
+    assert found is not None and found.detected  # the best of 30 pairs "detects" some
+    # by chance, most of them long after the onset, where a failed run's stretch is longer
+    # than the shortest nominal one and its largest evidence no fair draw beside them
+    assert found.horizon < 12.0 and found.prompt < len(found.detected)
+    assert found.chance > 0.05 and not found.separates
+    refused = learn("p", ["x", "y"], blind, 0.05)
+    assert isinstance(refused, Refused) and refused.point == "p"
+    # with no share asked (1: calibration's budget off) a detection is kept as before
+    one = Choice(1.0, 0.0, 1.0, frozenset({"r"}), {"r": 0.5}, 13, 1.0, 7, 30, horizon=9.0)
+    assert one.chance == pytest.approx(1 - (13 / 14) ** 7) and one.separates
+    assert not dataclasses.replace(one, alpha=0.0125).separates
+
+
+def test_classification_reports_the_refused_detectors(monkeypatch: pytest.MonkeyPatch) -> None:
+    point = {
+        "kind": "publish",
+        "variables": [{"name": "x", "type": "float"}, {"name": "y", "type": "float"}],
+    }
+    document = {"points": {"p": point}, "calibration": {"budget": 0.05}}
+    success = {o.bag: o for o in (_outcome(s, None, ("p",)) for s in range(1, 5))}
+    failed = {o.bag: o for o in (_outcome(s, 12.0, ("p",)) for s in range(5, 11))}
+    blind = Choice(1.0, 0.0, 1.0, frozenset({"run5.bag"}), {"run5.bag": 0.5}, 10, 0.05, 6, 30)
+    monkeypatch.setattr(detectors, "choose", lambda runs, alpha=1.0: blind)
+    found, refused = classify.learn_detectors(document, success, failed)
+    assert found == [] and [r.point for r in refused] == ["p"]
+    entry = classify.refused_entry(refused[0])
+    assert entry["held_out_failed"] == 6 and entry["detected"] == ["run5.bag"]
+    assert entry["chance"] == pytest.approx(1 - (10 / 11) ** 6)

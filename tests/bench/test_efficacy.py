@@ -482,3 +482,12 @@ def test_the_warnings_of_a_classification() -> None:
     assert e.describe_warnings([]) == "none"
     found = [diagnostic(code) for code in ("success-in-detect", *["onset-unusable"] * 2)]
     assert e.describe_warnings(found) == "onset-unusable x2, success-in-detect (expected)"
+
+
+def test_the_detectors_of_a_classification() -> None:
+    report = {
+        "detectors": [{"point": "v"}],
+        "detectors_refused": [{"point": "b"}, {"point": "a"}],
+    }
+    assert e.describe_detectors(report) == "detectors 1 learnt (v), 2 refused (a, b)"
+    assert e.describe_detectors({}) == "detectors 0 learnt (-), 0 refused (-)"
