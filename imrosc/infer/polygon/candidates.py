@@ -5,12 +5,12 @@ every pair costs pairs x rows work (1,540 x 160,000 on the benchmark), so a chun
 reduced without touching most (pair, row) combinations, using what the
 :class:`~imrosc.infer.polygon.guide.Guide` knows to lie inside each current hull:
 
-* per pair, the square box or the cheapest cross (a wide and a tall box) is chosen by
-  costing each on a sample of the chunk; the rows outside it are read from per-variable
-  sorted tails (one sort per variable per chunk serves all its pairs): part A, the rows
-  left or right of the cross; part B, above or below it; part C, its corners, read from
-  the smaller of the two tails and filtered by the other coordinate. The cost follows the
-  number of samples near the boundary, not pairs x rows;
+* per pair, the cheapest box (the square one, a wide or a tall one) or cross (a wide and a
+  tall box) is chosen by costing each on a sample of the chunk; the rows outside it are
+  read from per-variable sorted tails (one sort per variable per chunk serves all its
+  pairs): part A, the rows left or right of the cross; part B, above or below it; part C,
+  its corners, read from the smaller of the two tails and filtered by the other
+  coordinate. The cost follows the number of samples near the boundary, not pairs x rows;
 * pairs no cross fits well (a band along a diagonal, a random walk wandering off the
   box) go by blocks of consecutive rows instead: a block whose bounding box has its four
   corners inside the hull has every row inside (the hull's interior is convex), so only
@@ -395,28 +395,27 @@ def _ends_in_tails(
 def _ends_in_full(
     chunk: Chunk, var: int, pairs: IntArray, partner: IntArray
 ) -> tuple[IntArray, IntArray]:
-    """``(pair, row)`` of every per-value end, from all rows of the chunk."""
-    values = chunk.values[var]
-    order = np.argsort(values, kind="stable")
-    count = int(np.count_nonzero(~chunk.nan[var]))
-    order = order[:count]
-    keys = values[order]
-    starts = np.concatenate([[0], np.flatnonzero(np.diff(keys)) + 1]).astype(np.int64)
-    run = np.zeros(count, np.int64)
-    run[starts[1:]] = 1
-    run = np.cumsum(run)
-    other = chunk.values[partner][:, order]
-    position = np.broadcast_to(np.arange(count), other.shape)
+    """``(pair, row)`` of every per-value end, from all rows of the chunk: per value of
+    ``var``, its rows (increasing) gathered from every partner at once, whose first least
+    and first greatest present values are the earliest ends."""
+    column = chunk.values[var]
+    others = chunk.values[partner]
+    gaps = chunk.has_nan[partner].any()
     parts: list[tuple[IntArray, IntArray]] = []
-    with np.errstate(all="ignore"):
-        for reduce in (np.fmin, np.fmax):
-            ends = reduce.reduceat(other, starts, axis=1)
-            hit = other == ends[:, run]
-            at = np.minimum.reduceat(np.where(hit, position, count), starts, axis=1)
-            p_idx, g_idx = np.nonzero(at < count)
-            parts.append((pairs[p_idx], order[at[p_idx, g_idx]]))
-    pair = np.concatenate([parts[0][0], parts[1][0]])
-    row = np.concatenate([parts[0][1], parts[1][1]])
+    for level in chunk.levels[var].tolist():
+        rows = np.flatnonzero(column == level)
+        other = others[:, rows]
+        for pick, fill in ((np.argmin, np.inf), (np.argmax, -np.inf)):
+            if gaps:
+                missing = np.isnan(other)
+                at = pick(np.where(missing, fill, other), axis=1)
+                hit = np.flatnonzero(~missing[np.arange(len(partner)), at])
+            else:
+                at = pick(other, axis=1)
+                hit = np.arange(len(partner))
+            parts.append((pairs[hit], rows[at[hit]]))
+    pair = np.concatenate([p for p, _ in parts])
+    row = np.concatenate([r for _, r in parts]).astype(np.int64)
     return pair, row
 
 
@@ -492,15 +491,15 @@ def _make_plan(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide:
     wide = guide.wide[:, :, pairs]
     tall = guide.tall[:, :, pairs]
     k = wide.shape[0]
-    # option 0: the square box; option 1 + a * k + b: wide[a] with tall[b]
-    ax = np.concatenate([sq[None, 0:2], np.repeat(wide[:, 0:2], k, axis=0)])
-    by = np.concatenate([sq[None, 2:4], np.tile(tall[:, 2:4], (k, 1, 1))])
-    cx = np.concatenate(
-        [np.full((1, 2, len(pairs)), [[-np.inf], [np.inf]]), np.tile(tall[:, 0:2], (k, 1, 1))]
-    )
-    cy = np.concatenate(
-        [np.full((1, 2, len(pairs)), [[-np.inf], [np.inf]]), np.repeat(wide[:, 2:4], k, axis=0)]
-    )
+    # option 0: the square box; 1 + a * k + b: wide[a] with tall[b]; then each wide box
+    # alone, then each tall box alone (a band of a variable that crowds one end of its
+    # range, like |n|, leaves few rows outside the box nearly as tall as the hull)
+    alone = np.concatenate([sq[None], wide, tall])
+    nothing = np.full((len(alone), 2, len(pairs)), [[-np.inf], [np.inf]])
+    ax = np.concatenate([alone[:1, 0:2], np.repeat(wide[:, 0:2], k, axis=0), alone[1:, 0:2]])
+    by = np.concatenate([alone[:1, 2:4], np.tile(tall[:, 2:4], (k, 1, 1)), alone[1:, 2:4]])
+    cx = np.concatenate([nothing[:1], np.tile(tall[:, 0:2], (k, 1, 1)), nothing[1:]])
+    cy = np.concatenate([nothing[:1], np.repeat(wide[:, 2:4], k, axis=0), nothing[1:]])
     col = np.arange(len(pairs))
     sides = ((ax, ox), (by, oy), (cx, ox), (cy, oy))
     # a pair whose guide is unchanged keeps its choice: only that option is costed
