@@ -284,6 +284,27 @@ def test_window_means_are_the_variance_algorithm_s_means_bit_for_bit() -> None:
     assert math.isnan(window_mean([1.0]))
 
 
+def test_steady_windows_read_as_slices_equal_the_reference_bit_for_bit() -> None:
+    """One length and consecutive starts (a steady rate) take the blocks as slices of the
+    levels; one length with gaps between starts, and two lengths, gather them: every path
+    gives the reference's mean and variance, and leaves the data as it was."""
+    rng = np.random.default_rng(11)
+    values = rng.normal(size=(300, 3)) * 1e4 + 1e3
+    before = values.copy()
+    for start, length in (
+        (np.arange(20, 220), np.full(200, 77)),
+        (np.arange(0, 200, 2), np.full(100, 100)),
+        (np.arange(10, 210), np.where(np.arange(200) % 2 == 0, 64, 65)),
+    ):
+        means, variances = windowed_moments(values, start, length)
+        for k in range(len(start)):
+            window = values[start[k] : start[k] + length[k]]
+            for c in range(3):
+                assert variances[k, c] == window_variance(window[:, c].tolist())
+                assert means[k, c] == window_mean(window[:, c].tolist())
+    assert np.array_equal(values, before)
+
+
 def test_a_scaled_sensor_breaks_its_mean_but_not_its_bounds() -> None:
     """Noise around 9.81 with shocks to 25: a reading scaled by 1.5 stays within the bounds
     and leaves the window mean's envelope."""
