@@ -81,6 +81,9 @@ _RUNS = 8
 _BLOCK = 1 << 15
 """Samples filtered together (keeps the temporaries in cache)."""
 
+_LINE_HEAD = 256
+"""Rows of a pair read in full that tell whether it has rows on ``y = x`` or ``y = -x``."""
+
 BLOCKS = (256, 32)
 """Sizes of the blocks of consecutive rows whose bounding boxes are tested, coarse to fine."""
 
@@ -696,7 +699,8 @@ def _whole(
     chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide
 ) -> list[GroupSet]:
     """:func:`_rows` of every row of each of ``pairs`` (pairs with a table): the same
-    lookups (:meth:`Guide.inside_run`) on slices of the columns."""
+    lookups (:meth:`Guide.inside_run`) on slices of the columns, but for the rows on the
+    line ``y = x`` or ``y = -x`` exactly (see :func:`_off_lines`)."""
     found: list[GroupSet] = []
     for pair in pairs.tolist():
         i, j = int(pi[pair]), int(pj[pair])
@@ -704,14 +708,44 @@ def _whole(
             x = chunk.values[i, first : first + _BLOCK]
             y = chunk.values[j, first : first + _BLOCK]
             with np.errstate(invalid="ignore"):
-                keep = ~guide.inside_run(pair, x, y)
-                if chunk.has_nan[i] or chunk.has_nan[j]:
-                    keep &= ~(np.isnan(x) | np.isnan(y))
-            sel = np.flatnonzero(keep)
+                rest, ends = _off_lines(x, y)
+                if rest is None:
+                    keep = ~guide.inside_run(pair, x, y)
+                    if chunk.has_nan[i] or chunk.has_nan[j]:
+                        keep &= ~(np.isnan(x) | np.isnan(y))
+                    sel = np.flatnonzero(keep)
+                else:
+                    rx, ry = x.take(rest), y.take(rest)
+                    keep = ~guide.inside_run(pair, rx, ry) & ~(np.isnan(rx) | np.isnan(ry))
+                    sel = np.sort(np.concatenate([rest[keep], ends]))
             found.append(
                 GroupSet(np.full(len(sel), pair, np.int64), x.take(sel), y.take(sel), sel + first)
             )
     return found
+
+
+def _off_lines(x: FloatArray, y: FloatArray) -> tuple[IntArray | None, IntArray]:
+    """``(rest, ends)``: where some rows lie on the line ``y = x`` or ``y = -x`` exactly
+    (``mx = max(n1, n2)`` beside ``n1``, ``|n|`` beside ``n``), the rows on neither, and
+    per line the rows of its least and greatest ``x`` (the earliest on ties); ``(None,
+    [])`` when the first ``_LINE_HEAD`` rows show no such row.
+
+    A row of a line strictly between its ends is a proper convex combination of two rows of
+    the chunk, so it is no vertex of any hull holding the chunk; an end at the place of
+    other rows of its line is the earliest of them, as the hull's first occurrences are."""
+    none = np.empty(0, np.int64)
+    head = slice(0, _LINE_HEAD)
+    if not bool(np.any((x[head] == y[head]) | (x[head] == -y[head]))):
+        return None, none
+    off = np.ones(len(x), bool)
+    ends: list[int] = []
+    for line in (x == y, x == -y):
+        on = np.flatnonzero(line)
+        if len(on):
+            along = x.take(on)
+            ends += [int(on[np.argmin(along)]), int(on[np.argmax(along)])]
+            off[on] = False
+    return np.flatnonzero(off), np.unique(np.array(ends, np.int64))
 
 
 def _open_blocks(
