@@ -25,7 +25,7 @@ from imrosc.infer.timed import (
     windowed_moments,
     windowed_variances,
 )
-from imrosc.infer.timed.windows import Extremes
+from imrosc.infer.timed.windows import Extremes, window_starts
 from imrosc.ir import Tunables
 
 EPOCH = 1.7e9
@@ -131,6 +131,29 @@ def test_rate_of_x_equal_2t_is_2() -> None:
     found = invariant(state)
     assert (found.params["min"], found.params["max"]) == (2.0, 2.0)
     assert found.text == "2 <= rate(x) <= 2"
+
+
+def test_rate_of_steady_and_jittered_streams_matches_each_window() -> None:
+    """Windows of a steady stream (consecutive starts: read as slices) and of a jittered one
+    with repeated stamps (gathered), fed in chunks: the bounds are the per-window
+    ``(last - first) / (t_last - t_first)`` extremes, bit for bit."""
+    rng = np.random.default_rng(8)
+    for time in (
+        EPOCH + np.arange(900) / 50,
+        EPOCH + np.sort(np.repeat(rng.uniform(0, 18, 450), 2)),
+    ):
+        values = np.cumsum(rng.normal(size=900))
+        state = RateState(("x",), 1.0)
+        for start in range(0, 900, 128):
+            state.update(samples(time[start : start + 128], x=values[start : start + 128]))
+        starts = window_starts(time, 1.0)
+        rates = [
+            (values[i] - values[j]) / (time[i] - time[j])
+            for i, j in enumerate(starts.tolist())
+            if time[0] <= time[i] - effective_width(1.0) and time[i] > time[j]
+        ]
+        found = invariant(state)
+        assert (found.params["min"], found.params["max"]) == (min(rates), max(rates))
 
 
 def _thesis_algorithm_4(time: FloatArray, values: FloatArray, window: float) -> tuple[float, float]:
