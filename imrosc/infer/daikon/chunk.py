@@ -117,7 +117,7 @@ class ChunkView:
 def _sums_of(values: dict[str, FloatArray], names: list[str]) -> list[int]:
     if not names:
         return []
-    return exact_sums(np.stack([values[name] for name in names]))
+    return exact_sums(np.stack([values[name] for name in names]), consume=True)
 
 
 def _dots_of(values: dict[str, FloatArray], pairs: list[tuple[str, str]]) -> list[int]:

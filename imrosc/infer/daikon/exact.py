@@ -43,8 +43,10 @@ Dyadic = tuple[int, int]
 """``(m, e)`` meaning ``m * 2**e``."""
 
 
-def exact_sums(matrix: FloatArray) -> list[int]:
-    """The exact sum of each row of a finite ``(rows, n)`` matrix, scaled by ``2**SCALE``.
+def exact_sums(matrix: FloatArray, consume: bool = False) -> list[int]:
+    """The exact sum of each row of a finite ``(rows, n)`` matrix, scaled by ``2**SCALE``
+    (``consume``: ``matrix``, a float64 temporary of the caller's, is worked on in place
+    rather than copied).
 
     Rump, Ogita and Oishi's extraction (AccSum): with ``sigma = 2**(e + M)`` above every
     ``|r_i| < 2**e`` and ``2**M > n + 2``, ``q_i = (sigma + r_i) - sigma`` is an exact high
@@ -57,7 +59,8 @@ def exact_sums(matrix: FloatArray) -> list[int]:
     if n == 0:
         return totals
     spare = math.ceil(math.log2(n + 2)) + 1
-    part = np.array(matrix, dtype=np.float64)
+    consume = consume and matrix.dtype == np.float64 and matrix.flags.c_contiguous
+    part = matrix if consume else np.array(matrix, dtype=np.float64)
     high = np.empty_like(part)  # the pass's high parts, in place
     active = np.arange(rows)
     while active.size:
@@ -159,7 +162,7 @@ def exact_products(matrix: FloatArray, pairs: Sequence[tuple[int, int]]) -> list
         error += upper[i] * lower[j]
         error += lower[i] * upper[j]
         error += lower[i] * lower[j]
-    sums = exact_sums(out)
+    sums = exact_sums(out, consume=True)
     totals = [sums[k] + sums[len(pairs) + k] for k in range(len(pairs))]
     for k, (i, j) in enumerate(pairs):
         if clean[i] and clean[j]:

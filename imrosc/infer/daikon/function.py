@@ -43,7 +43,10 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
 BLOCK = 256
-"""Rows per block: each block tests only the candidates the earlier ones left alive."""
+"""Rows of a chunk's first block: each block tests only the candidates the earlier ones
+left alive, each twice as long as the one before (up to ``_LARGEST_BLOCK``), so that
+candidates most chunks break die early and the true functions take few blocks."""
+_LARGEST_BLOCK = 8192
 SEED_ROWS = 256
 """Rows where the result is known that are searched for the one that settles the most."""
 KINDS = ("max", "min", "abs")
@@ -129,13 +132,34 @@ class FunctionState:
         """The candidates the chunk leaves alive, their counts updated."""
         rows = values.shape[1]
         alive = np.ones(len(found.x), bool)
-        for start in range(0, rows, BLOCK):
+        whole = not missing.any()  # every row tested: no masks
+        start, size = 0, BLOCK
+        while start < rows:
             live = np.flatnonzero(alive)
             if not len(live):
                 break
-            block = slice(start, min(start + BLOCK, rows))
+            block = slice(start, min(start + size, rows))
+            start, size = start + size, min(2 * size, _LARGEST_BLOCK)
             zv = values[z, block]
             xv = values[found.x[live], block]
+            if whole:
+                if kind == "abs":
+                    result = np.abs(xv)
+                    first, second = xv < 0, xv > 0
+                else:
+                    yv = values[found.y[live], block]
+                    if kind == "max":
+                        result, first, second = np.maximum(xv, yv), xv > yv, yv > xv
+                    else:
+                        result, first, second = np.minimum(xv, yv), xv < yv, yv < xv
+                    first &= zv == xv
+                    second &= zv == yv
+                broken = (result != zv).any(axis=1)
+                found.tested[live] += len(zv)
+                found.first[live] += first.sum(axis=1)
+                found.second[live] += second.sum(axis=1)
+                alive[live[broken]] = False
+                continue
             lost = missing[found.x[live], block] | missing[z, block]
             if kind == "abs":
                 tested = ~lost

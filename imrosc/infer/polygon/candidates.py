@@ -5,12 +5,12 @@ every pair costs pairs x rows work (1,540 x 160,000 on the benchmark), so a chun
 reduced without touching most (pair, row) combinations, using what the
 :class:`~imrosc.infer.polygon.guide.Guide` knows to lie inside each current hull:
 
-* per pair, the square box or the cheapest cross (a wide and a tall box) is chosen by
-  costing each on a sample of the chunk; the rows outside it are read from per-variable
-  sorted tails (one sort per variable per chunk serves all its pairs): part A, the rows
-  left or right of the cross; part B, above or below it; part C, its corners, read from
-  the smaller of the two tails and filtered by the other coordinate. The cost follows the
-  number of samples near the boundary, not pairs x rows;
+* per pair, the cheapest box (the square one, a wide or a tall one) or cross (a wide and a
+  tall box) is chosen by costing each on a sample of the chunk; the rows outside it are
+  read from per-variable sorted tails (one sort per variable per chunk serves all its
+  pairs): part A, the rows left or right of the cross; part B, above or below it; part C,
+  its corners, read from the smaller of the two tails and filtered by the other
+  coordinate. The cost follows the number of samples near the boundary, not pairs x rows;
 * pairs no cross fits well (a band along a diagonal, a random walk wandering off the
   box) go by blocks of consecutive rows instead: a block whose bounding box has its four
   corners inside the hull has every row inside (the hull's interior is convex), so only
@@ -80,6 +80,9 @@ _RUNS = 8
 
 _BLOCK = 1 << 15
 """Samples filtered together (keeps the temporaries in cache)."""
+
+_LINE_HEAD = 256
+"""Rows of a pair read in full that tell whether it has rows on ``y = x`` or ``y = -x``."""
 
 BLOCKS = (256, 32)
 """Sizes of the blocks of consecutive rows whose bounding boxes are tested, coarse to fine."""
@@ -395,28 +398,27 @@ def _ends_in_tails(
 def _ends_in_full(
     chunk: Chunk, var: int, pairs: IntArray, partner: IntArray
 ) -> tuple[IntArray, IntArray]:
-    """``(pair, row)`` of every per-value end, from all rows of the chunk."""
-    values = chunk.values[var]
-    order = np.argsort(values, kind="stable")
-    count = int(np.count_nonzero(~chunk.nan[var]))
-    order = order[:count]
-    keys = values[order]
-    starts = np.concatenate([[0], np.flatnonzero(np.diff(keys)) + 1]).astype(np.int64)
-    run = np.zeros(count, np.int64)
-    run[starts[1:]] = 1
-    run = np.cumsum(run)
-    other = chunk.values[partner][:, order]
-    position = np.broadcast_to(np.arange(count), other.shape)
+    """``(pair, row)`` of every per-value end, from all rows of the chunk: per value of
+    ``var``, its rows (increasing) gathered from every partner at once, whose first least
+    and first greatest present values are the earliest ends."""
+    column = chunk.values[var]
+    others = chunk.values[partner]
+    gaps = chunk.has_nan[partner].any()
     parts: list[tuple[IntArray, IntArray]] = []
-    with np.errstate(all="ignore"):
-        for reduce in (np.fmin, np.fmax):
-            ends = reduce.reduceat(other, starts, axis=1)
-            hit = other == ends[:, run]
-            at = np.minimum.reduceat(np.where(hit, position, count), starts, axis=1)
-            p_idx, g_idx = np.nonzero(at < count)
-            parts.append((pairs[p_idx], order[at[p_idx, g_idx]]))
-    pair = np.concatenate([parts[0][0], parts[1][0]])
-    row = np.concatenate([parts[0][1], parts[1][1]])
+    for level in chunk.levels[var].tolist():
+        rows = np.flatnonzero(column == level)
+        other = others[:, rows]
+        for pick, fill in ((np.argmin, np.inf), (np.argmax, -np.inf)):
+            if gaps:
+                missing = np.isnan(other)
+                at = pick(np.where(missing, fill, other), axis=1)
+                hit = np.flatnonzero(~missing[np.arange(len(partner)), at])
+            else:
+                at = pick(other, axis=1)
+                hit = np.arange(len(partner))
+            parts.append((pairs[hit], rows[at[hit]]))
+    pair = np.concatenate([p for p, _ in parts])
+    row = np.concatenate([r for _, r in parts]).astype(np.int64)
     return pair, row
 
 
@@ -492,15 +494,15 @@ def _make_plan(chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide:
     wide = guide.wide[:, :, pairs]
     tall = guide.tall[:, :, pairs]
     k = wide.shape[0]
-    # option 0: the square box; option 1 + a * k + b: wide[a] with tall[b]
-    ax = np.concatenate([sq[None, 0:2], np.repeat(wide[:, 0:2], k, axis=0)])
-    by = np.concatenate([sq[None, 2:4], np.tile(tall[:, 2:4], (k, 1, 1))])
-    cx = np.concatenate(
-        [np.full((1, 2, len(pairs)), [[-np.inf], [np.inf]]), np.tile(tall[:, 0:2], (k, 1, 1))]
-    )
-    cy = np.concatenate(
-        [np.full((1, 2, len(pairs)), [[-np.inf], [np.inf]]), np.repeat(wide[:, 2:4], k, axis=0)]
-    )
+    # option 0: the square box; 1 + a * k + b: wide[a] with tall[b]; then each wide box
+    # alone, then each tall box alone (a band of a variable that crowds one end of its
+    # range, like |n|, leaves few rows outside the box nearly as tall as the hull)
+    alone = np.concatenate([sq[None], wide, tall])
+    nothing = np.full((len(alone), 2, len(pairs)), [[-np.inf], [np.inf]])
+    ax = np.concatenate([alone[:1, 0:2], np.repeat(wide[:, 0:2], k, axis=0), alone[1:, 0:2]])
+    by = np.concatenate([alone[:1, 2:4], np.tile(tall[:, 2:4], (k, 1, 1)), alone[1:, 2:4]])
+    cx = np.concatenate([nothing[:1], np.tile(tall[:, 0:2], (k, 1, 1)), nothing[1:]])
+    cy = np.concatenate([nothing[:1], np.repeat(wide[:, 2:4], k, axis=0), nothing[1:]])
     col = np.arange(len(pairs))
     sides = ((ax, ox), (by, oy), (cx, ox), (cy, oy))
     # a pair whose guide is unchanged keeps its choice: only that option is costed
@@ -697,7 +699,8 @@ def _whole(
     chunk: Chunk, pairs: IntArray, pi: IntArray, pj: IntArray, guide: Guide
 ) -> list[GroupSet]:
     """:func:`_rows` of every row of each of ``pairs`` (pairs with a table): the same
-    lookups (:meth:`Guide.inside_run`) on slices of the columns."""
+    lookups (:meth:`Guide.inside_run`) on slices of the columns, but for the rows on the
+    line ``y = x`` or ``y = -x`` exactly (see :func:`_off_lines`)."""
     found: list[GroupSet] = []
     for pair in pairs.tolist():
         i, j = int(pi[pair]), int(pj[pair])
@@ -705,14 +708,44 @@ def _whole(
             x = chunk.values[i, first : first + _BLOCK]
             y = chunk.values[j, first : first + _BLOCK]
             with np.errstate(invalid="ignore"):
-                keep = ~guide.inside_run(pair, x, y)
-                if chunk.has_nan[i] or chunk.has_nan[j]:
-                    keep &= ~(np.isnan(x) | np.isnan(y))
-            sel = np.flatnonzero(keep)
+                rest, ends = _off_lines(x, y)
+                if rest is None:
+                    keep = ~guide.inside_run(pair, x, y)
+                    if chunk.has_nan[i] or chunk.has_nan[j]:
+                        keep &= ~(np.isnan(x) | np.isnan(y))
+                    sel = np.flatnonzero(keep)
+                else:
+                    rx, ry = x.take(rest), y.take(rest)
+                    keep = ~guide.inside_run(pair, rx, ry) & ~(np.isnan(rx) | np.isnan(ry))
+                    sel = np.sort(np.concatenate([rest[keep], ends]))
             found.append(
                 GroupSet(np.full(len(sel), pair, np.int64), x.take(sel), y.take(sel), sel + first)
             )
     return found
+
+
+def _off_lines(x: FloatArray, y: FloatArray) -> tuple[IntArray | None, IntArray]:
+    """``(rest, ends)``: where some rows lie on the line ``y = x`` or ``y = -x`` exactly
+    (``mx = max(n1, n2)`` beside ``n1``, ``|n|`` beside ``n``), the rows on neither, and
+    per line the rows of its least and greatest ``x`` (the earliest on ties); ``(None,
+    [])`` when the first ``_LINE_HEAD`` rows show no such row.
+
+    A row of a line strictly between its ends is a proper convex combination of two rows of
+    the chunk, so it is no vertex of any hull holding the chunk; an end at the place of
+    other rows of its line is the earliest of them, as the hull's first occurrences are."""
+    none = np.empty(0, np.int64)
+    head = slice(0, _LINE_HEAD)
+    if not bool(np.any((x[head] == y[head]) | (x[head] == -y[head]))):
+        return None, none
+    off = np.ones(len(x), bool)
+    ends: list[int] = []
+    for line in (x == y, x == -y):
+        on = np.flatnonzero(line)
+        if len(on):
+            along = x.take(on)
+            ends += [int(on[np.argmin(along)]), int(on[np.argmax(along)])]
+            off[on] = False
+    return np.flatnonzero(off), np.unique(np.array(ends, np.int64))
 
 
 def _open_blocks(

@@ -6,7 +6,7 @@ when ``H`` changes):
 * axis-aligned boxes certified strictly inside ``H`` (every corner passes Shewchuk's float
   orientation test against every edge): the largest *square-ish* box, and *wide* boxes
   (a fixed fraction of ``H``'s height, as wide as ``H`` allows) and *tall* boxes (the
-  transpose); a wide and a tall box together form a cross;
+  transpose); each serves alone, and a wide and a tall box together form a cross;
 * a center ``c`` strictly inside ``H`` and ``H``'s bounding-box spans ``(sx, sy)``, which
   define normalised coordinates ``u = (x - cx) / sx``, ``v = (y - cy) / sy``;
 * a polar table: the plane around ``c`` cut into ``BUCKETS`` sectors (equal steps of the
@@ -60,8 +60,10 @@ _MARGIN = 2.0**-20
 at both ends: far more than the rounding of any angle."""
 _TABLE_BLOCK = 1 << 14
 """Table entries computed together (keeps the temporaries in cache)."""
-FRACTIONS = (0.3, 0.55, 0.8)
-"""Heights of the wide boxes (widths of the tall ones) as fractions of the hull's span."""
+FRACTIONS = (0.3, 0.55, 0.8, 0.98)
+"""Heights of the wide boxes (widths of the tall ones) as fractions of the hull's span (the
+nearly full one suits a variable of few values, or one crowding an end of its range, whose
+extreme values hold many rows: an integer column beside ``|n|``)."""
 
 _SHRINK = 1e-7
 _CLEAR = 1e-6

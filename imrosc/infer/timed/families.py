@@ -253,10 +253,21 @@ class RateState(TimedState):
         )
         dt = time[ends] - time[starts]
         keep = dt > 0
-        ends, starts = ends[keep], starts[keep]
+        if not keep.all():
+            ends, starts, dt = ends[keep], starts[keep], dt[keep]
         with np.errstate(all="ignore"):
-            rate = (values[ends] - values[starts]) / dt[keep][:, None]
+            if _consecutive(ends) and _consecutive(starts):  # a steady rate: slices
+                first, start = int(ends[0]), int(starts[0])
+                last = values[first : first + len(ends)]
+                rate = (last - values[start : start + len(starts)]) / dt[:, None]
+            else:
+                rate = (values[ends] - values[starts]) / dt[:, None]
         self.extremes.add(rate, np.isfinite(rate))
+
+
+def _consecutive(rows: IntArray) -> bool:
+    """Whether ``rows`` are ``k, k + 1, ...`` (at least one)."""
+    return len(rows) > 0 and bool(np.all(rows[1:] - rows[:-1] == 1))
 
 
 def make_states(

@@ -153,9 +153,14 @@ def _block_by_length(
     out: FloatArray,
     out_mean: FloatArray,
 ) -> None:
-    lengths, inverse = np.unique(length, return_inverse=True)
+    if int(length.min()) == int(length.max()):  # one length: no grouping
+        lengths, inverse = length[:1], np.zeros(len(length), np.int64)
+    else:
+        lengths, inverse = np.unique(length, return_inverse=True)
     for group, size in enumerate(lengths.tolist()):
-        rows = np.flatnonzero(inverse == group)
+        # one length and consecutive starts (a steady rate): the blocks are slices
+        steady = len(lengths) == 1 and bool(np.all(start[1:] - start[:-1] == 1))
+        rows = np.flatnonzero(inverse == group) if not steady else np.arange(len(start))
         first = start[rows]
         acc_mean: FloatArray | None = None
         acc_m2: FloatArray | None = None
@@ -165,8 +170,13 @@ def _block_by_length(
             if not (size >> k) & 1:
                 continue
             block = 1 << k
-            bm = means[k][first + offset]
-            bm2 = m2s[k][first + offset]
+            if steady:
+                at = int(first[0]) + offset
+                bm = means[k][at : at + len(first)]
+                bm2 = m2s[k][at : at + len(first)]
+            else:
+                bm = means[k][first + offset]
+                bm2 = m2s[k][first + offset]
             offset += block
             if acc_mean is None or acc_m2 is None:
                 acc_mean, acc_m2, na = bm, bm2, block
@@ -177,12 +187,16 @@ def _block_by_length(
             new_mean += acc_mean
             d *= d
             d *= (na * block) / n
-            bm2 += acc_m2
+            bm2 = bm2 + acc_m2  # not in place: a slice is the levels' own
             bm2 += d
             acc_mean, acc_m2, na = new_mean, bm2, n
         assert acc_m2 is not None and acc_mean is not None
-        out[rows] = acc_m2 / (size - 1)
-        out_mean[rows] = acc_mean
+        if steady:
+            np.divide(acc_m2, size - 1, out=out)
+            out_mean[:] = acc_mean
+        else:
+            out[rows] = acc_m2 / (size - 1)
+            out_mean[rows] = acc_mean
 
 
 def _block_by_bits(
@@ -249,7 +263,7 @@ def windowed_moments(
             top = int(ln.max()).bit_length() - 1
             means, m2s = _levels(np.ascontiguousarray(values[base:end]), top)
             target, target_mean = out[sl], out_mean[sl]
-            if len(np.unique(ln)) <= _MAX_GROUPS:
+            if ln.min() == ln.max() or len(np.unique(ln)) <= _MAX_GROUPS:
                 _block_by_length(means, m2s, st - base, ln, target, target_mean)
             else:
                 _block_by_bits(means, m2s, st - base, ln, target, target_mean)

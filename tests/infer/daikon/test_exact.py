@@ -64,6 +64,21 @@ def test_exact_sums_of_rows_that_settle_after_different_passes() -> None:
         assert Fraction(total) == scaled(list(row))
 
 
+def test_exact_sums_consume_only_a_float64_temporary() -> None:
+    """``consume`` works on the caller's C-contiguous float64 matrix in place (the same
+    sums); another layout is copied and left as it was."""
+    rng = np.random.default_rng(9)
+    matrix = rng.normal(size=(4, 2000)) * 2.0 ** rng.integers(-80, 80, size=(4, 2000))
+    matrix[3] = 1e300 * rng.normal(size=2000)  # summed by exponent groups
+    want = [Fraction(total) for total in exact_sums(matrix)]
+    assert want == [scaled(list(row)) for row in matrix]
+    strided = matrix.T.copy().T  # Fortran order: copied even when consumable
+    assert [Fraction(t) for t in exact_sums(strided, consume=True)] == want
+    assert np.array_equal(strided, matrix)
+    temporary = matrix.copy()
+    assert [Fraction(t) for t in exact_sums(temporary, consume=True)] == want
+
+
 @settings(max_examples=100, deadline=None)
 @given(st.lists(st.tuples(finite, finite), min_size=1, max_size=12), finite, finite, finite)
 def test_residual_is_exact(points: list[tuple[float, float]], a: float, b: float, c: float) -> None:

@@ -85,3 +85,19 @@ def test_the_runtime_engine_checks_what_inference_found() -> None:
     }
     unknown = np.array([math.nan, -0.7, 9.0, 0.5, 0.7])
     assert checks.check(0.0, "p", unknown) == []
+
+
+def test_long_chunks_break_late_and_count_as_short_ones() -> None:
+    """One chunk of 20,000 rows (blocks doubling from 256) and chunks of 100 rows find the
+    same functions with the same support, a sample off late in the chunk breaking its
+    candidate, with and without missing values (tested under masks, or every row)."""
+    for gaps in (False, True):
+        data = rows(n=20_000, seed=3)
+        data["mag"][15_000] += 1e-9
+        if gaps:
+            data["a"][[10, 12_000]] = math.nan
+            data["z"][:300] = math.nan
+        whole = infer(FLOATS, data, ["function"])
+        assert texts(whole) == ["z == max(a, b)"]
+        assert infer(FLOATS, data, ["function"], chunk_rows=100) == whole
+        assert whole[0].samples == 20_000 - (301 if gaps else 0)  # row 10 within the 300

@@ -25,7 +25,7 @@ from imrosc.infer.timed import (
     windowed_moments,
     windowed_variances,
 )
-from imrosc.infer.timed.windows import Extremes
+from imrosc.infer.timed.windows import Extremes, window_starts
 from imrosc.ir import Tunables
 
 EPOCH = 1.7e9
@@ -131,6 +131,29 @@ def test_rate_of_x_equal_2t_is_2() -> None:
     found = invariant(state)
     assert (found.params["min"], found.params["max"]) == (2.0, 2.0)
     assert found.text == "2 <= rate(x) <= 2"
+
+
+def test_rate_of_steady_and_jittered_streams_matches_each_window() -> None:
+    """Windows of a steady stream (consecutive starts: read as slices) and of a jittered one
+    with repeated stamps (gathered), fed in chunks: the bounds are the per-window
+    ``(last - first) / (t_last - t_first)`` extremes, bit for bit."""
+    rng = np.random.default_rng(8)
+    for time in (
+        EPOCH + np.arange(900) / 50,
+        EPOCH + np.sort(np.repeat(rng.uniform(0, 18, 450), 2)),
+    ):
+        values = np.cumsum(rng.normal(size=900))
+        state = RateState(("x",), 1.0)
+        for start in range(0, 900, 128):
+            state.update(samples(time[start : start + 128], x=values[start : start + 128]))
+        starts = window_starts(time, 1.0)
+        rates = [
+            (values[i] - values[j]) / (time[i] - time[j])
+            for i, j in enumerate(starts.tolist())
+            if time[0] <= time[i] - effective_width(1.0) and time[i] > time[j]
+        ]
+        found = invariant(state)
+        assert (found.params["min"], found.params["max"]) == (min(rates), max(rates))
 
 
 def _thesis_algorithm_4(time: FloatArray, values: FloatArray, window: float) -> tuple[float, float]:
@@ -282,6 +305,27 @@ def test_window_means_are_the_variance_algorithm_s_means_bit_for_bit() -> None:
                 assert means[k, c] == window_mean(window[:, c].tolist())
             assert np.allclose(means[k], window.mean(axis=0), rtol=1e-12)
     assert math.isnan(window_mean([1.0]))
+
+
+def test_steady_windows_read_as_slices_equal_the_reference_bit_for_bit() -> None:
+    """One length and consecutive starts (a steady rate) take the blocks as slices of the
+    levels; one length with gaps between starts, and two lengths, gather them: every path
+    gives the reference's mean and variance, and leaves the data as it was."""
+    rng = np.random.default_rng(11)
+    values = rng.normal(size=(300, 3)) * 1e4 + 1e3
+    before = values.copy()
+    for start, length in (
+        (np.arange(20, 220), np.full(200, 77)),
+        (np.arange(0, 200, 2), np.full(100, 100)),
+        (np.arange(10, 210), np.where(np.arange(200) % 2 == 0, 64, 65)),
+    ):
+        means, variances = windowed_moments(values, start, length)
+        for k in range(len(start)):
+            window = values[start[k] : start[k] + length[k]]
+            for c in range(3):
+                assert variances[k, c] == window_variance(window[:, c].tolist())
+                assert means[k, c] == window_mean(window[:, c].tolist())
+    assert np.array_equal(values, before)
 
 
 def test_a_scaled_sensor_breaks_its_mean_but_not_its_bounds() -> None:
