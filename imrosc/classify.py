@@ -39,6 +39,7 @@ from imrosc.bags import BagError, MessageError, discover_bags, open_bag
 from imrosc.calibrate.rule import HeldOutRun, alarms_under, covered, held_out_runs
 from imrosc.detectors import (
     FOLDS,
+    Choice,
     Learnt,
     Refused,
     Sampled,
@@ -1205,14 +1206,7 @@ def detector_entry(learnt: Learnt) -> dict[str, Any]:
         "id": learnt.invariant["id"],
         "point": learnt.invariant["point"],
         "variables": len(learnt.invariant["variables"]),
-        "penalty": choice.strength,
-        "smooth": choice.smooth,
-        "threshold": _number(choice.threshold),
-        "held_out_nominal": choice.nominal,
-        "held_out_failed": choice.failed,
-        "detected": sorted(choice.detected),
-        "horizon": _number(choice.horizon) if math.isfinite(choice.horizon) else None,
-        "prompt": choice.prompt,
+        **_choice_entry(choice),
         "chance": _number(choice.chance),
         "delays": {run: _number(delay) for run, delay in sorted(choice.delays.items())},
     }
@@ -1225,6 +1219,16 @@ def refused_entry(refused: Refused) -> dict[str, Any]:
     return {
         "point": refused.point,
         "variables": refused.variables,
+        **_choice_entry(choice),
+        "pairs": choice.tried,
+        "chance": _number(choice.chance),
+        "share": _number(choice.alpha),
+    }
+
+
+def _choice_entry(choice: Choice) -> dict[str, Any]:
+    """What the report says of a detector's cross-fitted choice, kept or refused."""
+    return {
         "penalty": choice.strength,
         "smooth": choice.smooth,
         "threshold": _number(choice.threshold),
@@ -1233,9 +1237,6 @@ def refused_entry(refused: Refused) -> dict[str, Any]:
         "detected": sorted(choice.detected),
         "horizon": _number(choice.horizon) if math.isfinite(choice.horizon) else None,
         "prompt": choice.prompt,
-        "pairs": choice.tried,
-        "chance": _number(choice.chance),
-        "share": _number(choice.alpha),
     }
 
 
