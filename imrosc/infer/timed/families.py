@@ -31,7 +31,13 @@ import numpy as np
 
 from imrosc.infer.builders import StateBuilder, States, builds
 from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, Variable, confidence
-from imrosc.infer.timed.windows import Extremes, IntArray, WindowTracker, windowed_moments
+from imrosc.infer.timed.windows import (
+    Extremes,
+    IntArray,
+    WindowTracker,
+    consecutive,
+    windowed_moments,
+)
 from imrosc.ir import Tunables
 from imrosc.runtime.families import FREQUENCY, MEAN, RATE, VARIANCE
 from imrosc.translate.points import PointSpec
@@ -256,18 +262,13 @@ class RateState(TimedState):
         if not keep.all():
             ends, starts, dt = ends[keep], starts[keep], dt[keep]
         with np.errstate(all="ignore"):
-            if _consecutive(ends) and _consecutive(starts):  # a steady rate: slices
+            if consecutive(ends) and consecutive(starts):  # a steady rate: slices
                 first, start = int(ends[0]), int(starts[0])
                 last = values[first : first + len(ends)]
                 rate = (last - values[start : start + len(starts)]) / dt[:, None]
             else:
                 rate = (values[ends] - values[starts]) / dt[:, None]
         self.extremes.add(rate, np.isfinite(rate))
-
-
-def _consecutive(rows: IntArray) -> bool:
-    """Whether ``rows`` are ``k, k + 1, ...`` (at least one)."""
-    return len(rows) > 0 and bool(np.all(rows[1:] - rows[:-1] == 1))
 
 
 def make_states(

@@ -145,6 +145,12 @@ def _levels(values: FloatArray, top: int) -> tuple[list[FloatArray], list[FloatA
     return means, m2s
 
 
+def consecutive(rows: IntArray) -> bool:
+    """Whether ``rows`` are ``k, k + 1, ...`` (at least one): what a steady rate gives, whose
+    rows can be read as a slice instead of gathered."""
+    return len(rows) > 0 and bool(np.all(rows[1:] - rows[:-1] == 1))
+
+
 def _block_by_length(
     means: list[FloatArray],
     m2s: list[FloatArray],
@@ -157,9 +163,9 @@ def _block_by_length(
         lengths, inverse = length[:1], np.zeros(len(length), np.int64)
     else:
         lengths, inverse = np.unique(length, return_inverse=True)
+    # one length and consecutive starts (a steady rate): the blocks are slices
+    steady = len(lengths) == 1 and consecutive(start)
     for group, size in enumerate(lengths.tolist()):
-        # one length and consecutive starts (a steady rate): the blocks are slices
-        steady = len(lengths) == 1 and bool(np.all(start[1:] - start[:-1] == 1))
         rows = np.flatnonzero(inverse == group) if not steady else np.arange(len(start))
         first = start[rows]
         acc_mean: FloatArray | None = None
