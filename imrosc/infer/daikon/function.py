@@ -142,40 +142,30 @@ class FunctionState:
             start, size = start + size, min(2 * size, _LARGEST_BLOCK)
             zv = values[z, block]
             xv = values[found.x[live], block]
-            if whole:
-                if kind == "abs":
-                    result = np.abs(xv)
-                    first, second = xv < 0, xv > 0
-                else:
-                    yv = values[found.y[live], block]
-                    if kind == "max":
-                        result, first, second = np.maximum(xv, yv), xv > yv, yv > xv
-                    else:
-                        result, first, second = np.minimum(xv, yv), xv < yv, yv < xv
-                    first &= zv == xv
-                    second &= zv == yv
-                broken = (result != zv).any(axis=1)
-                found.tested[live] += len(zv)
-                found.first[live] += first.sum(axis=1)
-                found.second[live] += second.sum(axis=1)
-                alive[live[broken]] = False
-                continue
-            lost = missing[found.x[live], block] | missing[z, block]
             if kind == "abs":
-                tested = ~lost
                 result = np.abs(xv)
-                first, second = tested & (xv < 0), tested & (xv > 0)
+                first, second = xv < 0, xv > 0
             else:
                 yv = values[found.y[live], block]
-                tested = ~(lost | missing[found.y[live], block])
                 if kind == "max":
-                    result, above, below = np.maximum(xv, yv), xv > yv, yv > xv
+                    result, first, second = np.maximum(xv, yv), xv > yv, yv > xv
                 else:
-                    result, above, below = np.minimum(xv, yv), xv < yv, yv < xv
-                first = tested & above & (zv == xv)
-                second = tested & below & (zv == yv)
-            broken = (tested & (result != zv)).any(axis=1)
-            found.tested[live] += tested.sum(axis=1)
+                    result, first, second = np.minimum(xv, yv), xv < yv, yv < xv
+                first &= zv == xv
+                second &= zv == yv
+            wrong = result != zv
+            if whole:
+                tested: int | IntArray = len(zv)
+            else:
+                lost = missing[found.x[live], block] | missing[z, block]
+                if kind != "abs":
+                    lost |= missing[found.y[live], block]
+                first &= ~lost
+                second &= ~lost
+                wrong &= ~lost
+                tested = (~lost).sum(axis=1)
+            broken = wrong.any(axis=1)
+            found.tested[live] += tested
             found.first[live] += first.sum(axis=1)
             found.second[live] += second.sum(axis=1)
             alive[live[broken]] = False
