@@ -576,10 +576,10 @@ successful runs (they are the training runs)."""
 
 def refine(
     config: Path, document: dict[str, Any], workers: int | None
-) -> tuple[dict[str, Any], list[Diagnostic]]:
+) -> tuple[dict[str, Any], list[Diagnostic], dict[str, Any]]:
     """The refined document ``imrosc.classify.run_check`` gives for ``config``'s <check>
-    with ``document`` as its invariants file (both written next to the configuration), and
-    its diagnostics; exits with them if it gives none."""
+    with ``document`` as its invariants file (both written next to the configuration), its
+    diagnostics and its report; exits with the diagnostics if it gives none."""
     inv = config.with_suffix(".inv")
     inv.write_text(dumps(document))
     out = inv.with_name(inv.stem + ".refined.inv")
@@ -587,12 +587,7 @@ def refine(
     if result.refined is None or has_errors(result.diagnostics):
         sys.exit(f"classification failed for {config}:\n{render_text(result.diagnostics, 1)}")
     out.write_text(dumps(result.refined))
-    REPORT[0] = result.report
-    return result.refined, result.diagnostics
-
-
-REPORT: list[dict[str, Any]] = [{}]
-"""The report of the last classification :func:`refine` ran."""
+    return result.refined, result.diagnostics, result.report
 
 
 def describe_detectors(report: Mapping[str, Any]) -> str:
@@ -864,7 +859,7 @@ def learn_alfa(
     learnt = time.monotonic() - tick
     set_check(config, "alfa.inv", Classification(bags, faults, onset_topic=ALFA_LABEL))
     tick = time.monotonic()
-    refined, diagnostics = refine(config, document, workers)
+    refined, diagnostics, report = refine(config, document, workers)
     classified = time.monotonic() - tick
     print(
         f"  {len(bags)} training bags ({len(bags) - len(faults)} no-failure flights, "
@@ -878,7 +873,7 @@ def learn_alfa(
         f"  classified: {len(refined['invariants'])} kept, "
         f"{refined['classified']['dropped']} dropped, alarm rule {describe_rule(refined)} "
         f"({classified:.1f} s); warnings: {describe_warnings(diagnostics)}; "
-        f"{describe_detectors(REPORT[0])}"
+        f"{describe_detectors(report)}"
     )
     return {"inferred": document, "classified": refined}
 
@@ -1091,13 +1086,13 @@ def sim_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
     inv = Path(CONFIG).with_suffix(".inv").name
     set_check(config, inv, Classification(nominal, trained, onset=SIM_START))
     tick = time.monotonic()
-    refined, diagnostics = refine(config, document, workers)
+    refined, diagnostics, report = refine(config, document, workers)
     print(
         f"classified on the {len(nominal)} nominal runs as <success> and one run of each "
         f'scenario (seeds 300-{299 + len(trained)}) as <fail onset="{SIM_START:g}">: '
         f"{len(refined['invariants'])} kept, {refined['classified']['dropped']} dropped, "
         f"alarm rule {describe_rule(refined)} ({time.monotonic() - tick:.1f} s); "
-        f"warnings: {describe_warnings(diagnostics)}; {describe_detectors(REPORT[0])}"
+        f"warnings: {describe_warnings(diagnostics)}; {describe_detectors(report)}"
     )
     start = START_NS / SECOND
     outcomes: dict[str, list[Outcome]] = {}
