@@ -1,0 +1,295 @@
+"""imrosc's detector learning on ALFA, fast, with variants of its features and evidence.
+
+    python bench/alfa_detector.py [--features base] [--evidence mean] [--horizon S] [--folds 5]
+
+``bench/efficacy.py --only alfa`` measures the classified monitor end to end (infer,
+classify, replay: several minutes). Its ALFA monitors keep the learnt detector of point
+``m`` (``/alfa/merged``) alone, so what decides their figures is :mod:`imrosc.detectors`.
+This script runs that learning directly on the samples of ``/alfa/merged``, through the
+same session folds and scoring, in about a minute, to say what a change to the detector
+would do before it is built:
+
+* per fold, the runs classification would see: the other folds' no-failure flights and
+  their fault flights' parts before the onset as good runs, their fault flights whole
+  with the onset as failed runs;
+* :func:`imrosc.detectors.choose` (penalty, smoothing, cross-fitted threshold at the
+  budget 0.05 of one point) and :func:`imrosc.detectors.fit` on all of them;
+* each held-out flight's evidence (:func:`imrosc.runtime.detector.evidence`) against the
+  threshold: the first sample above it is the alarm.
+
+With ``--features base`` and ``--evidence mean`` it is the product's detector (its
+statistics from :func:`imrosc.runtime.detector.features`); the figures are close to the
+bench's, not identical (the bench's variables are the point's as inferred, and its
+replay runs the alarm engine). The variants, each a question about the score:
+
+* ``--features``: ``base`` (mean, standard deviation and change over 1 s), ``mean`` and
+  ``mean+change`` (fewer statistics), ``windows:A,B,...`` (the three statistics over each
+  window), ``slope`` (the least-squares slope over the window added), ``residual`` (the
+  mean and standard deviation over the window of each variable's one-step prediction error
+  from the others and the previous sample, a ridge regression fitted on the fold's nominal
+  samples);
+* ``--evidence cusum``: Page's CUSUM of the score in log-odds seconds,
+  ``S = max(0, S + (score - k) dt)``, the drift ``k`` from 0, 1, 2, 4 chosen by the
+  cross-fitting in place of the smoothing;
+* ``--horizon S``: the fit labels as faulty only the first ``S`` seconds after each onset
+  and leaves the later samples out (the threshold and the choice still see every sample).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+# the bench's sibling scripts, as they import each other (mypy checks bench/ through tests/
+# only, without this directory on its path)
+from alfa_reference import filled, read  # type: ignore[import-not-found]
+from efficacy import (  # type: ignore[import-not-found]
+    ALFA,
+    REFERENCE,
+    Outcome,
+    print_scores,
+    score,
+    session_folds,
+)
+
+from imrosc import detectors
+from imrosc.runtime.detector import evidence, features
+
+Features = Callable[[Any, Any], Any]
+"""A flight's statistics from its sample times and values (one row per sample)."""
+CUSUM_DRIFTS = (0.0, 1.0, 2.0, 4.0)
+"""Log-odds the CUSUM's drift is chosen from (``--evidence cusum``)."""
+RIDGE = 1e-3
+"""The residual model's ridge, per sample, on standardised inputs."""
+
+
+def window_stats(times: Any, values: Any, window: float, slope: bool = False) -> Any:
+    """Mean, standard deviation and change over the trailing ``window`` seconds of each
+    column (the samples later than ``t - window``, as the runtime holds them), and with
+    ``slope`` the least-squares slope over the window."""
+    starts = np.searchsorted(times, times - window, side="right")
+    zero = np.zeros((1, values.shape[1]))
+    ends = np.arange(1, len(values) + 1)
+    count = (ends - starts)[:, None].astype(np.float64)
+    total = np.vstack([zero, np.cumsum(values, axis=0)])
+    squares = np.vstack([zero, np.cumsum(values * values, axis=0)])
+    mean = (total[ends] - total[starts]) / count
+    var = np.maximum((squares[ends] - squares[starts]) / count - mean * mean, 0.0)
+    found = [mean, np.sqrt(var), values - values[starts]]
+    if slope:
+        at = times - times[0]
+        t1 = np.concatenate(([0.0], np.cumsum(at)))
+        t2 = np.concatenate(([0.0], np.cumsum(at * at)))
+        xt = np.vstack([zero, np.cumsum(values * at[:, None], axis=0)])
+        mean_t = (t1[ends] - t1[starts]) / count[:, 0]
+        var_t = (t2[ends] - t2[starts]) / count[:, 0] - mean_t * mean_t
+        cov = (xt[ends] - xt[starts]) / count - mean * mean_t[:, None]
+        steady = var_t[:, None] > 1e-9
+        found.append(np.where(steady, cov / np.maximum(var_t, 1e-9)[:, None], 0.0))
+    return np.hstack(found)
+
+
+def cusum(times: Any, scores: Any, window: float, drift: float) -> Any:
+    """Page's CUSUM of the scores in log-odds seconds, NaN before the samples span
+    ``window`` (as :func:`imrosc.runtime.detector.evidence` has it)."""
+    at = np.asarray(times, dtype=np.float64)
+    values = np.nan_to_num(np.asarray(scores, dtype=np.float64))
+    found = np.full(len(values), math.nan)
+    spanning = at - at[0] >= window if len(at) else np.zeros(0, dtype=bool)
+    if not spanning.any():
+        return found
+    first = int(np.argmax(spanning))
+    total = 0.0
+    for k in range(first, len(values)):
+        step = at[k] - at[k - 1] if k > first else 0.0
+        total = max(0.0, total + (values[k] - drift) * step)
+        found[k] = total
+    return found
+
+
+class Residuals:
+    """Each variable's one-step prediction error: a ridge regression of its value on the
+    previous sample of every variable and the current values of the others, fitted on
+    nominal samples."""
+
+    def __init__(self, nominal: Sequence[Any]) -> None:
+        pairs = np.vstack([self.inputs(x) for x in nominal])
+        self.center, self.scale = pairs.mean(axis=0), pairs.std(axis=0)
+        self.scale[self.scale == 0] = 1.0
+        z = (pairs - self.center) / self.scale
+        width = nominal[0].shape[1]
+        self.models: list[tuple[list[int], Any]] = []
+        for j in range(width):
+            others = [c for c in range(2 * width) if c != width + j]
+            x = np.hstack([z[:, others], np.ones((len(z), 1))])
+            gram = x.T @ x + RIDGE * len(x) * np.eye(x.shape[1])
+            self.models.append((others, np.linalg.solve(gram, x.T @ pairs[:, width + j])))
+
+    @staticmethod
+    def inputs(values: Any) -> Any:
+        """Per sample: the previous sample (the first's own), then the sample."""
+        return np.hstack([np.vstack([values[:1], values[:-1]]), values])
+
+    def of(self, values: Any) -> Any:
+        z = (self.inputs(values) - self.center) / self.scale
+        found = np.empty_like(values)
+        for j, (others, w) in enumerate(self.models):
+            found[:, j] = values[:, j] - (z[:, others] @ w[:-1] + w[-1])
+        return found
+
+
+Flight = tuple[Mapping[str, Any], Any, Any]
+"""A flight's entry in ``onsets.json``, its sample times (s) and values."""
+
+
+def nominal_part(flight: Flight) -> tuple[Any, Any]:
+    """The samples of a flight before its onset (all of a no-failure flight's)."""
+    info, times, values = flight
+    if info["onset_ns"] is None:
+        return times, values
+    keep = times < info["onset_ns"] / 1e9
+    return times[keep], values[keep]
+
+
+def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]:
+    """The statistics of ``--features kind`` (fitted on ``training`` where they need it)
+    and the longest window they span."""
+    if kind == "base":
+        return (lambda t, v: features(t, v, 1.0)), 1.0
+    if kind == "mean":
+        return (lambda t, v: window_stats(t, filled(v), 1.0)[:, : v.shape[1]]), 1.0
+    if kind == "mean+change":
+
+        def mean_change(t: Any, v: Any) -> Any:
+            found = window_stats(t, filled(v), 1.0)
+            return np.hstack([found[:, : v.shape[1]], found[:, 2 * v.shape[1] :]])
+
+        return mean_change, 1.0
+    if kind == "slope":
+        return (lambda t, v: window_stats(t, filled(v), 1.0, slope=True)), 1.0
+    if kind.startswith("windows:"):
+        windows = [float(w) for w in kind.split(":", 1)[1].split(",")]
+        return (
+            lambda t, v: np.hstack([window_stats(t, filled(v), w) for w in windows]),
+            max(windows),
+        )
+    if kind == "residual":
+        model = Residuals([filled(nominal_part(f)[1]) for f in training])
+
+        def with_residuals(t: Any, v: Any) -> Any:
+            x = filled(v)
+            found = window_stats(t, model.of(x), 1.0)
+            return np.hstack([window_stats(t, x, 1.0), found[:, : 2 * x.shape[1]]])
+
+        return with_residuals, 1.0
+    raise SystemExit(f"unknown --features {kind}")
+
+
+def runs_of(names: Sequence[str], flights: Mapping[str, Flight], stats: Features) -> list[Any]:
+    """The runs classification sees of ``names`` (module docstring)."""
+    runs = []
+    for name in names:
+        info, times, values = flights[name]
+        start = info["start_ns"] / 1e9
+        found = stats(times, values)
+        if info["onset_ns"] is None:
+            runs.append(detectors.Run(name, start, None, times, found))
+            continue
+        before = times < info["onset_ns"] / 1e9
+        runs.append(detectors.Run(name + " (before)", start, None, times[before], found[before]))
+        runs.append(detectors.Run(name, start, info["onset_s"], times, found))
+    return runs
+
+
+def with_horizon(horizon: float | None) -> Callable[..., Any]:
+    """:func:`imrosc.detectors.fit` on runs cut ``horizon`` seconds after their onsets."""
+    fit = detectors.fit
+
+    def cut_fit(runs: Sequence[Any], strength: float) -> Any:
+        if horizon is None:
+            return fit(runs, strength)
+        cut = []
+        for r in runs:
+            if r.onset is None:
+                cut.append(r)
+                continue
+            keep = r.times - r.start < r.onset + horizon
+            cut.append(detectors.Run(r.name, r.start, r.onset, r.times[keep], r.stats[keep]))
+        return fit(cut, strength)
+
+    return cut_fit
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--features", default="base")
+    parser.add_argument("--evidence", choices=("mean", "cusum"), default="mean")
+    parser.add_argument("--horizon", type=float, default=None, help="seconds after the onset")
+    parser.add_argument("--folds", type=int, default=5)
+    args = parser.parse_args(argv)
+    onsets: dict[str, dict[str, Any]] = json.loads((ALFA / "onsets.json").read_text())
+    started = time.monotonic()
+    flights: dict[str, Flight] = {n: (i, *read(ALFA / n)) for n, i in sorted(onsets.items())}
+    print(f"read {len(flights)} flights in {time.monotonic() - started:.1f} s; {REFERENCE}")
+    weigh = cusum if args.evidence == "cusum" else evidence
+    if args.evidence == "cusum":
+        # choose() tries each of SMOOTHING, weighed by the evidence its module names
+        detectors.SMOOTHING = CUSUM_DRIFTS  # type: ignore[assignment]
+        detectors.evidence = cusum  # type: ignore[attr-defined,assignment]
+    detectors.fit = with_horizon(args.horizon)
+    outcomes: list[Outcome] = []
+    for index, held in enumerate(session_folds(onsets, args.folds)):
+        training = [n for n in flights if n not in held]
+        stats, window = features_of(args.features, [flights[n] for n in training])
+        detectors.WINDOW = window
+        runs = runs_of(training, flights, stats)
+        choice = detectors.choose(runs, 0.05)
+        if choice is None:
+            print(f"fold {index}: no detector")
+            continue
+        model = detectors.fit(runs, choice.strength)
+        delays = list(choice.delays.values())
+        print(
+            f"fold {index}: penalty {choice.strength:g}, {args.evidence} "
+            f"{choice.smooth:g}, threshold {choice.threshold:.2f}; held out in the choice "
+            f"{len(choice.detected)} of {choice.failed} detected, mean delay "
+            f"{sum(delays) / len(delays):.2f} s"
+        )
+        for name in held:
+            info, times, values = flights[name]
+            run = detectors.Run(name, times[0], None, times, stats(times, values))
+            weighed = weigh(times, model.scores(run), window, choice.smooth)
+            over = np.flatnonzero(weighed > choice.threshold)
+            onset = None if info["onset_ns"] is None else info["onset_ns"] / 1e9
+            alarms = (float(times[over[0]]),) if len(over) else ()
+            group = info["class"] if onset is not None else "no_failure"
+            outcomes.append(Outcome(name, group, onset, alarms, start=info["start_ns"] / 1e9))
+    print("\nflights: delay (s), '-' missed, 'FA' an alarm before the onset or on a good flight")
+    for o in sorted(outcomes, key=lambda o: o.name):
+        shown = "FA" if o.false_alarm else ("-" if o.delay is None else f"{o.delay:.2f}")
+        print(f"  {Path(o.name).stem:<66} {o.group:<10} {shown}")
+    groups: dict[str, list[Outcome]] = {}
+    for o in outcomes:
+        groups.setdefault(o.group, []).append(o)
+    table = {g: {"detector": score(found)} for g, found in sorted(groups.items())}
+    table["overall"] = {"detector": score(outcomes)}
+    print_scores(table)
+    print(f"{time.monotonic() - started:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
