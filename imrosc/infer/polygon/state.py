@@ -19,6 +19,7 @@ bounds family already says as much), and when ``1 - 2**-n`` exceeds the confiden
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Collection, Sequence
 from typing import Any
 
@@ -60,7 +61,13 @@ BATCH_VALUES = 1 << 22
 once. Folding has a cost per fold besides the one per row: every pair whose hull a chunk
 touches is hulled again with all its current vertices, its guide rebuilt, its plan costed,
 so chunks of a few thousand rows (a bag's, or a condition's share of one) pay it over and
-over. The bound keeps the fold's temporaries, which grow with its rows, to some hundred MB."""
+over. The bound keeps the fold's temporaries, which grow with its rows, to some hundred MB.
+It holds for the process: a state whose update finds the values held back by all polygon
+states (a bag's points, conditions and time segments each have one) past its ``batch`` folds
+its own, so they stay within about the bound plus a chunk."""
+
+_HELD: weakref.WeakKeyDictionary[PolygonState, int] = weakref.WeakKeyDictionary()
+"""Values each polygon state of the process holds back (a state that is gone holds none)."""
 
 
 def polygon_variables(variables: Sequence[Variable]) -> tuple[Variable, ...]:
@@ -248,8 +255,9 @@ class PolygonState:
         self.stale[redo] = 0
 
     def update(self, samples: Samples) -> None:
-        """Take a chunk: held back until ``batch`` values are pending, then folded with
-        them (:meth:`_fold`). The vertices are a function of the point set, so they do not
+        """Take a chunk: held back until ``batch`` values are pending in this state and the
+        process's other polygon states together, then folded with the others this state
+        holds (:meth:`_fold`). The vertices are a function of the point set, so they do not
         depend on how the samples were grouped; anything that reads the state folds the
         pending chunks first."""
         if len(samples) == 0 or not len(self.pi):
@@ -257,7 +265,8 @@ class PolygonState:
         values = self._matrix(samples)
         self._pending.append(values)
         self._pending_values += values.size
-        if self._pending_values >= self.batch:
+        _HELD[self] = self._pending_values
+        if sum(_HELD.values()) >= self.batch:
             self._flush()
 
     def _flush(self) -> None:
@@ -267,6 +276,7 @@ class PolygonState:
         values = self._pending[0] if len(self._pending) == 1 else np.concatenate(self._pending, 1)
         self._pending = []  # the parts go before the fold's temporaries come
         self._pending_values = 0
+        _HELD.pop(self, None)
         self._fold(values)
 
     def _fold(self, values: FloatArray) -> None:

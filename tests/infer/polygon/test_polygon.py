@@ -493,6 +493,39 @@ def test_held_back_chunks_are_folded_before_anything_reads_the_state() -> None:
     assert not fresh._pending
 
 
+def test_the_values_held_back_are_bounded_for_the_whole_process() -> None:
+    """Each state alone stays under its batch, but together they pass it: the state whose
+    update finds that folds its own chunks, and the result is the same."""
+    rng = np.random.default_rng(22)
+    variables = (Variable("x", "float"), Variable("y", "float"))
+    parts = [
+        Samples(
+            "p",
+            0,
+            np.arange(k * 100.0, k * 100 + 100),
+            dict(zip("xy", rng.normal(size=(2, 100)), strict=True)),
+            variables,
+        )
+        for k in range(3)
+    ]
+    first = PolygonState(variables, batch=500)  # 200 values per chunk: 400 alone stays under
+    second = PolygonState(variables, batch=500)
+    first.update(parts[0])
+    second.update(parts[1])
+    assert first._pending and second._pending
+    first.update(parts[2])  # 400 + 200 held back in all: the first one folds its chunks
+    assert not first._pending and second._pending
+    eager = PolygonState(variables, batch=0)
+    for part in (parts[0], parts[2]):
+        eager.update(part)
+    assert _snapshot(first) == _snapshot(eager)
+    del second  # a state that is gone holds nothing back
+    third = PolygonState(variables, batch=500)
+    third.update(parts[1])
+    third.update(parts[0])  # 400: with the second one's 200 it would have folded
+    assert third._pending
+
+
 @settings(max_examples=40, deadline=None)
 @given(clouds(), st.integers(1, 25))
 def test_algorithm_6_gives_the_same_polygon(
