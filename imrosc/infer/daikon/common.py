@@ -99,6 +99,9 @@ class ColumnSummary:
     hi: float
     lo_first: int
     hi_first: int
+    distinct: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    """The column's distinct values as :class:`Distinct` finds them, computed once for every
+    state of the point that tracks them (see :func:`_distinct`)."""
 
 
 def summarize(column: FloatArray) -> ColumnSummary:
@@ -194,6 +197,45 @@ class Extremes:
         return np.where(self.count > 0, value, 0.0)
 
 
+def _distinct(
+    column: FloatArray, limit: int, summary: ColumnSummary | None
+) -> tuple[list[float], list[int], int] | None:
+    """The distinct non-NaN values of ``column`` (increasing), the positions of their first
+    occurrences among its non-NaN samples and their count; None when there are more than
+    ``limit`` values (the first ``PREFIX`` rows are screened first). The column's
+    ``summary``, if given, keeps what was found for the point's other states."""
+    cache = summary.distinct if summary is not None else {}
+    head = cache.get("head")
+    if head is None:
+        values = np.unique(column[:PREFIX])
+        head = cache["head"] = int(np.count_nonzero(~np.isnan(values)))
+    if head > limit:
+        return None
+    key = f"full{limit}"
+    if key not in cache:
+        cache[key] = _few_values(column[~np.isnan(column)], limit)
+    found: tuple[list[float], list[int], int] | None = cache[key]
+    return found
+
+
+def _few_values(kept: FloatArray, limit: int) -> tuple[list[float], list[int], int] | None:
+    """``(values, first positions, count)`` of ``kept`` (no NaN), values increasing; None
+    when it has more than ``limit`` values. Value by value: each is the first row left and
+    takes its equal rows with it (a pass or two per value, where a sort would cost far more
+    on the few-valued columns that get this far)."""
+    left = np.ones(len(kept), bool)
+    found: list[tuple[float, int]] = []
+    while len(found) <= limit:
+        at = int(left.argmax()) if len(kept) else 0
+        if not len(kept) or not left[at]:
+            found.sort()
+            return [v for v, _ in found], [p for _, p in found], len(kept)
+        value = kept[at]
+        found.append((float(value), at))
+        left &= kept != value
+    return None
+
+
 @dataclass
 class Distinct:
     """The distinct values of each variable while there are at most ``limit`` of them.
@@ -231,17 +273,11 @@ class Distinct:
                 if summary.lo == summary.hi:
                     self._add(i, [summary.lo], [0], summary.count)
                     continue
-            head = np.unique(column[:PREFIX])
-            head = head[~np.isnan(head)]
-            if head.size > self.limit:
+            found = _distinct(column, self.limit, None if summaries is None else summaries[i])
+            if found is None:
                 self._overflow(i)
                 continue
-            kept = column[~np.isnan(column)]
-            found, first = np.unique(kept, return_index=True)
-            if found.size > self.limit:
-                self._overflow(i)
-                continue
-            self._add(i, [float(v) for v in found], [int(p) for p in first], int(kept.size))
+            self._add(i, *found)
 
     def update_strings(self, columns: Sequence[npt.NDArray[Any]]) -> None:
         """Absorb one chunk of string columns (values that are not ``str`` are skipped)."""

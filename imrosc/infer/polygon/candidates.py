@@ -164,12 +164,19 @@ class Chunk:
         found = self._block_rows.get(size)
         if found is None:
             blocks = -(-self.rows // size)
-            padded = np.full((self.values.shape[0], blocks * size), np.nan)
-            padded[:, : self.rows] = self.values
-            shaped = padded.reshape(len(padded), blocks, size)
-            gaps = np.isnan(shaped)
-            low = np.where(gaps, np.inf, shaped).argmin(axis=2)
-            high = np.where(gaps, -np.inf, shaped).argmax(axis=2)
+            low = np.empty((self.values.shape[0], blocks), np.int64)
+            high = np.empty_like(low)
+            padded = np.full(blocks * size, np.nan)
+            for var, column in enumerate(self.values):  # a column at a time: small temporaries
+                padded[: self.rows] = column
+                shaped = padded.reshape(blocks, size)
+                if self.has_nan[var] or blocks * size > self.rows:
+                    gaps = np.isnan(shaped)
+                    low[var] = np.where(gaps, np.inf, shaped).argmin(axis=1)
+                    high[var] = np.where(gaps, -np.inf, shaped).argmax(axis=1)
+                else:
+                    low[var] = shaped.argmin(axis=1)
+                    high[var] = shaped.argmax(axis=1)
             start = np.arange(blocks) * size
             found = np.minimum(np.stack([low + start, high + start], axis=1), self.rows - 1)
             self._block_rows[size] = found
@@ -294,14 +301,15 @@ def _few_valued(chunk: Chunk) -> BoolArray:
 
 
 def _identical(chunk: Chunk, wanted: BoolArray) -> dict[int, int]:
-    """Map each wanted variable to the first wanted one with the very same column."""
+    """Map each wanted variable to the first wanted one with the very same column (the
+    same bytes: the first rows' pick the candidates, compared in full)."""
     first: dict[bytes, list[int]] = {}
     root: dict[int, int] = {}
+    bits = chunk.values.view(np.uint64)
     for var in np.flatnonzero(wanted).tolist():
-        column = chunk.values[var]
-        key = column.tobytes()
+        key = bits[var, :_NEGATED_HEAD].tobytes()
         for other in first.get(key, []):
-            if np.array_equal(column, chunk.values[other], equal_nan=True):
+            if np.array_equal(bits[var], bits[other]):
                 root[var] = other
                 break
         else:
@@ -880,7 +888,7 @@ def seeds(
     x = chunk.values[pi[pair], row]
     y = chunk.values[pj[pair], row]
     keep = ~(np.isnan(x) | np.isnan(y))
-    keep[keep] = ~guide.discards(pair[keep], x[keep], y[keep])
+    keep[keep] = ~_discards(guide, pair[keep], x[keep], y[keep])
     sel = np.flatnonzero(keep)
     return GroupSet(pair[sel], x[sel], y[sel], row[sel])
 
@@ -915,11 +923,20 @@ def heads(
     y = values.take(pj.take(pair) * chunk.rows + row)
     with np.errstate(invalid="ignore"):
         keep = ~(np.isnan(x) | np.isnan(y))
-        keep[keep] = ~guide.discards(pair[keep], x[keep], y[keep])
+        keep[keep] = ~_discards(guide, pair[keep], x[keep], y[keep])
     sel = np.flatnonzero(keep)
     order = np.argsort(pair[sel], kind="stable")
     sel = sel[order]
     return GroupSet(pair[sel], x[sel], y[sel], row[sel])
+
+
+def _discards(guide: Guide, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
+    """:meth:`Guide.discards` by blocks of ``_BLOCK`` samples (bounded temporaries)."""
+    out = np.empty(len(pair), bool)
+    for first in range(0, len(pair), _BLOCK):
+        part = slice(first, first + _BLOCK)
+        out[part] = guide.discards(pair[part], x[part], y[part])
+    return out
 
 
 def expanding(chunk: Chunk, pi: IntArray, pj: IntArray, guide: Guide) -> BoolArray:

@@ -27,6 +27,7 @@ from imrosc.infer.polygon.hull import GroupSet, IntArray
 from imrosc.infer.polygon.predicates import (
     Frames,
     SignArray,
+    _two_sum,
     edge_frames,
     frame_orientation,
     orientation,
@@ -129,6 +130,132 @@ class Chains:
         return count
 
 
+_SAFE_HIGH = 2.0**900
+_SAFE_LOW = 2.0**-900
+_SLOPE_EXPONENT = 60
+"""A band's slope is zero or ``+-2**k``, ``|k| <= 60``: with coordinates of magnitude in
+``[_SAFE_LOW, _SAFE_HIGH]`` (or zero), ``y - s*x`` is exactly two floats (a two-sum; no
+overflow, no underflow)."""
+
+
+def _safe(v: FloatArray) -> BoolArray:
+    with np.errstate(invalid="ignore"):
+        size = np.abs(v)
+        found: BoolArray = (v == 0) | ((size >= _SAFE_LOW) & (size <= _SAFE_HIGH))
+    return found
+
+
+@dataclass
+class Band:
+    """Per hull (chain slot), a band whose samples are strictly inside, by a cheap exact test.
+
+    With ``w = y - s*x`` (``s`` the power of two nearest the slope of ``L -> R``, so ``w``
+    is exactly ``high + low``, a two-sum), the lower chain is the graph of a convex function
+    of ``x`` and the upper chain of a concave one (the shear keeps ``x`` and orientations).
+    Over ``[lo, hi]``, the ``x`` from the first to the last interior vertex of both chains,
+    the lower chain lies at or below its greatest interior offset (``floor``: a convex
+    function peaks at an end of an interval) and the upper chain at or above its least one
+    (``ceiling``); the first interior vertices lie right of ``L``, the last ones left of
+    ``R``. A sample there with ``floor < w < ceiling`` is strictly inside the hull: in the
+    closed hull and none of its vertices. Offsets compare exactly as two-sums: by their
+    rounded parts (rounding is monotone), then by their tails.
+
+    A segment whose ends have the very same offset (``line``) has the open segment as its
+    band: a sample with ``lo < x < hi`` and that offset exactly lies on it strictly between
+    its ends. Samples of an exact relation (``b = 2*a + 3`` where no sum rounds) lie there;
+    those of a rounded one (``s = ab + 5``) scatter about its line by their roundings, many
+    of them within the extremes the hull's interior vertices reached: neither needs an
+    orientation. Hulls without a band (a chain of two vertices with ends of two offsets,
+    magnitudes outside the safe range) have ``lo > hi``.
+    """
+
+    slope: FloatArray
+    lo: FloatArray
+    hi: FloatArray
+    floor: tuple[FloatArray, FloatArray]
+    ceiling: tuple[FloatArray, FloatArray]
+    line: BoolArray
+
+    @staticmethod
+    def of(lower: Chains, upper: Chains) -> Band:
+        """The bands of the hulls whose chains are ``lower`` and ``upper``."""
+        if not len(lower.size):
+            e = np.empty(0)
+            return Band(e, e, e, (e, e), (e, e), np.empty(0, bool))
+        first, last = lower.start, lower.start + lower.size - 1
+        with np.errstate(all="ignore"):
+            slope = (lower.y[last] - lower.y[first]) / (lower.x[last] - lower.x[first])
+            mantissa, exponent = np.frexp(slope)
+            exponent = np.where(np.abs(mantissa) > 0.7071067811865476, exponent, exponent - 1)
+            s = np.where(slope == 0, 0.0, np.copysign(np.ldexp(1.0, exponent), slope))
+        fits = (slope == 0) | (np.isfinite(slope) & (np.abs(exponent) <= _SLOPE_EXPONENT))
+        s = np.where(fits, s, 0.0)
+        ok = fits & (lower.size >= 3) & (upper.size >= 3)
+        floor, lo_low, hi_low, bad_low = _interior(lower, s, ok, largest=True)
+        ceiling, lo_up, hi_up, bad_up = _interior(upper, s, ok, largest=False)
+        ok &= ~bad_low & ~bad_up
+        lo = np.where(ok, np.maximum(lo_low, lo_up), np.inf)
+        hi = np.where(ok, np.minimum(hi_low, hi_up), -np.inf)
+        # a segment whose ends have one offset: the open segment (an exact relation's line)
+        ends_x, ends_y = lower.x[np.stack([first, last])], lower.y[np.stack([first, last])]
+        with np.errstate(all="ignore"):
+            high, low = _two_sum(ends_y, -(s * ends_x))
+        line = fits & (lower.size == 2) & (upper.size == 2)
+        line &= (_safe(ends_x) & _safe(ends_y) & np.isfinite(high) & np.isfinite(low)).all(axis=0)
+        line &= (high[0] == high[1]) & (low[0] == low[1])
+        for part, value in zip((*floor, *ceiling), (high[0], low[0], high[0], low[0]), strict=True):
+            part[line] = value[line]
+        lo = np.where(line, ends_x[0], lo)
+        hi = np.where(line, ends_x[1], hi)
+        return Band(s, lo, hi, floor, ceiling, line)
+
+    def inside(self, slot: IntArray, px: FloatArray, py: FloatArray) -> BoolArray:
+        """Where the sample ``(px, py)`` of chain slot ``slot`` is in its hull's band."""
+        s = self.slope.take(slot)
+        lo, hi = self.lo.take(slot), self.hi.take(slot)
+        with np.errstate(all="ignore"):
+            high, low = _two_sum(py, -(s * px))
+            fh, fl = (part.take(slot) for part in self.floor)
+            ch, cl = (part.take(slot) for part in self.ceiling)
+            found: BoolArray = (px >= lo) & (px <= hi)
+            found &= (high > fh) | ((high == fh) & (low > fl))
+            found &= (high < ch) | ((high == ch) & (low < cl))
+            found |= self.line.take(slot) & (px > lo) & (px < hi) & (high == fh) & (low == fl)
+            found &= _safe(px) & _safe(py)
+        return found
+
+
+def _interior(
+    chains: Chains, s: FloatArray, ok: BoolArray, largest: bool
+) -> tuple[tuple[FloatArray, FloatArray], FloatArray, FloatArray, BoolArray]:
+    """Per chain (where ``ok``), the greatest (``largest``, else the least) offset ``y -
+    s*x`` of its interior vertices as a two-sum, the ``x`` of its first and last interior
+    vertex, and whether an interior vertex is outside the safe range."""
+    count = len(chains.size)
+    size = np.where(ok, chains.size - 2, 0)
+    slot = np.repeat(np.arange(count), size)
+    heads = np.cumsum(size) - size
+    vertex = chains.start[slot] + 1 + (np.arange(len(slot)) - heads[slot])
+    x, y = chains.x[vertex], chains.y[vertex]
+    with np.errstate(all="ignore"):
+        high, low = _two_sum(y, -(s[slot] * x))
+    good = _safe(x) & _safe(y) & np.isfinite(high) & np.isfinite(low)
+    bad = np.zeros(count, bool)
+    bad[slot[~good]] = True
+    sign = 1.0 if largest else -1.0  # the least is the negated greatest of the negated
+    best_high = np.full(count, -np.inf)
+    np.maximum.at(best_high, slot, sign * high)
+    tie = np.flatnonzero(sign * high == best_high[slot])
+    best_low = np.full(count, -np.inf)
+    np.maximum.at(best_low, slot[tie], sign * low[tie])
+    first_x = np.full(count, np.inf)
+    last_x = np.full(count, -np.inf)
+    mine = np.flatnonzero(ok)
+    first_x[mine] = chains.x[chains.start[mine] + 1]
+    last_x[mine] = chains.x[chains.start[mine] + chains.size[mine] - 2]
+    return (sign * best_high, sign * best_low), first_x, last_x, bad
+
+
 @dataclass
 class Locator:
     """Hull vertices of some pairs, as chains, for location.
@@ -140,6 +267,7 @@ class Locator:
     slot: IntArray
     lower: Chains
     upper: Chains
+    band: Band
 
     @staticmethod
     def build(hull: GroupSet, npairs: int) -> Locator:
@@ -149,7 +277,7 @@ class Locator:
         e = np.empty(0, np.int64)
         if not len(groups):
             none = Chains.of(hull, e, e)
-            return Locator(slot, none, none)
+            return Locator(slot, none, none, Band.of(none, none))
         run = np.repeat(np.arange(len(groups)), ends - starts)
         # the lexicographic maximum R: greatest x, then greatest y
         high_x = np.maximum.reduceat(hull.x, starts)
@@ -168,7 +296,8 @@ class Locator:
         back = _ragged(np.zeros_like(up_size), up_size)
         chain = np.repeat(np.arange(len(usable)), up_size)
         upper = np.where(back == 0, starts[chain], ends[chain] - back)
-        return Locator(slot, Chains.of(hull, lower, low_size), Chains.of(hull, upper, up_size))
+        low, up = Chains.of(hull, lower, low_size), Chains.of(hull, upper, up_size)
+        return Locator(slot, low, up, Band.of(low, up))
 
     def covered(self, pair: IntArray, x: FloatArray, y: FloatArray) -> BoolArray:
         """Where ``(x, y)`` lies in its pair's closed hull and is none of its vertices."""
@@ -182,7 +311,9 @@ class Locator:
         last = first + low.size.take(slot) - 1
         with np.errstate(invalid="ignore"):
             spanned = (px >= low.x.take(first)) & (px <= low.x.take(last)) & ~np.isnan(py)
-        sel = np.flatnonzero(spanned)
+        banded = self.band.inside(slot, px, py)  # strictly inside: no orientation needed
+        out[mine[banded]] = True
+        sel = np.flatnonzero(spanned & ~banded)
         mine, slot, px, py = mine.take(sel), slot.take(sel), px.take(sel), py.take(sel)
         # on or left of the lower chain, then on or right of the upper one
         a, b = low.edge(slot, px)

@@ -19,6 +19,7 @@ bounds family already says as much), and when ``1 - 2**-n`` exceeds the confiden
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Collection, Sequence
 from typing import Any
 
@@ -54,6 +55,19 @@ THIN_RATIO = 1e-9
 """Hulls whose area is at most this fraction of their bounding box are lines, not polygons."""
 
 _UNIT = 2.0**-53
+
+BATCH_VALUES = 1 << 22
+"""Values (rows x variables, 32 MiB of float64) of chunks a state holds back and folds at
+once. Folding has a cost per fold besides the one per row: every pair whose hull a chunk
+touches is hulled again with all its current vertices, its guide rebuilt, its plan costed,
+so chunks of a few thousand rows (a bag's, or a condition's share of one) pay it over and
+over. The bound keeps the fold's temporaries, which grow with its rows, to some hundred MB.
+It holds for the process: a state whose update finds the values held back by all polygon
+states (a bag's points, conditions and time segments each have one) past its ``batch`` folds
+its own, so they stay within about the bound plus a chunk."""
+
+_HELD: weakref.WeakKeyDictionary[PolygonState, int] = weakref.WeakKeyDictionary()
+"""Values each polygon state of the process holds back (a state that is gone holds none)."""
 
 
 def polygon_variables(variables: Sequence[Variable]) -> tuple[Variable, ...]:
@@ -143,36 +157,56 @@ class PolygonState:
 
     family = POLYGON
 
-    def __init__(self, variables: Sequence[Variable]) -> None:
+    def __init__(self, variables: Sequence[Variable], batch: int = BATCH_VALUES) -> None:
         self.variables = tuple(variables)
+        # pending values (rows x variables) at which held-back chunks are folded (0: each
+        # chunk as it comes)
+        self.batch = batch
+        self._pending: list[FloatArray] = []
+        self._pending_values = 0
         self.names = tuple(v.name for v in self.variables)
         self.discrete = tuple(v.type in ("int", "uint", "bool") for v in self.variables)
         first, second = np.triu_indices(len(self.names), 1)
         self.pi: IntArray = first.astype(np.int64)
         self.pj: IntArray = second.astype(np.int64)
-        self.count: IntArray = np.zeros(len(self.pi), np.int64)
-        self.hull = GroupSet.empty()
+        self._count: IntArray = np.zeros(len(self.pi), np.int64)
+        self._hull = GroupSet.empty()
         self._guide: Guide | None = Guide(len(self.pi))
         self.stale = np.zeros(len(self.pi), np.int64)
 
     @property
+    def hull(self) -> GroupSet:
+        """Every pair's strict hull vertices, the held-back chunks folded in first."""
+        self._flush()
+        return self._hull
+
+    @property
+    def count(self) -> IntArray:
+        """Per pair, the samples seen (where both variables are present)."""
+        self._flush()
+        return self._count
+
+    @property
     def guide(self) -> Guide:
         """The filters of the current hulls, rebuilt from them after a copy."""
+        self._flush()  # a no-op within a fold: the pending chunks went before it began
         if self._guide is None:
             self._guide = Guide(len(self.pi))
-            drawn = np.unique(self.hull.group)
-            self._guide.refresh(self.hull, drawn)
+            drawn = np.unique(self._hull.group)
+            self._guide.refresh(self._hull, drawn)
             self.stale[drawn] = 0
         return self._guide
 
     def freeze(self) -> None:
         """No samples will come before it is finalized (it may still absorb merges): the
         guide goes, and merges no longer refresh it."""
+        self._flush()
         self._guide = None
 
     def __getstate__(self) -> dict[str, Any]:
         """The hulls and their support without the guide, a cache many times their size:
         a state sent from a worker (or copied) is merged and finalized, which needs none."""
+        self._flush()
         state = dict(self.__dict__)
         state["_guide"] = None
         return state
@@ -188,17 +222,17 @@ class PolygonState:
         """Fold ``extra`` (``at`` relative to the old counts) into the hulls (``refresh``:
         rebuild the guide of every pair whose hull changed)."""
         if len(extra):
-            extra.at = extra.at + self.count[extra.group]
+            extra.at = extra.at + self._count[extra.group]
             touched = np.zeros(len(self.pi), bool)
             touched[extra.group] = True
-            mine = touched[self.hull.group]
-            before = self.hull.take(np.flatnonzero(mine))
-            kept = self.hull.take(np.flatnonzero(~mine))
+            mine = touched[self._hull.group]
+            before = self._hull.take(np.flatnonzero(mine))
+            kept = self._hull.take(np.flatnonzero(~mine))
             fresh = hulls(GroupSet.concat([before, extra]))
-            self.hull = GroupSet.concat([kept, fresh])
+            self._hull = GroupSet.concat([kept, fresh])
             if self._guide is not None:  # none after a copy: rebuilt if samples come again
                 self._refresh(self._guide, before, fresh, touched, extra, refresh)
-        self.count += added
+        self._count += added
 
     def _refresh(
         self,
@@ -217,10 +251,35 @@ class PolygonState:
         redo = changed[
             many[changed] | ~guide.ok[changed] | (self.stale[changed] >= _STALE) | refresh
         ]
-        guide.refresh(self.hull, redo)
+        guide.refresh(self._hull, redo)
         self.stale[redo] = 0
 
     def update(self, samples: Samples) -> None:
+        """Take a chunk: held back until ``batch`` values are pending in this state and the
+        process's other polygon states together, then folded with the others this state
+        holds (:meth:`_fold`). The vertices are a function of the point set, so they do not
+        depend on how the samples were grouped; anything that reads the state folds the
+        pending chunks first."""
+        if len(samples) == 0 or not len(self.pi):
+            return
+        values = self._matrix(samples)
+        self._pending.append(values)
+        self._pending_values += values.size
+        _HELD[self] = self._pending_values
+        if sum(_HELD.values()) >= self.batch:
+            self._flush()
+
+    def _flush(self) -> None:
+        """Fold the held-back chunks, as one."""
+        if not self._pending:
+            return
+        values = self._pending[0] if len(self._pending) == 1 else np.concatenate(self._pending, 1)
+        self._pending = []  # the parts go before the fold's temporaries come
+        self._pending_values = 0
+        _HELD.pop(self, None)
+        self._fold(values)
+
+    def _fold(self, values: FloatArray) -> None:
         """Fold a chunk: prefilter, then the exact hull of the survivors and the vertices.
 
         Pairs whose guide fits the chunk badly (no hull yet, or a variable drifting into
@@ -229,9 +288,7 @@ class PolygonState:
         cannot place inside, the rows of both variables' extremes in the block. That hull,
         inside the final one, refines their guide before the whole chunk is filtered.
         """
-        if len(samples) == 0 or not len(self.pi):
-            return
-        chunk = Chunk(self._matrix(samples), self.discrete)
+        chunk = Chunk(values, self.discrete)
         nothing = np.zeros(len(self.pi), np.int64)
         todo = expanding(chunk, self.pi, self.pj, self.guide)
         bare = todo & ~self.guide.ok & (self.guide.locator.slot < 0)  # no usable hull yet
@@ -256,7 +313,7 @@ class PolygonState:
         them here spares the hull computation rounds over them."""
         if len(found) < _LOCATE_AT:
             return found
-        locator = Locator.build(self.hull, len(self.pi))
+        locator = Locator.build(self._hull, len(self.pi))
         keep = np.empty(len(found), bool)
         for first in range(0, len(found), _LOCATE_BLOCK):  # bounded temporaries
             part = slice(first, first + _LOCATE_BLOCK)
@@ -269,34 +326,39 @@ class PolygonState:
         before the chunk is filtered, which finds those samples again. A sample that is a
         vertex with its ``at`` changes nothing; dropping it spares re-hulling every pair it
         alone touched. (Recent vertices are those with ``at`` at least the old count.)"""
-        if not len(found) or not len(self.hull):
+        if not len(found) or not len(self._hull):
             return found
-        base = self.count[self.hull.group]
-        recent = np.flatnonzero(self.hull.at >= base)
+        base = self._count[self._hull.group]
+        recent = np.flatnonzero(self._hull.at >= base)
         if not len(recent):
             return found
-        width = int(max(found.at.max(), self.hull.at[recent].max() - base[recent].min())) + 1
-        vertex = self.hull.group[recent] * width + (self.hull.at[recent] - base[recent])
+        width = int(max(found.at.max(), self._hull.at[recent].max() - base[recent].min())) + 1
+        vertex = self._hull.group[recent] * width + (self._hull.at[recent] - base[recent])
         again = np.isin(found.group * width + found.at, vertex)
         return found.take(np.flatnonzero(~again))
 
     def end_run(self) -> None:
-        """Hulls do not depend on runs."""
+        """Hulls do not depend on runs; the held-back chunks are folded (a state at rest
+        holds none)."""
+        self._flush()
 
     def merge(self, other: Any) -> None:
         """Absorb a state whose runs all come after ours."""
         if not isinstance(other, PolygonState) or other.names != self.names:
             raise TypeError("can only merge polygon states of the same variables")
-        extra = GroupSet(other.hull.group, other.hull.x, other.hull.y, other.hull.at.copy())
+        self._flush()
+        theirs = other.hull
+        extra = GroupSet(theirs.group, theirs.x, theirs.y, theirs.at.copy())
         self._absorb(extra, other.count)
 
     def finalize(self, context: FinalizeContext) -> list[Invariant]:
         """The polygons that pass Algorithm 10 and the confidence rule."""
         found: list[Invariant] = []
-        groups, starts, ends = self.hull.bounds()
+        self._flush()
+        groups, starts, ends = self._hull.bounds()
         if not len(groups):
             return found
-        hull = self.hull
+        hull = self._hull
         nxt = np.arange(1, len(hull) + 1)
         nxt[ends - 1] = starts
         with np.errstate(all="ignore"):
@@ -306,7 +368,7 @@ class PolygonState:
                 np.maximum.reduceat(hull.x, starts) - np.minimum.reduceat(hull.x, starts)
             ) * (np.maximum.reduceat(hull.y, starts) - np.minimum.reduceat(hull.y, starts))
             ratio = area / box_area
-        since = self.count[groups] - np.maximum.reduceat(hull.at, starts)
+        since = self._count[groups] - np.maximum.reduceat(hull.at, starts)
         keep = (ends - starts >= 3) & (area > 0) & (box_area > 0) & np.isfinite(ratio)
         keep &= (ratio > THIN_RATIO) & (ratio <= context.tunables.drop_ratio)
         chosen = [k for k in np.flatnonzero(keep).tolist() if context.justified(int(since[k]))]
@@ -343,7 +405,7 @@ class PolygonState:
                         "ratio": float(ratio[k]),
                     },
                     text=polygon_text(x, y, vertices),
-                    samples=int(self.count[group]),
+                    samples=int(self._count[group]),
                     confidence=confidence(n),
                     condition=context.condition,
                     runs=context.runs,

@@ -87,3 +87,34 @@ def test_many_samples_per_hull_locate_as_few_do() -> None:
     expected = [covered(vertices[g], (x, y)) for g, x, y in points]
     assert in_order.tolist() == expected
     assert sum(expected[:400]) > 390  # the V's samples lie on its edges
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.sampled_from([2.0, 1.0, -0.5, 0.0, 3.0]),
+    st.sampled_from([3.0, 5.0, 0.1, 0.0]),
+    st.integers(0, 2**32 - 1),
+)
+def test_a_band_holds_only_points_strictly_inside_and_spares_most_of_a_line(
+    slope: float, shift: float, seed: int
+) -> None:
+    """Samples of a line ``y = slope*x + shift`` (exact or rounded): whatever a hull's band
+    takes is in the closed hull and none of its vertices (exact rationals), and the band
+    takes most later samples of an exact line."""
+    rng = np.random.default_rng(seed)
+    xs = rng.uniform(-10, 10, 300)
+    ys = slope * xs + shift
+    hull = hulls(GroupSet(np.zeros(300, np.int64), xs, ys, np.arange(300, dtype=np.int64)))
+    vertices = list(zip(hull.x.tolist(), hull.y.tolist(), strict=True))
+    locator = Locator.build(hull, 1)
+    qx = np.concatenate([rng.uniform(-10, 10, 200), xs])
+    qy = np.concatenate([slope * qx[:200] + shift, ys])
+    qy[:20] += rng.normal(0, 1e-14, 20)  # a few just off the line
+    slot = np.zeros(len(qx), np.int64)
+    banded = locator.band.inside(slot, qx, qy)
+    assert all(covered(vertices, (x, y)) for x, y in zip(qx[banded], qy[banded], strict=True))
+    assert locator.covered(slot, qx, qy).tolist() == [
+        covered(vertices, p) for p in zip(qx.tolist(), qy.tolist(), strict=True)
+    ]
+    if len(vertices) == 2 and slope in (2.0, 1.0, -0.5, 0.0) and shift == 0.0:
+        assert banded.sum() > len(qx) // 2  # an exact line: its samples on the open segment

@@ -43,7 +43,8 @@ def frame(columns: dict[str, Any], start: int = 0, stop: int | None = None) -> S
 
 def state_for(columns: dict[str, Any], chunk: int | None = None) -> PolygonState:
     names = list(columns)
-    state = PolygonState(tuple(Variable(n, "float", topic="/a", path=n) for n in names))
+    variables = tuple(Variable(n, "float", topic="/a", path=n) for n in names)
+    state = PolygonState(variables, batch=0)  # each chunk folded as it comes
     rows = len(np.asarray(columns[names[0]]))
     step = chunk or max(rows, 1)
     for first in range(0, rows, step):
@@ -253,7 +254,7 @@ def test_discrete_and_identical_columns() -> None:
         Variable("level", "float"),
         Variable("copy", "float"),
     )
-    state = PolygonState(variables)
+    state = PolygonState(variables, batch=0)
     for first in range(0, 5000, 1200):
         state.update(
             Samples(
@@ -383,15 +384,19 @@ def _snapshot(state: PolygonState) -> tuple[Any, ...]:
     st.lists(st.integers(0, 600), max_size=3),
     st.lists(st.integers(0, 600), max_size=6),
     st.booleans(),
+    st.sampled_from([0, 1500, 1 << 22]),
 )
 def test_fold_merge_rechunk_and_brute_force_agree_exactly(
     columns: list[tuple[FloatArray, FloatArray]],
     run_points: list[int],
     chunk_points: list[int],
     copied: bool,
+    batch: int,
 ) -> None:
     """``copied``: each run's states are pickled between runs, as a worker's answer is (a
-    copy has no guide: merged as it is, rebuilt if samples come again)."""
+    copy has no guide: merged as it is, rebuilt if samples come again). ``batch``: the
+    folded state folds each chunk as it comes, or holds chunks back until that many values
+    are pending (some chunks, or whole runs)."""
     length = min(len(x) for x, _ in columns)
     data = {}
     for k, (x, y) in enumerate(columns):
@@ -416,7 +421,7 @@ def test_fold_merge_rechunk_and_brute_force_agree_exactly(
         return out
 
     runs = _split(length, run_points)
-    folded = PolygonState(variables)
+    folded = PolygonState(variables, batch=batch)
     merged = PolygonState(variables)
     for a, b in runs:
         for chunk in run(a, b, chunk_points):
@@ -438,6 +443,87 @@ def test_fold_merge_rechunk_and_brute_force_agree_exactly(
         points = list(zip(x[ok].tolist(), y[ok].tolist(), strict=True))
         assert vertices_of(folded, pair) == hull_with_first(points)
         assert int(folded.count[pair]) == len(points)
+
+
+def test_held_back_chunks_are_folded_before_anything_reads_the_state() -> None:
+    """Chunks held back (``batch``) are folded before the hulls, the counts or the guide are
+    read, before a copy or a merge, and at the end of a run: the state then equals one
+    that folded each chunk as it came, and a copy or merge of either gives the same."""
+    rng = np.random.default_rng(21)
+    n = 3000
+    walk = np.cumsum(rng.normal(0, 0.05, n))
+    columns = {"w": walk, "noise": rng.normal(size=n), "line": 2 * walk + 3}
+    columns["noise"][rng.random(n) < 0.02] = np.nan
+    names = list(columns)
+    variables = tuple(Variable(name, "float") for name in names)
+    chunks = [
+        Samples(
+            "p", 0, np.arange(a, b, dtype=float), {k: columns[k][a:b] for k in names}, variables
+        )
+        for a, b in _split(n, list(range(700, n, 700)))
+    ]
+    eager = PolygonState(variables, batch=0)
+    for chunk in chunks:
+        eager.update(chunk)
+    lazy = PolygonState(variables, batch=1 << 30)
+    for chunk in chunks[:2]:
+        lazy.update(chunk)
+    assert lazy._pending  # held back, not folded yet
+    early = PolygonState(variables, batch=0)
+    for chunk in chunks[:2]:
+        early.update(chunk)
+    assert _snapshot(lazy) == _snapshot(early)  # reading the hulls folds them
+    assert not lazy._pending
+    for chunk in chunks[2:]:
+        lazy.update(chunk)
+    copied = pickle.loads(pickle.dumps(lazy))  # a copy carries no held-back chunks
+    assert not copied._pending and _snapshot(copied) == _snapshot(eager)
+    second = PolygonState(variables, batch=1 << 30)
+    second.update(chunks[1])
+    first = PolygonState(variables, batch=1 << 30)
+    first.update(chunks[0])
+    first.merge(second)  # both sides' held-back chunks folded, ours before theirs
+    assert _snapshot(first) == _snapshot(early)
+    ctx = FinalizeContext(Tunables(drop_ratio=1.0), variables, "p")
+    fresh = PolygonState(variables, batch=1 << 30)
+    for chunk in chunks:
+        fresh.update(chunk)
+    assert fresh.finalize(ctx) == eager.finalize(ctx)
+    fresh.end_run()
+    assert not fresh._pending
+
+
+def test_the_values_held_back_are_bounded_for_the_whole_process() -> None:
+    """Each state alone stays under its batch, but together they pass it: the state whose
+    update finds that folds its own chunks, and the result is the same."""
+    rng = np.random.default_rng(22)
+    variables = (Variable("x", "float"), Variable("y", "float"))
+    parts = [
+        Samples(
+            "p",
+            0,
+            np.arange(k * 100.0, k * 100 + 100),
+            dict(zip("xy", rng.normal(size=(2, 100)), strict=True)),
+            variables,
+        )
+        for k in range(3)
+    ]
+    first = PolygonState(variables, batch=500)  # 200 values per chunk: 400 alone stays under
+    second = PolygonState(variables, batch=500)
+    first.update(parts[0])
+    second.update(parts[1])
+    assert first._pending and second._pending
+    first.update(parts[2])  # 400 + 200 held back in all: the first one folds its chunks
+    assert not first._pending and second._pending
+    eager = PolygonState(variables, batch=0)
+    for part in (parts[0], parts[2]):
+        eager.update(part)
+    assert _snapshot(first) == _snapshot(eager)
+    del second  # a state that is gone holds nothing back
+    third = PolygonState(variables, batch=500)
+    third.update(parts[1])
+    third.update(parts[0])  # 400: with the second one's 200 it would have folded
+    assert third._pending
 
 
 @settings(max_examples=40, deadline=None)
