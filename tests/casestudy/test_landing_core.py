@@ -296,10 +296,68 @@ def test_a_called_off_landing_sends_the_stopped_platform_on_and_is_counted() -> 
         if state == L.SHUTDOWN:
             break
     assert state == L.SHUTDOWN and not world.platform.moving
-    # the monitor commands the task state: the landing is called off, the platform drives on
+    # the monitor commands the task state: the landing is called off; the UAV goes around
+    # (straight up) and the platform drives on once it is back at its pursuit height
     state, waypoint, task = control.step(t + 1.0, L.TASK, touched, 0.0)
+    assert state == L.TASK and task is None and waypoint is not None
+    up = (0.0, 0.0, L.PLATFORM_TOP + control.approach)
+    state, waypoint, task = control.step(t + 2.0, L.TASK, up, 0.0)
     assert state == L.TASK and task == L.TASK_TRACK and waypoint is not None
     world.drive(task)
     assert world.platform.moving and world.referee.reinitiated == 1
     world.drive(L.TASK_WANDER)  # the monitor's safe task: the platform wanders, no landing
     assert world.platform.moving and world.referee.reinitiated == 1
+
+
+def test_a_landing_called_off_on_a_surface_goes_around_straight_up() -> None:
+    # the UAV stands on the occupied platform's object off its centre, motors off, the
+    # platform stopped; the monitor commands the task state (a called-off landing)
+    world = L.World("occupied", 0)
+    platform, uav = world.platform, world.uav
+    platform.moving, platform.speed, platform.heading = False, 0.0, 0.0
+    uav.x, uav.y = platform.x + 0.12, platform.y - 0.08
+    uav.z, uav.resting = L.PLATFORM_TOP + L.OBJECT_HEIGHT + L.UAV_REST, "object"
+    control, loop = L.LandingController(), L.Attitude()
+    for k in range(21):
+        control.see_car(k * 0.05, platform.x, platform.y, L.PLATFORM_TOP, platform.heading)
+    control.commanded, control.since, control.home = L.SHUTDOWN, 0.5, (0.0, 0.0)
+    start, world.t = (uav.x, uav.y), 1.0
+    state, waypoint, step, tracked = L.SHUTDOWN, None, 0, None
+    top = L.PLATFORM_TOP + control.approach
+    clear = uav.z + 0.2  # its legs well off the object
+    while world.t < 6.0:
+        step += 1
+        if step % 5 == 0:
+            control.see_car(world.t, platform.x, platform.y, L.PLATFORM_TOP, platform.heading)
+            state, waypoint, task = control.step(world.t, L.TASK, (uav.x, uav.y, uav.z), uav.vz)
+            assert waypoint is not None
+            loop.see_waypoint(world.t, *waypoint)
+            if task is not None:
+                assert task == L.TASK_TRACK and tracked is None
+                tracked = (world.t, uav.z)
+                world.drive(task)
+        if step % 2 == 0:
+            world.command = loop.command(
+                state, waypoint, (uav.x, uav.y, uav.z), (uav.vx, uav.vy, uav.vz), world.t
+            )
+        world.step()
+        assert uav.broken is None
+        if uav.z < clear:  # going around: up where it stood, over a platform that waits
+            assert not platform.moving
+            # (the rotors' outwash pushes it a few centimetres while it is near the surface)
+            assert math.hypot(uav.x - start[0], uav.y - start[1]) < 0.08
+    # the platform was told to drive on once the UAV was back at its pursuit height, and the
+    # UAV pursues it
+    assert tracked is not None and tracked[0] < 3.0 and platform.moving
+    assert tracked[1] >= top - control.landing_radius
+    assert math.hypot(uav.x - platform.x, uav.y - platform.y) < 0.3
+    assert abs(uav.z - top) < 0.1
+
+
+def test_a_landing_called_off_high_over_the_platform_pursues_at_once() -> None:
+    control, t = _landing(0.45)
+    high = (0.0, 0.0, L.PLATFORM_TOP + 0.45)
+    control.step(t + 0.05, L.LAND, high, -0.3)
+    state, waypoint, task = control.step(t + 0.1, L.TASK, high, -0.3)
+    assert state == L.TASK and task == L.TASK_TRACK
+    assert waypoint == pytest.approx((0.0, 0.0, L.PLATFORM_TOP + control.approach))

@@ -8,7 +8,9 @@ calls ``/a/execute_task`` when the task changes, and serves ``/a/poll_status``. 
 parameters: ``~landing_radius`` (0.15 m), ``~landing_time`` (1.5 s), ``~poll_rate`` (2 Hz).
 A state reported by the state machine that it did not command (the monitor's task command
 during a landing) calls the landing off: it tells the platform it tracks it again
-(``/a/execute_task``, task 1: a platform stopped at the touchdown drives on) and pursues it.
+(``/a/execute_task``, task 1: a platform stopped at the touchdown drives on) and pursues it;
+called off low (on a surface or within 0.3 m of the platform's markers) it first goes
+around, climbing straight up to its pursuit height, and tells the platform only then.
 """
 
 from __future__ import annotations

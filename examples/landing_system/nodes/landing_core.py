@@ -21,7 +21,8 @@ Pure Python (no rospy, no numpy): the rospy nodes of this package run it under D
   descending at 0.3 m/s (waiting while the platform turns or brakes) until it senses the
   touchdown, then switches the motors off and stops the platform; a
   landing called off (a task state it did not command, the monitor's) sends the platform on
-  again (task 1, track) and pursues it.
+  again (task 1, track) and pursues it, after going around (straight up to its pursuit
+  height) when it was called off on or near a surface.
 * :class:`Attitude`: the position loop of ``/a/pid_ctrl`` (waypoint to roll, pitch, thrust).
 * :class:`Referee`: how a run ends (Table 5.1's criteria): landed (motors off on the platform
   for 5 s), crashed, fallen off, landed elsewhere, or timed out.
@@ -505,6 +506,16 @@ class LandingController:
     commit: float = UAV_REST + 0.01
     """Below this height over the platform's markers (m) the UAV has touched down: the
     landing goes on whatever the platform does."""
+    go_around_below: float = 0.3
+    """A landing called off with the UAV lower than this over the platform's markers (m: on
+    a surface or just over it, in the rotors' outwash) goes around: the UAV climbs straight
+    up to its pursuit height, keeping where it is over the platform, before it pursues
+    again; only then is the platform told to drive on (task 1). Pursuing from a surface, or
+    with the surface driving off under its legs, drags them sideways over it (a crash above
+    :data:`CRASH_SLIDE`)."""
+    climb: tuple[float, float] | None = None
+    """In a go-around, the UAV's offset (x, y) from the platform's position when the landing
+    was called off, which it keeps while it climbs (None: no go-around)."""
 
     def see_car(self, t: float, x: float, y: float, z: float, yaw: float | None = None) -> None:
         """A platform position (and heading, when known) arrived (``/a/car_pose``)."""
@@ -536,7 +547,7 @@ class LandingController:
             self.speeds.append((t, speed))
 
     def _go(self, state: int, t: float) -> int:
-        self.commanded, self.since = state, t
+        self.commanded, self.since, self.climb = state, t, None
         return state
 
     def step(
@@ -554,7 +565,10 @@ class LandingController:
         ):
             self._go(state, t)  # someone (the monitor) called the landing off
             self.within_since = self.touch_since = None
-            if state == TASK:  # tracking again: the platform drives on (after a stop too)
+            car = self.last_car
+            if state == TASK and car is not None and uav[2] - car[3] < self.go_around_below:
+                self.climb = (uav[0] - car[1], uav[1] - car[2])  # low: go around first
+            elif state == TASK:  # tracking again: the platform drives on (after a stop too)
                 task = TASK_TRACK
         if self.home is None:
             self.home = (uav[0], uav[1])
@@ -577,6 +591,13 @@ class LandingController:
         cx = car[1] + self.lead * self.car_velocity[0]
         cy = car[2] + self.lead * self.car_velocity[1]
         distance = math.hypot(uav[0] - car[1], uav[1] - car[2])
+        if self.commanded == TASK and self.climb is not None:
+            top = car[3] + self.approach
+            if uav[2] < top - self.landing_radius:  # going around: straight up
+                goal = (car[1] + self.climb[0], car[2] + self.climb[1], top)
+                return self.commanded, goal, task
+            self.climb = None  # back at the pursuit height: the platform drives on (after
+            task = TASK_TRACK  # a stop too), and the UAV pursues it
         if self.commanded == TASK:
             # over the platform at the pursuit height (after a landing called off the UAV
             # climbs back first: a landing begun in the climb starts off the platform's pace)
