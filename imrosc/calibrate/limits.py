@@ -53,6 +53,9 @@ WIDENED = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE, FREQUENCY, INTERVAL, P
 ADDITIVE = frozenset({BOUNDS, ARRAY, RATE, MEAN})
 """Ranges widened in the value's own scale."""
 """Families whose limits calibration widens."""
+MARGINED = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE})
+"""Ranges of one scalar whose limits get a margin (``params.margin``): how far beyond the
+centre of the units' extremes a violation is severe (``docs/calibration.md``)."""
 SETS = frozenset({ONE_OF, STRING_ONE_OF, ARCHITECTURE})
 """Families calibration keeps or drops whole."""
 

@@ -29,7 +29,7 @@ from typing import (
 
 import numpy as np
 
-from .alarms import Alarm, AlarmRule, AlarmTracker, shapes_of
+from .alarms import Alarm, AlarmRule, AlarmTracker, margins_of, shapes_of
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
 from .compiled import numba_module
@@ -290,7 +290,11 @@ class Engine:
         self.document = document
         self.trace = trace
         self.alarm_rule = rule if rule is not None else AlarmRule.from_json(document.get("alarms"))
-        self.alarms = AlarmTracker(self.alarm_rule, shapes=shapes_of(document["invariants"]))
+        self.alarms = AlarmTracker(
+            self.alarm_rule,
+            shapes=shapes_of(document["invariants"]),
+            margins=margins_of(document["invariants"]),
+        )
         self.layouts: Dict[str, List[Mapping[str, Any]]] = {
             topic: list(info["variables"]) for topic, info in document["topics"].items()
         }
