@@ -39,7 +39,7 @@ from imrosc.calibrate.tolerance import prediction_bound, tolerances, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
-from imrosc.runtime.families import ARRAY, BOUNDS, INTERVAL, ONE_OF, PATTERN, POLYGON
+from imrosc.runtime.families import ARRAY, BOUNDS, INTERVAL, ONE_OF, PATTERN, POLYGON, STEP
 
 Key = tuple[Any, ...]
 
@@ -193,7 +193,7 @@ class Envelopes:
             elif self._unstable(invariant, found):
                 self._drop(invariant, self.dropped)
         self.margined = sum(
-            len(limits.slots)
+            1 if self.family[ident] == STEP else len(limits.slots)
             for ident, limits in self.limits.items()
             if ident not in self.drop and self.family.get(ident) in MARGINED
         )
@@ -283,22 +283,31 @@ class Envelopes:
                         family = invariant["family"]
                         self.widened[family] = self.widened.get(family, 0) + 1
                 if self.margins and invariant["family"] in MARGINED:
-                    margin = self.margin(limits, chosen)
+                    margin = self.margin(limits, chosen, invariant["family"] == STEP)
                     if margin:
                         invariant["params"] = dict(invariant["params"], margin=margin)
         return out
 
-    def margin(self, limits: _Limits, chosen: np.ndarray) -> dict[str, list[float]]:
+    def margin(
+        self, limits: _Limits, chosen: np.ndarray, shared: bool = False
+    ) -> dict[str, list[float]]:
         """Per limit (``max``, ``min``) of a range of one scalar, its margin from the
         ``chosen`` units' supports: ``[centre, limit]``, raw values, the centre the mean of
         the units' extremes, the limit the prediction bound of one more unit's extreme at
         :attr:`severe_level` (in the limit's scale: the logarithm for a variance). A limit
-        the units all reach alike (no spread), or fewer than two of them, has none."""
+        the units all reach alike (no spread), or fewer than two of them, has none.
+
+        ``shared`` (a step): both limits share one margin, that of the units' largest
+        step either way (a jump has no preferred direction)."""
         found: dict[str, list[float]] = {}
         level = self.severe_level
-        for slot, row, mask in zip(
-            limits.slots, limits.supports[:, chosen], limits.known[:, chosen], strict=True
-        ):
+        supports, known = limits.supports[:, chosen], limits.known[:, chosen]
+        if shared and len(limits.slots) == 2:
+            both = np.where(known, supports, -np.inf).max(axis=0)
+            seen = known.any(axis=0)
+            supports = np.vstack([both, both])
+            known = np.vstack([seen, seen])
+        for slot, row, mask in zip(limits.slots, supports, known, strict=True):
             held = row[mask].tolist()
             if len(held) < 2 or not all(map(math.isfinite, held)):
                 continue

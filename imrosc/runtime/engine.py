@@ -35,7 +35,7 @@ from .checks import Checks, WindowChecks
 from .compiled import numba_module
 from .conditions import holds
 from .detector import Detector
-from .families import DETECTOR, INTERVAL, MEAN, PATTERN, RATE, VARIANCE
+from .families import DETECTOR, INTERVAL, MEAN, PATTERN, RATE, STEP, VARIANCE
 from .points import Pairing
 from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
@@ -58,6 +58,7 @@ WINDOW_VALUES: Dict[str, Callable[[Windows], Any]] = {
     VARIANCE: Windows.variance,
     RATE: Windows.rate,
     MEAN: Windows.mean,
+    STEP: Windows.step,
 }
 """Each window family's values of the current window, per tracked variable."""
 
