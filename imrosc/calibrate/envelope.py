@@ -298,7 +298,12 @@ class Envelopes:
         the units all reach alike (no spread), or fewer than two of them, has none.
 
         ``shared`` (a step): both limits share one margin, that of the units' largest
-        step either way (a jump has no preferred direction)."""
+        step either way (a jump has no preferred direction). A run's largest step is a
+        positive maximum whose spread is multiplicative where jumps are part of normal
+        operation (a waypoint switch moves a track error by whatever the geometry gives):
+        its limit is the larger of the normal bound and the same bound taken in the
+        logarithm (a log-normal model), which reaches as far as such a tail does and stays
+        near the normal one where the units' largest steps are alike (sensor noise)."""
         found: dict[str, list[float]] = {}
         level = self.severe_level
         supports, known = limits.supports[:, chosen], limits.known[:, chosen]
@@ -313,6 +318,8 @@ class Envelopes:
                 continue
             centre = math.fsum(held) / len(held)
             bound = prediction_bound(held, level)
+            if shared and bound is not None and min(held) > 0:
+                bound = max(bound, _lognormal_bound(held, level))
             if bound is None or not bound > centre or not math.isfinite(bound):
                 continue
             try:
@@ -386,6 +393,19 @@ class Envelopes:
             params["vertices"] = vertices(params["A"], offsets, params["vertices"])
         invariant["params"] = params
         return moved
+
+
+def _lognormal_bound(values: Sequence[float], level: float) -> float:
+    """The prediction bound of one more positive value at ``level`` in the logarithm
+    (``inf`` past any float; the values' smallest when they are too few).
+
+    >>> round(_lognormal_bound([1.0, 10.0, 100.0], 0.05), 1) > 100
+    True
+    """
+    logged = prediction_bound([math.log(v) for v in values], level)
+    if logged is None:
+        return min(values)
+    return math.exp(logged) if logged < 700 else math.inf
 
 
 @dataclass(frozen=True)
