@@ -259,6 +259,9 @@ class AlarmOverrides:
     """Distinct invariants of a point violated within ``window`` (0: agreement off)."""
     window: float | None = None
     """Seconds of the agreement rule."""
+    severe: float | None = None
+    """The severity (margins beyond the centre) at which a violation of a family with
+    severe alarms alarms at once (0: off)."""
 
     def given(self) -> dict[str, int | float]:
         """The overridden fields by their name in the rule (``AlarmRule``)."""

@@ -232,11 +232,13 @@ def _alarms(element: etree._Element) -> ir.AlarmOverrides:
     """The ``alarm_*`` attributes of ``<monitor>`` (absent ones keep the file's rule)."""
     persist, seconds = element.get("alarm_persist"), element.get("alarm_seconds")
     distinct, window = element.get("alarm_distinct"), element.get("alarm_window")
+    severe = element.get("alarm_severe")
     return ir.AlarmOverrides(
         persist=None if persist is None else int(persist),
         seconds=None if seconds is None else float(seconds),
         distinct=None if distinct is None else int(distinct),
         window=None if window is None else float(window),
+        severe=None if severe is None else float(severe),
     )
 
 

@@ -87,6 +87,12 @@ def alarm_lines(doc: Mapping[str, Any]) -> list[str]:
         parts.append(
             f"{rule['distinct']} invariants of a point within {float(rule.get('window', 1.0)):g} s"
         )
+    families = rule.get("severe_families") or ()
+    if families and rule.get("severe"):
+        parts.append(
+            f"at once beyond {float(rule['severe']):g} margin"
+            f"{'s' * (float(rule['severe']) != 1)} ({', '.join(families)})"
+        )
     line = "alarms: " + ", or ".join(parts)
     calibration = doc.get("calibration")
     if calibration:

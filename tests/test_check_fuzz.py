@@ -25,7 +25,7 @@ ATTRIBUTES = [
     *("project", "id", "label", "relative", "conds", "events", "inv", "launch", "launch_ros2"),
     *("threshold", "beta", "window", "confidence", "drop_ratio", "hull_chunk"),
     *("discrete", "budget", "max_interval", "max_events", "period", "bogus"),
-    *("alarm_persist", "alarm_seconds", "alarm_distinct", "alarm_window"),
+    *("alarm_persist", "alarm_seconds", "alarm_distinct", "alarm_window", "alarm_severe"),
 ]
 
 

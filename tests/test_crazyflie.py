@@ -165,6 +165,8 @@ def _check_time_family(invariant: Mapping[str, Any], runs: Runs) -> None:
                 found.append(statistics.fmean(values))
             elif family == "rate" and len(values) >= 2 and times[-1] > times[0]:
                 found.append((values[-1] - values[0]) / (times[-1] - times[0]))
+            elif family == "step" and len(values) >= 2:
+                found.append(values[-1] - values[-2])
     slack = 1e-9 * max(1.0, *(abs(v) for v in found))
     assert min(found) >= float(params["min"]) - slack
     assert max(found) <= float(params["max"]) + slack
@@ -217,7 +219,7 @@ def test_every_invariant_holds_on_the_data_it_came_from(
                 for run in runs
             ]
         family = invariant["family"]
-        if family in ("frequency", "variance", "rate", "mean"):
+        if family in ("frequency", "variance", "rate", "mean", "step"):
             _check_time_family(invariant, runs)
         elif family == "architecture":
             _check_architecture(invariant, runs)

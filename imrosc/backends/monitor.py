@@ -207,7 +207,7 @@ class MonitorSpec:
     invariants_path: str = INVARIANTS_PATH
     alarms: Mapping[str, int | float] = field(default_factory=dict)
     """The ``<monitor>``'s overrides of the invariants file's alarm rule (``persist``,
-    ``seconds``, ``distinct``, ``window``; only the given ones)."""
+    ``seconds``, ``distinct``, ``window``, ``severe``; only the given ones)."""
     launch_ros2: str | None = None
     """The ``<monitor>``'s ``launch_ros2``: the system's ROS 2 launch XML, which the ``ros2``
     backend rewrites instead of ``launch``."""

@@ -27,6 +27,7 @@ from typing import Any
 
 from imrosc.calibrate.envelope import Envelopes, FoldDocument, UnitView
 from imrosc.calibrate.rule import HeldOut, Learnt, Replays, calibrate_rule
+from imrosc.calibrate.severe import SEVERE, SevereCheck, check_severe
 from imrosc.folds import at_gaps
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
@@ -54,6 +55,8 @@ class Calibration:
     rule: AlarmRule = field(default_factory=AlarmRule)
     certified: bool = False
     held_out: list[HeldOut] = field(default_factory=list)
+    severe: SevereCheck | None = None
+    """What held-out units said of the margins (``None``: no margins, one bag alone)."""
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -66,6 +69,7 @@ class Calibration:
             "unsupported": dict(sorted(self.unsupported.items())),
             "certified": self.certified,
             "held_out": [h.as_json() for h in self.held_out],
+            **({} if self.severe is None else {"severe": self.severe.as_json()}),
         }
 
     def summary(self) -> str:
@@ -80,6 +84,8 @@ class Calibration:
             alarm += f" or {rule.seconds:g} s of them"
         if rule.distinct:
             alarm += f" or {rule.distinct} invariants of a point broken within {rule.window:g} s"
+        if rule.severe_families:
+            alarm += f" or at once beyond a margin ({', '.join(rule.severe_families)})"
         certified = (
             "certified"
             if self.certified
@@ -143,7 +149,10 @@ def calibrate(
     if len(units) < 2:
         return report
     views = [UnitView.of(u) for u in units]
-    envelopes = Envelopes(document, views, budget)
+    # time segments of one bag give no margins: a landing is in one segment only, and one
+    # run cannot say how hard the next one's is
+    margins = len({bag_path(u.bag) for u in units}) >= 2
+    envelopes = Envelopes(document, views, budget, margins=margins)
     everyone = set(range(len(views)))
     final = envelopes.document(everyone, final=True)
     report.widened, report.dropped = envelopes.widened, envelopes.dropped
@@ -155,7 +164,8 @@ def calibrate(
         for group in groups
         if group
     ]
-    found = calibrate_rule(held, units, budget, workers=workers, replays=replays)
+    parts = 4 if margins else 3
+    found = calibrate_rule(held, units, budget, workers=workers, replays=replays, parts=parts)
     report.rule, report.certified, report.held_out = found.rule, found.certified, found.held_out
     kept = []
     for invariant in final["invariants"]:
@@ -165,9 +175,15 @@ def calibrate(
         else:
             kept.append(invariant)
     final["invariants"] = kept
+    if margins:
+        report.severe = check_severe(kept, report.held_out, budget, envelopes.severe_level)
+        report.rule = report.rule._replace(
+            severe=SEVERE if report.severe.families else 0.0,
+            severe_families=report.severe.families,
+        )
     _evidence(report.held_out, units, envelopes, held, {inv["id"] for inv in kept})
     document.clear()
     document.update(final)
-    document["alarms"] = found.rule.as_json()
+    document["alarms"] = report.rule.as_json()
     document["calibration"] = report.as_json()
     return report

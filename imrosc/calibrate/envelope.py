@@ -17,9 +17,11 @@ from typing import Any
 import numpy as np
 
 from imrosc.calibrate.limits import (
+    MARGINED,
     SETS,
     WIDENED,
     Slot,
+    from_scale,
     members,
     merge_sets,
     number,
@@ -33,11 +35,11 @@ from imrosc.calibrate.limits import (
     with_value,
 )
 from imrosc.calibrate.text import retext
-from imrosc.calibrate.tolerance import tolerances, too_many
+from imrosc.calibrate.tolerance import prediction_bound, tolerances, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
-from imrosc.runtime.families import ARRAY, BOUNDS, INTERVAL, ONE_OF, PATTERN, POLYGON
+from imrosc.runtime.families import ARRAY, BOUNDS, INTERVAL, ONE_OF, PATTERN, POLYGON, STEP
 
 Key = tuple[Any, ...]
 
@@ -148,9 +150,16 @@ class Envelopes:
     """The limits and sets of a document's invariants, and their supports per unit."""
 
     def __init__(
-        self, document: Mapping[str, Any], views: Sequence[UnitView], budget: float
+        self,
+        document: Mapping[str, Any],
+        views: Sequence[UnitView],
+        budget: float,
+        *,
+        margins: bool = False,
     ) -> None:
         self.source = document
+        self.margins = margins
+        """Whether the ranges of one scalar get margins (:meth:`margin`)."""
         self.types, self.integer = _types(document)
         self.budget = budget
         self.count = len(views)
@@ -163,10 +172,13 @@ class Envelopes:
         """Invariants fewer than two units support, per family."""
         self.sets: dict[str, list[frozenset[Any] | None]] = {}
         """Per invariant of a set family, the set each unit holds (``None``: not there)."""
+        self.family: dict[str, str] = {}
+        """Per widened invariant, its family."""
         for invariant in document["invariants"]:
             family = invariant["family"]
             if family not in WIDENED and family not in SETS:
                 continue
+            self.family[invariant["id"]] = family
             found = [view.lookup(invariant) for view in views]
             if sum(params is not None for params in found) < 2:
                 self._drop(invariant, self.unsupported)
@@ -180,6 +192,19 @@ class Envelopes:
                 self.limits[invariant["id"]] = _Limits.of(invariant, found)
             elif self._unstable(invariant, found):
                 self._drop(invariant, self.dropped)
+        self.margined = sum(
+            1 if self.family[ident] == STEP else len(limits.slots)
+            for ident, limits in self.limits.items()
+            if ident not in self.drop and self.family.get(ident) in MARGINED
+        )
+        """The limits with margins in the file (``L``: each margin's level is
+        ``budget / 4 / L``, a union bound over them)."""
+
+    @property
+    def severe_level(self) -> float:
+        """The level of each margin: the severe alarms' quarter of the budget shared among
+        the file's limits with margins."""
+        return self.budget / 4 / max(1, self.margined)
 
     def untested(self, units: set[int]) -> set[str]:
         """The invariants about which a unit outside ``units``, replayed against the
@@ -257,7 +282,53 @@ class Envelopes:
                     if final:
                         family = invariant["family"]
                         self.widened[family] = self.widened.get(family, 0) + 1
+                if self.margins and invariant["family"] in MARGINED:
+                    margin = self.margin(limits, chosen, invariant["family"] == STEP)
+                    if margin:
+                        invariant["params"] = dict(invariant["params"], margin=margin)
         return out
+
+    def margin(
+        self, limits: _Limits, chosen: np.ndarray, shared: bool = False
+    ) -> dict[str, list[float]]:
+        """Per limit (``max``, ``min``) of a range of one scalar, its margin from the
+        ``chosen`` units' supports: ``[centre, limit]``, raw values, the centre the mean of
+        the units' extremes, the limit the prediction bound of one more unit's extreme at
+        :attr:`severe_level` (in the limit's scale: the logarithm for a variance). A limit
+        the units all reach alike (no spread), or fewer than two of them, has none.
+
+        ``shared`` (a step): both limits share one margin, that of the units' largest
+        step either way (a jump has no preferred direction). A run's largest step is a
+        positive maximum whose spread is multiplicative where jumps are part of normal
+        operation (a waypoint switch moves a track error by whatever the geometry gives):
+        its limit is the larger of the normal bound and the same bound taken in the
+        logarithm (a log-normal model), which reaches as far as such a tail does and stays
+        near the normal one where the units' largest steps are alike (sensor noise)."""
+        found: dict[str, list[float]] = {}
+        level = self.severe_level
+        supports, known = limits.supports[:, chosen], limits.known[:, chosen]
+        if shared and len(limits.slots) == 2:
+            both = np.where(known, supports, -np.inf).max(axis=0)
+            seen = known.any(axis=0)
+            supports = np.vstack([both, both])
+            known = np.vstack([seen, seen])
+        for slot, row, mask in zip(limits.slots, supports, known, strict=True):
+            held = row[mask].tolist()
+            if len(held) < 2 or not all(map(math.isfinite, held)):
+                continue
+            centre = math.fsum(held) / len(held)
+            bound = prediction_bound(held, level)
+            if shared and bound is not None and min(held) > 0:
+                bound = max(bound, _lognormal_bound(held, level))
+            if bound is None or not bound > centre or not math.isfinite(bound):
+                continue
+            try:
+                pair = [from_scale(centre, slot), from_scale(bound, slot)]
+            except OverflowError:  # a variance's limit past any float: no margin
+                continue
+            if all(map(math.isfinite, pair)) and pair[0] != pair[1]:
+                found[slot.param] = pair
+        return found
 
     def _widen(
         self,
@@ -322,6 +393,19 @@ class Envelopes:
             params["vertices"] = vertices(params["A"], offsets, params["vertices"])
         invariant["params"] = params
         return moved
+
+
+def _lognormal_bound(values: Sequence[float], level: float) -> float:
+    """The prediction bound of one more positive value at ``level`` in the logarithm
+    (``inf`` past any float; the values' smallest when they are too few).
+
+    >>> round(_lognormal_bound([1.0, 10.0, 100.0], 0.05), 1) > 100
+    True
+    """
+    logged = prediction_bound([math.log(v) for v in values], level)
+    if logged is None:
+        return min(values)
+    return math.exp(logged) if logged < 700 else math.inf
 
 
 @dataclass(frozen=True)

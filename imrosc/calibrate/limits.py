@@ -43,16 +43,20 @@ from imrosc.runtime.families import (
     ONE_OF,
     POLYGON,
     RATE,
+    STEP,
     STRING_ONE_OF,
     VARIANCE,
 )
 
 Scale = Literal["add", "log", "count"]
 
-WIDENED = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE, FREQUENCY, INTERVAL, POLYGON})
-ADDITIVE = frozenset({BOUNDS, ARRAY, RATE, MEAN})
+WIDENED = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP, VARIANCE, FREQUENCY, INTERVAL, POLYGON})
+ADDITIVE = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP})
 """Ranges widened in the value's own scale."""
 """Families whose limits calibration widens."""
+MARGINED = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP, VARIANCE})
+"""Ranges of one scalar whose limits get a margin (``params.margin``): how far beyond the
+centre of the units' extremes a violation is severe (``docs/calibration.md``)."""
 SETS = frozenset({ONE_OF, STRING_ONE_OF, ARCHITECTURE})
 """Families calibration keeps or drops whole."""
 

@@ -54,15 +54,18 @@ def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[s
     (:attr:`imrosc.runtime.alarms.AlarmTracker.fed`) and event alarms, compactly: per
     invariant its point, family, longest episode (samples, seconds) and the times its counted
     violations cover, each violation's time widened by ``window`` and overlapping ones
-    merged."""
+    merged; and, for an invariant with margins, the largest severity of its violations
+    (``severity``, absent when 0)."""
     found: dict[str, dict[str, Any]] = {}
-    for time, point, ident, n, counted, lasted, family in fed:
+    for time, point, ident, n, counted, lasted, family, severity in fed:
         entry = found.setdefault(
             ident,
             {"point": point, "family": family, "persist": 0, "lasting": 0.0, "evidence": []},
         )
         entry["persist"] = max(entry["persist"], n)
         entry["lasting"] = max(entry["lasting"], lasted)
+        if severity > entry.get("severity", 0.0):
+            entry["severity"] = severity
         if counted:
             spans = entry["evidence"]
             if spans and time <= spans[-1][1]:
@@ -203,9 +206,11 @@ def threshold(values: Sequence[float], alpha: float, resolution: float) -> tuple
     return (ranked if bound is None else max(ranked, bound)), False
 
 
-def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, bool]:
+def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tuple[AlarmRule, bool]:
     """The rule just past the conformal ``1 - budget/3`` rank of held-out units' longest
-    episodes (samples, seconds) and largest agreements; whether they certify it.
+    episodes (samples, seconds) and largest agreements; whether they certify it. With
+    ``parts=4`` the budget is split four ways: the fourth is the severe alarms'
+    (:mod:`.severe`), and each of the three ranks is at ``budget/4``.
 
     Each window family (:data:`imrosc.runtime.families.WINDOW`: frequency, variance, rate,
     mean) whose invariants some unit broke has its own persistence, past the rank of
@@ -230,11 +235,12 @@ def rule_from(figures: Sequence[Figures], budget: float) -> tuple[AlarmRule, boo
     >>> rule.persistence("mean"), rule.persistence("polygon"), sure
     ((4, 0.201), (41, 2.001), True)
     """
-    persist, sure_persist = threshold([f.persist + 1 for f in figures], budget / 3, 1.0)
-    lasting, sure_lasting = threshold([f.lasting for f in figures], budget / 3, 0.0)
-    distinct, sure_distinct = threshold([f.distinct + 1 for f in figures], budget / 3, 1.0)
+    part = budget / parts
+    persist, sure_persist = threshold([f.persist + 1 for f in figures], part, 1.0)
+    lasting, sure_lasting = threshold([f.lasting for f in figures], part, 0.0)
+    distinct, sure_distinct = threshold([f.distinct + 1 for f in figures], part, 1.0)
     names = sorted({name for f in figures for name in f.families if name in WINDOW_FAMILIES})
-    share = budget / 3 / max(1, len(names))
+    share = part / max(1, len(names))
     families = []
     sure = sure_persist and sure_lasting and sure_distinct
     for name in names:
@@ -262,7 +268,12 @@ def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
     if not units:
         return None
     budget = float(calibration.get("budget", 0.05))
-    rule, _ = rule_from([covered(u["trace"], kept) for u in units], budget)
+    severe = calibration.get("severe")
+    parts = 3 if severe is None else 4
+    rule, _ = rule_from([covered(u["trace"], kept) for u in units], budget, parts)
+    if severe is not None:
+        own = AlarmRule.from_json(document.get("alarms"))
+        rule = rule._replace(severe=own.severe, severe_families=own.severe_families)
     return rule
 
 
@@ -434,10 +445,11 @@ def calibrate_rule(
     *,
     workers: int = 1,
     replays: Replays | None = None,
+    parts: int = 3,
 ) -> RuleResult:
     """Replay the folds ``held`` (a document learnt without the fold's units, and their
     indexes into ``units``) in ``workers`` processes, or with ``replays`` when given, and set
-    the rule for ``budget``."""
+    the rule for ``budget`` (split ``parts`` ways, :func:`rule_from`)."""
     jobs: list[Job] = []
     for fold, (document, indexes) in enumerate(held):
         by_bag: dict[Path, list[tuple[float, float] | None]] = {}
@@ -463,6 +475,8 @@ def calibrate_rule(
             if unit.fold == fold:
                 unit.settle(others)
     rule, certified = rule_from(
-        [Figures(h.persist, h.lasting, h.distinct, False, h.families) for h in held_out], budget
+        [Figures(h.persist, h.lasting, h.distinct, False, h.families) for h in held_out],
+        budget,
+        parts,
     )
     return RuleResult(rule, certified, dropped, held_out)

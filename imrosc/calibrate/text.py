@@ -17,10 +17,11 @@ from imrosc.runtime.families import (
     MEAN,
     POLYGON,
     RATE,
+    STEP,
     VARIANCE,
 )
 
-_RANGES = frozenset({BOUNDS, ARRAY, RATE, MEAN, VARIANCE, FREQUENCY})
+_RANGES = frozenset({BOUNDS, ARRAY, RATE, MEAN, STEP, VARIANCE, FREQUENCY})
 
 
 def subject(text: str) -> str:

@@ -52,6 +52,7 @@ from imrosc.runtime.families import (
     ORDER,
     POLYGON,
     RATE,
+    STEP,
     STRING_ONE_OF,
     TERNARY,
     VARIANCE,
@@ -394,6 +395,13 @@ class ChunkPoint:
                 rate = (all_values[ends] - all_values[starts]) / dt[:, None]
             rate[~(dt > 0)] = np.nan
             out[RATE] = rate
+        if STEP in families:
+            step = np.full((len(time), width), np.nan)
+            pairs = np.flatnonzero(size >= 2)
+            if len(pairs):
+                with np.errstate(all="ignore"):
+                    step[pairs] = all_values[ends[pairs]] - all_values[ends[pairs] - 1]
+            out[STEP] = step
         keep = int(np.searchsorted(all_time, all_time[-1] - windows.width, side="right"))
         keep = max(keep, begun)
         state.times = all_time[keep:].copy()

@@ -36,7 +36,16 @@ from imrosc.infer.core import (
 from imrosc.infer.registry import make_point_states
 from imrosc.ir import Tunables
 from imrosc.progress import bag_done
-from imrosc.runtime.families import BOUNDS, MEAN, ONE_OF, PATTERN, RATE, STRING_ONE_OF, VARIANCE
+from imrosc.runtime.families import (
+    BOUNDS,
+    MEAN,
+    ONE_OF,
+    PATTERN,
+    RATE,
+    STEP,
+    STRING_ONE_OF,
+    VARIANCE,
+)
 from imrosc.translate.layout import TopicLayout
 from imrosc.translate.points import PointSpec
 from imrosc.translate.stream import BagTranslator
@@ -145,7 +154,7 @@ def count_nonfinite(counts: dict[str, list[int]], samples: Samples) -> None:
         found[2] += len(bad) - nan - positive
 
 
-WINDOW_STATISTICS = frozenset({VARIANCE, RATE, MEAN})
+WINDOW_STATISTICS = frozenset({VARIANCE, RATE, MEAN, STEP})
 """Window statistics of one variable: a constant's say nothing its one-of does not."""
 
 

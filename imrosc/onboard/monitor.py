@@ -120,6 +120,12 @@ def alarm_document(
     >>> rule = {"persist": 40, "families": {"mean": {"persist": 8}}}
     >>> alarm_document({"alarms": rule}, {"persist": 3})["alarms"]
     {'persist': 3}
+
+    ``severe`` 0 turns the severe alarms off (the families stay, the threshold goes):
+
+    >>> rule = {"persist": 40, "severe": 1.0, "severe_families": ["step"]}
+    >>> alarm_document({"alarms": rule}, {"severe": 0.0})["alarms"]["severe"]
+    0.0
     """
     if not overrides:
         return document

@@ -18,6 +18,16 @@ a variance of exactly 0 over the window where every training window varied (a st
 repeats its value bit for bit; noise never does). The samples of such an episode are in
 alarm until the invariant holds again.
 
+A **severe** violation alarms at once too: a range of one scalar (bounds, array elements,
+window variance, rate, mean) whose file gives it a *margin* per limit
+(``params.margin``: ``{"max": [centre, limit], "min": [centre, limit]}``, set by
+calibration) has a *severity*, how far the observed value lies beyond the centre in
+margins (the distance from the centre to the limit; in the logarithm for a variance).
+When the rule's ``severe`` threshold is set and the invariant's family is one of the
+rule's ``severe_families``, a violation of severity at least the threshold raises an alarm
+at the first sample of its episode (calibration sets the limit where one more normal run's
+extreme lies with probability at most its share of the budget; ``docs/calibration.md``).
+
 Agreement counts evidence, not consequences: a violation of an invariant of several
 variables (a polygon, a relation) whose sample also breaks a range of one of those variables
 (bounds, array elements) is not counted, since the range's violation already says it (one
@@ -40,16 +50,82 @@ writes it into the invariants file as ``alarms``; a file without it gets
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequence, Set, Tuple
 
 from .families import DETECTOR, RANGED, VARIANCE
 from .violation import Violation, json_safe
 
-Fed = Tuple[float, str, str, int, bool, float, str]
+Fed = Tuple[float, str, str, int, bool, float, str, float]
 """A violating sample as calibration keeps it (:attr:`AlarmTracker.fed`)."""
 RANGES = RANGED
 """Families whose invariants are the range of one variable."""
+Margins = Dict[str, Tuple[Tuple[float, float, bool, bool], ...]]
+"""Per invariant id, its margins: ``(centre, limit, upper, logarithmic)`` per limit."""
+
+
+def margins_of(invariants: Sequence[Mapping[str, Any]]) -> Margins:
+    """Per invariant id, the margins its ``params.margin`` gives (see the module's
+    docstring): those whose limit lies beyond the centre (in the logarithm for a variance,
+    positive values only).
+
+    >>> inv = {"id": "i1", "family": "bounds", "params": {"margin": {"max": [1.0, 3.0]}}}
+    >>> margins_of([inv])
+    {'i1': ((1.0, 3.0, True, False),)}
+    """
+    found: Margins = {}
+    for inv in invariants:
+        given = inv.get("params", {}).get("margin")
+        if not isinstance(given, Mapping):
+            continue
+        logarithmic = inv["family"] == VARIANCE
+        own = []
+        for side in ("max", "min"):
+            pair = given.get(side)
+            if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+                continue
+            centre, limit = float(pair[0]), float(pair[1])
+            if logarithmic:
+                if centre <= 0 or limit <= 0:
+                    continue
+                centre, limit = math.log(centre), math.log(limit)
+            upper = side == "max"
+            if (limit > centre) if upper else (limit < centre):
+                own.append((centre, limit, upper, logarithmic))
+        if own:
+            found[inv["id"]] = tuple(own)
+    return found
+
+
+def severity(margins: Tuple[Tuple[float, float, bool, bool], ...], observed: Any) -> float:
+    """How far ``observed`` lies beyond the centre, in margins (the largest over the
+    limits; 0 when it is not a number or lies inside every centre).
+
+    >>> severity(((1.0, 3.0, True, False), (1.0, -1.0, False, False)), 6.0)
+    2.5
+    >>> severity(((1.0, 3.0, True, False),), 0.5), severity(((0.0, 1.0, False, True),), 0.0)
+    (0.0, inf)
+    """
+    try:
+        value = float(observed)
+    except (TypeError, ValueError):
+        return 0.0
+    if math.isnan(value):
+        return 0.0
+    worst = 0.0
+    for centre, limit, upper, logarithmic in margins:
+        if logarithmic:
+            if value <= 0:
+                if not upper:
+                    return math.inf
+                continue
+            value_at = math.log(value)
+        else:
+            value_at = value
+        beyond = (value_at - centre) / (limit - centre)
+        worst = max(worst, beyond)
+    return worst
 
 
 def shapes_of(invariants: Sequence[Mapping[str, Any]]) -> Dict[str, Tuple[bool, Tuple[str, ...]]]:
@@ -86,6 +162,20 @@ class AlarmRule(NamedTuple):
     """Per family, its own ``(family, persist, seconds)``: the families whose invariants
     broke in calibration's held-out runs have the persistence those showed; the others
     (and every family of a rule without them) ``persist`` and ``seconds``."""
+    severe: float = 0.0
+    """A violation of at least this severity (margins beyond its centre) of an invariant of
+    ``severe_families`` raises an alarm at once (0: off)."""
+    severe_families: Tuple[str, ...] = ()
+    """The families whose severe violations alarm at once."""
+
+    def is_severe(self, family: str, value: float) -> bool:
+        """Whether a violation of ``family`` of severity ``value`` alarms at once.
+
+        >>> rule = AlarmRule(severe=1.0, severe_families=("mean",))
+        >>> rule.is_severe("mean", 1.2), rule.is_severe("mean", 0.9), rule.is_severe("bounds", 9)
+        (True, False, False)
+        """
+        return 0 < self.severe <= value and family in self.severe_families
 
     def persistence(self, family: str) -> Tuple[int, Optional[float]]:
         """The ``persist`` and ``seconds`` of a family's invariants.
@@ -111,14 +201,19 @@ class AlarmRule(NamedTuple):
                 name: {"persist": persist, "seconds": seconds}
                 for name, persist, seconds in self.families
             }
+        if self.severe_families:
+            found["severe"] = self.severe
+            found["severe_families"] = list(self.severe_families)
         return found
 
     @classmethod
     def from_json(cls, data: Optional[Mapping[str, Any]]) -> AlarmRule:
         """The rule of an invariants file's ``alarms`` (every violation alarms without it).
 
-        >>> AlarmRule.from_json({"persist": 9, "families": {"mean": {"persist": 3}}})
-        AlarmRule(persist=9, seconds=None, distinct=0, window=1.0, families=(('mean', 3, None),))
+        >>> AlarmRule.from_json({"persist": 9, "families": {"mean": {"persist": 3}}})[:5]
+        (9, None, 0, 1.0, (('mean', 3, None),))
+        >>> AlarmRule.from_json({"severe": 2, "severe_families": ["rate"]})[5:]
+        (2.0, ('rate',))
         """
         if not data:
             return EVERY_VIOLATION
@@ -139,6 +234,8 @@ class AlarmRule(NamedTuple):
             max(0, int(data.get("distinct", 0))),
             float(data.get("window", 1.0)),
             tuple(families),
+            max(0.0, float(data.get("severe") or 0.0)),
+            tuple(str(name) for name in data.get("severe_families") or ()),
         )
 
     def overridden(self, **changes: Any) -> AlarmRule:
@@ -154,8 +251,8 @@ EVERY_VIOLATION = AlarmRule()
 
 
 class Alarm(NamedTuple):
-    """An alarm: the violation that raised it, the rule (``persist``, ``agree``, ``event``)
-    and the invariants that took part."""
+    """An alarm: the violation that raised it, the rule (``persist``, ``agree``, ``event``,
+    ``severe``) and the invariants that took part."""
 
     time: float
     point: str
@@ -179,6 +276,8 @@ class Alarm(NamedTuple):
             why = f"{len(self.invariants)} invariants broken together"
         elif self.rule == "persist":
             why = "a violation that persists"
+        elif self.rule == "severe":
+            why = "a severe violation"
         elif v.family == VARIANCE:
             why = "a frozen variable"
         elif v.family == DETECTOR:
@@ -196,10 +295,13 @@ class AlarmTracker:
         rule: AlarmRule = EVERY_VIOLATION,
         record: bool = False,
         shapes: Optional[Mapping[str, Tuple[bool, Tuple[str, ...]]]] = None,
+        margins: Optional[Margins] = None,
     ) -> None:
         self.rule = rule
         self.shapes = shapes or {}
         """Per invariant id: whether it is a range of one variable, and its variables."""
+        self.margins = margins or {}
+        """Per invariant id, its margins (:func:`margins_of`)."""
         self.record = record
         """Keep, for calibration, every violating sample with its episode's length."""
         self.reset()
@@ -217,7 +319,25 @@ class AlarmTracker:
         self.raised: List[Alarm] = []
         self.fed: List[Fed] = []
         """``(time, point, invariant, samples of its episode so far, counted by agreement,
-        seconds since the episode began, family)`` of every violating sample (``record``)."""
+        seconds since the episode began, family, severity)`` of every violating sample
+        (``record``)."""
+
+    def severity(self, violation: Violation) -> float:
+        """The violation's severity (0 for an invariant without margins)."""
+        margins = self.margins.get(violation.invariant)
+        return 0.0 if margins is None else severity(margins, violation.observed)
+
+    def _at_once(self, violation: Violation) -> bool:
+        """:func:`at_once`, or a severe violation under the rule."""
+        if at_once(violation):
+            return True
+        rule = self.rule
+        return (
+            rule.severe > 0
+            and violation.family in rule.severe_families
+            and violation.invariant in self.margins
+            and rule.is_severe(violation.family, self.severity(violation))
+        )
 
     def busy(self, point: str) -> bool:
         """Whether ``point`` has an open episode (a clean sample must then be told)."""
@@ -231,17 +351,19 @@ class AlarmTracker:
         for ident in [i for i in episodes if i not in now_broken]:
             del episodes[ident]
         raised: List[Alarm] = []
-        if found and any(at_once(v) for v in found):
-            for v in found:
-                if at_once(v):
-                    episode = episodes.get(v.invariant)
-                    if episode is None:  # (or a variance that fell below its minimum first)
-                        episode = episodes[v.invariant] = [time, 0.0, 0.0]
-                    episode[1] += 1
-                    if not episode[2]:
-                        episode[2] = 1.0
-                        raised.append(Alarm(time, point, "event", (v.invariant,), v))
-            found = [v for v in found if not at_once(v)]  # nor persistence nor agreement
+        if found and any(self._at_once(v) for v in found):
+            instant = [v for v in found if self._at_once(v)]
+            for v in instant:
+                episode = episodes.get(v.invariant)
+                if episode is None:  # (or a variance that fell below its minimum first)
+                    episode = episodes[v.invariant] = [time, 0.0, 0.0]
+                episode[1] += 1
+                if not episode[2]:
+                    episode[2] = 1.0
+                    why = "event" if at_once(v) else "severe"
+                    raised.append(Alarm(time, point, why, (v.invariant,), v))
+            ids = {id(v) for v in instant}
+            found = [v for v in found if id(v) not in ids]  # nor persistence nor agreement
         counted = self.evidence(found) if found else found
         persistence = (rule.persist, rule.seconds)
         counted_ids = {id(v) for v in counted} if self.record else set()
@@ -261,6 +383,7 @@ class AlarmTracker:
                         id(v) in counted_ids,
                         lasted,
                         v.family,
+                        self.severity(v),
                     )
                 )
             if episode[2]:

@@ -43,6 +43,7 @@ from .families import (
     ORDER,
     POLYGON,
     RATE,
+    STEP,
     STRING_ONE_OF,
     TERNARY,
     VARIANCE,
@@ -657,7 +658,7 @@ def _inside(polygon: Mapping[str, Any]) -> str:
 
 
 class WindowChecks:
-    """The bounds of a point's frequency, variance, rate and mean invariants."""
+    """The bounds of a point's frequency, variance, rate, mean and step invariants."""
 
     def __init__(self, invariants: Sequence[Mapping[str, Any]], tracked: Sequence[str]) -> None:
         position = {name: k for k, name in enumerate(tracked)}
@@ -665,6 +666,7 @@ class WindowChecks:
         self.per_variable: Dict[str, List[Tuple[int, Mapping[str, Any]]]] = {
             VARIANCE: [],
             RATE: [],
+            STEP: [],
             MEAN: [],
         }
         self.window = 0.0

@@ -29,13 +29,13 @@ from typing import (
 
 import numpy as np
 
-from .alarms import Alarm, AlarmRule, AlarmTracker, shapes_of
+from .alarms import Alarm, AlarmRule, AlarmTracker, margins_of, shapes_of
 from .arch import ArchChecks, Snapshot
 from .checks import Checks, WindowChecks
 from .compiled import numba_module
 from .conditions import holds
 from .detector import Detector
-from .families import DETECTOR, INTERVAL, MEAN, PATTERN, RATE, VARIANCE
+from .families import DETECTOR, INTERVAL, MEAN, PATTERN, RATE, STEP, VARIANCE
 from .points import Pairing
 from .temporal import IntervalMachine, PatternMachine
 from .violation import Violation
@@ -58,6 +58,7 @@ WINDOW_VALUES: Dict[str, Callable[[Windows], Any]] = {
     VARIANCE: Windows.variance,
     RATE: Windows.rate,
     MEAN: Windows.mean,
+    STEP: Windows.step,
 }
 """Each window family's values of the current window, per tracked variable."""
 
@@ -290,7 +291,11 @@ class Engine:
         self.document = document
         self.trace = trace
         self.alarm_rule = rule if rule is not None else AlarmRule.from_json(document.get("alarms"))
-        self.alarms = AlarmTracker(self.alarm_rule, shapes=shapes_of(document["invariants"]))
+        self.alarms = AlarmTracker(
+            self.alarm_rule,
+            shapes=shapes_of(document["invariants"]),
+            margins=margins_of(document["invariants"]),
+        )
         self.layouts: Dict[str, List[Mapping[str, Any]]] = {
             topic: list(info["variables"]) for topic, info in document["topics"].items()
         }

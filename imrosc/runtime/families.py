@@ -13,7 +13,7 @@ Adding a value family is one row here, one state module in ``imrosc/infer``, its
 Python 3.8 syntax, standard library only: this module is copied into generated packages.
 
 >>> for_point(CALL)[:3], in_group("time-related")
-(('bounds', 'one-of', 'non-zero'), ('frequency', 'variance', 'rate', 'mean'))
+(('bounds', 'one-of', 'non-zero'), ('frequency', 'variance', 'rate', 'mean', 'step'))
 >>> FAMILIES[POLYGON].check, FAMILIES[INTERVAL].check
 ('value', 'event')
 """
@@ -34,6 +34,7 @@ FREQUENCY = "frequency"
 VARIANCE = "variance"
 RATE = "rate"
 MEAN = "mean"
+STEP = "step"
 POLYGON = "polygon"
 ARCHITECTURE = "architecture"
 INTERVAL = "interval"
@@ -91,6 +92,7 @@ CATALOG: Tuple[Family, ...] = (
     Family(VARIANCE, "time-related", frozenset({PUBLISH}), "window"),
     Family(RATE, "time-related", frozenset({PUBLISH}), "window"),
     Family(MEAN, "time-related", frozenset({PUBLISH}), "window"),
+    Family(STEP, "time-related", frozenset({PUBLISH}), "window"),
     Family(POLYGON, "polygon", _VALUES, "value", compiled=True),
     Family(ARCHITECTURE, "architecture", frozenset({ARCH}), "event"),
     Family(INTERVAL, "temporal", frozenset({TEMPORAL}), "event"),
@@ -102,7 +104,7 @@ CATALOG: Tuple[Family, ...] = (
 FAMILIES: Dict[str, Family] = {family.name: family for family in CATALOG}
 NAMES: Tuple[str, ...] = tuple(family.name for family in CATALOG)
 WINDOW: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.check == "window")
-"""Families checked on window values (frequency, variance, change rate, mean)."""
+"""Families checked on window values (frequency, variance, change rate, mean, step)."""
 EVENT: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.check == "event")
 """Families whose violations are events (the graph, orderings)."""
 RANGED: FrozenSet[str] = frozenset(f.name for f in CATALOG if f.ranged)
@@ -131,7 +133,7 @@ def select(words: Iterable[str], kind: str) -> Tuple[Tuple[str, ...], Tuple[str,
     >>> select(["default", "rate", "polygons"], PUBLISH)[1]
     ('polygons',)
     >>> select(["time-related", "bounds"], PUBLISH)[0]
-    ('bounds', 'frequency', 'variance', 'rate', 'mean')
+    ('bounds', 'frequency', 'variance', 'rate', 'mean', 'step')
     """
     applicable = for_point(kind)
     wanted = set()

@@ -122,6 +122,14 @@ class Windows:
         with np.errstate(all="ignore"):
             return (self.values[last] - self.values[first]) / dt
 
+    def step(self) -> Any:
+        """Change per variable between the window's last two samples (NaN below 2)."""
+        if self.size() < 2:
+            return np.full(self.variables, np.nan)
+        last = self.count - 1 - self.base
+        with np.errstate(all="ignore"):
+            return self.values[last] - self.values[last - 1]
+
     def _block(self, end: int, level: int) -> Block:
         """The dyadic block of ``2**level`` samples ending at absolute index ``end``."""
         cache = self.blocks[end - self.base]

@@ -251,6 +251,10 @@ def test_the_alarm_attributes_reach_the_spec_and_only_the_given_ones(tmp_path: P
     plain = write_case(tmp_path / "plain", config_text(), document)
     spec = json.loads(build_ros1(plain).files["demo_monitor/scripts/imrosc_monitor/spec.json"])
     assert spec["alarms"] == {}
+    off = '<monitor inv="demo.inv" alarm_severe="0"/>'
+    severe = write_case(tmp_path / "severe", config_text(monitor=off), document)
+    spec = json.loads(build_ros1(severe).files["demo_monitor/scripts/imrosc_monitor/spec.json"])
+    assert spec["alarms"] == {"severe": 0.0}
 
 
 def test_the_alarm_attributes_are_lowered_and_round_trip_through_the_ir() -> None:

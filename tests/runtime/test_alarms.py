@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 from imrosc.runtime import Engine, Violation
-from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
+from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker, margins_of
 from tests.runtime.support import alarm_document
 
 
@@ -168,3 +170,52 @@ def test_a_detector_alarms_once_per_episode() -> None:
     assert [a.rule for a in tracker.sample("p", 0.0, scored[:1])] == ["event"]
     assert tracker.sample("p", 1.0, scored[1:]) == []
     assert tracker.alarmed(scored[1:], []) == scored[1:]
+
+
+def ranged(ident: str, time: float, observed: float, family: str = "bounds") -> Violation:
+    return Violation(time, "p", ident, family, "range", ident, observed, "[0, 1]")
+
+
+MARGINS = {
+    "b": {"id": "b", "family": "bounds", "params": {"margin": {"max": [1.0, 3.0]}}},
+    "v": {"id": "v", "family": "variance", "params": {"margin": {"min": [1.0, 0.01]}}},
+}
+
+
+def test_a_severe_violation_alarms_at_once_and_a_mild_one_waits() -> None:
+    rule = AlarmRule(persist=50, severe=1.0, severe_families=("bounds", "variance"))
+    tracker = AlarmTracker(rule, margins=margins_of(list(MARGINS.values())))
+    assert tracker.sample("p", 0.0, [ranged("b", 0.0, 2.9)]) == []  # 0.95 margins out
+    (alarm,) = tracker.sample("p", 0.1, [ranged("b", 0.1, 3.5)])
+    assert (alarm.rule, alarm.invariants) == ("severe", ("b",))
+    assert "a severe violation" in alarm.describe()
+    assert tracker.sample("p", 0.2, [ranged("b", 0.2, 4.0)]) == []  # once per episode
+    # a variance's margin is in the logarithm: 0.001 is 1.5 margins below 1 towards 0.01
+    (alarm,) = tracker.sample("p", 0.3, [ranged("v", 0.3, 0.001, "variance")])
+    assert alarm.rule == "severe"
+    assert math.isclose(tracker.severity(ranged("v", 0.3, 0.001, "variance")), 1.5)
+
+
+def test_severe_alarms_follow_the_threshold_and_the_families() -> None:
+    margins = margins_of(list(MARGINS.values()))
+    off = AlarmTracker(
+        AlarmRule(persist=50, severe=0.0, severe_families=("bounds",)), margins=margins
+    )
+    assert off.sample("p", 0.0, [ranged("b", 0.0, 9.0)]) == []
+    assert off.severity(ranged("b", 0.0, 9.0)) == 4.0  # severe, but the rule has them off
+    other = AlarmTracker(
+        AlarmRule(persist=50, severe=1.0, severe_families=("rate",)), margins=margins
+    )
+    assert other.sample("p", 0.0, [ranged("b", 0.0, 9.0)]) == []
+    higher = AlarmTracker(
+        AlarmRule(persist=50, severe=4.0, severe_families=("bounds",)), margins=margins
+    )
+    assert higher.sample("p", 0.0, [ranged("b", 0.0, 8.0)]) == []  # 3.5 margins
+    assert len(higher.sample("p", 0.1, [ranged("b", 0.1, 9.0)])) == 1  # 4 margins
+
+
+def test_the_rule_carries_its_severe_alarms_through_json() -> None:
+    rule = AlarmRule(persist=9, severe=1.0, severe_families=("step", "mean"))
+    assert AlarmRule.from_json(rule.as_json()) == rule
+    assert "severe" not in AlarmRule(persist=9).as_json()
+    assert AlarmRule.from_json(rule.as_json()).overridden(severe=0.0).severe == 0.0

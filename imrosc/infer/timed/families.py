@@ -8,7 +8,12 @@
   initial maximum);
 * ``mean``: the mean of each such variable over the window (the fixed algorithm's mean,
   the very float its variance carries), so a sensor whose level moves (a scaled or offset
-  reading) breaks it although every single sample stays within the variable's range.
+  reading) breaks it although every single sample stays within the variable's range;
+* ``step``: ``v_last - v_previous``, the change between the window's last two messages,
+  for the same variables, kept only where its envelope (``max - min`` of the steps) is
+  narrower than the variable's own range: a jump (a position teleported, a reading
+  offset at once) breaks it although both values lie within the range; where a step can
+  span the range, the bounds already say all it could.
 
 Each keeps, per variable, the minimum and maximum over all defined windows with the
 position of their first occurrence (:class:`~imrosc.infer.timed.windows.Extremes`), so
@@ -39,7 +44,7 @@ from imrosc.infer.timed.windows import (
     windowed_moments,
 )
 from imrosc.ir import Tunables
-from imrosc.runtime.families import FREQUENCY, MEAN, RATE, VARIANCE
+from imrosc.runtime.families import FREQUENCY, MEAN, RATE, STEP, VARIANCE
 from imrosc.translate.points import PointSpec
 
 _last: tuple[weakref.ref[Samples], tuple[str, ...], FloatArray] | None = None
@@ -271,11 +276,57 @@ class RateState(TimedState):
         self.extremes.add(rate, np.isfinite(rate))
 
 
+class StepState(TimedState):
+    """``step_min <= v_last - v_previous <= step_max`` over every defined window of at
+    least two messages, per trigger variable, where the steps' envelope is narrower than
+    the variable's range (the range is tracked alongside, over the same samples)."""
+
+    family = STEP
+    label = "step"
+
+    def __init__(self, names: Sequence[str], window: float) -> None:
+        super().__init__(names, window)
+        self.values = Extremes(max(len(self.names), 1))
+        """The variables' own extremes over the windows' last samples."""
+
+    def update(self, samples: Samples) -> None:
+        """The last step of every defined window of at least two messages."""
+        _, values, ends, starts = self.tracker.advance(
+            np.asarray(samples.time, dtype=np.float64), self._values(samples), samples.restarts
+        )
+        keep = ends > starts
+        if not keep.all():
+            ends = ends[keep]
+        with np.errstate(all="ignore"):
+            step = values[ends] - values[ends - 1]
+        last = values[ends]
+        self.extremes.add(step, np.isfinite(step))
+        self.values.add(last, np.isfinite(last))
+
+    def merge(self, other: Any) -> None:
+        super().merge(other)
+        self.values.merge(other.values)
+
+    def finalize(self, context: FinalizeContext) -> list[Invariant]:
+        """Those of :meth:`TimedState.finalize` narrower than their variable's range."""
+        found = []
+        span = {
+            name: float(self.values.high[k] - self.values.low[k])
+            for k, name in enumerate(self.names)
+            if self.values.count[k] > 0
+        }
+        for invariant in super().finalize(context):
+            width = invariant.params["max"] - invariant.params["min"]
+            if width < span.get(invariant.variables[0], -math.inf):
+                found.append(invariant)
+        return found
+
+
 def make_states(
     variables: Sequence[Variable], tunables: Tunables, families: Collection[str]
 ) -> list[TimedState]:
     """The enabled time-related states of one point (``frequency``, ``variance``, ``rate``,
-    ``mean``)."""
+    ``mean``, ``step``)."""
     enabled = set(families)
     states: list[TimedState] = []
     names = tuple(v.name for v in tracked(variables))
@@ -287,6 +338,8 @@ def make_states(
         states.append(RateState(names, tunables.window))
     if MEAN in enabled and names:
         states.append(MeanState(names, tunables.window))
+    if STEP in enabled and names:
+        states.append(StepState(names, tunables.window))
     return states
 
 
@@ -297,5 +350,5 @@ def _one(name: str) -> StateBuilder:
     return build
 
 
-for _name in (FREQUENCY, VARIANCE, RATE, MEAN):
+for _name in (FREQUENCY, VARIANCE, RATE, MEAN, STEP):
     builds(_name)(_one(_name))

@@ -16,6 +16,7 @@ from imrosc.infer.core import FinalizeContext, FloatArray, Invariant, Samples, V
 from imrosc.infer.timed import (
     FrequencyState,
     RateState,
+    StepState,
     TimedState,
     VarianceState,
     effective_width,
@@ -512,3 +513,32 @@ def test_a_condition_s_episodes_restart_windows_as_runs_do(
     run_all(apart, [samples(time[a:b], x=values[a:b]) for a, b in episodes])
     for one, other in zip(marked, apart, strict=True):
         assert summary(one) == summary(other)
+
+
+def test_step_is_the_change_between_a_window_s_last_two_messages() -> None:
+    time = EPOCH + np.arange(200) / 10
+    x = np.sin(time - EPOCH)  # steps of at most 0.1 over a range of 2
+    state = StepState(("x",), 1.0)
+    state.update(samples(time, x=x))
+    found = invariant(state)
+    defined = np.diff(x)[9:]  # the windows defined once a second has passed
+    assert (found.params["min"], found.params["max"]) == (defined.min(), defined.max())
+    assert found.text.startswith("-0.0") and " <= step(x) <= 0.0" in found.text
+
+
+def test_a_step_that_can_span_the_range_is_not_kept() -> None:
+    time = EPOCH + np.arange(100) / 10
+    state = StepState(("x",), 1.0)
+    state.update(samples(time, x=np.tile([0.0, 1.0], 50)))  # every step spans the range
+    assert state.finalize(context()) == []
+
+
+def test_step_states_merge_exactly() -> None:
+    time = EPOCH + np.arange(200) / 10
+    x = np.cumsum(np.random.default_rng(3).normal(size=200))
+    whole, first, second = (StepState(("x",), 1.0) for _ in range(3))
+    run_all([whole], [samples(time[:100], x=x[:100]), samples(time[100:], 1, x=x[100:])])
+    run_all([first], [samples(time[:100], x=x[:100])])
+    run_all([second], [samples(time[100:], 1, x=x[100:])])
+    first.merge(second)
+    assert invariant(first).params == invariant(whole).params
