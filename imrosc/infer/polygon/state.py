@@ -19,6 +19,7 @@ bounds family already says as much), and when ``1 - 2**-n`` exceeds the confiden
 
 from __future__ import annotations
 
+import threading
 import weakref
 from collections.abc import Collection, Sequence
 from typing import Any
@@ -68,6 +69,8 @@ its own, so they stay within about the bound plus a chunk."""
 
 _HELD: weakref.WeakKeyDictionary[PolygonState, int] = weakref.WeakKeyDictionary()
 """Values each polygon state of the process holds back (a state that is gone holds none)."""
+_HELD_LOCK = threading.Lock()
+"""Guards :data:`_HELD`: a Dask worker with several threads infers bags side by side."""
 
 
 def polygon_variables(variables: Sequence[Variable]) -> tuple[Variable, ...]:
@@ -265,8 +268,10 @@ class PolygonState:
         values = self._matrix(samples)
         self._pending.append(values)
         self._pending_values += values.size
-        _HELD[self] = self._pending_values
-        if sum(_HELD.values()) >= self.batch:
+        with _HELD_LOCK:
+            _HELD[self] = self._pending_values
+            held = sum(_HELD.values())
+        if held >= self.batch:
             self._flush()
 
     def _flush(self) -> None:
@@ -276,7 +281,8 @@ class PolygonState:
         values = self._pending[0] if len(self._pending) == 1 else np.concatenate(self._pending, 1)
         self._pending = []  # the parts go before the fold's temporaries come
         self._pending_values = 0
-        _HELD.pop(self, None)
+        with _HELD_LOCK:
+            _HELD.pop(self, None)
         self._fold(values)
 
     def _fold(self, values: FloatArray) -> None:
