@@ -263,8 +263,14 @@ def test_the_alarm_attributes_are_lowered_and_round_trip_through_the_ir() -> Non
     project = lower(loaded)
     assert project.monitor is not None
     overrides = project.monitor.alarms
-    assert overrides == ir.AlarmOverrides(persist=3, seconds=0.3, distinct=2, window=0.5)
-    assert overrides.given() == {"persist": 3, "seconds": 0.3, "distinct": 2, "window": 0.5}
+    assert overrides == ir.AlarmOverrides(persist=3, seconds=0.3, distinct=2, window=0.5, severe=1)
+    assert overrides.given() == {
+        "persist": 3,
+        "seconds": 0.3,
+        "distinct": 2,
+        "window": 0.5,
+        "severe": 1,
+    }
     assert ir.project_from_json(ir.to_json(project)) == project
     assert ir.AlarmOverrides(distinct=0).given() == {"distinct": 0}
 
