@@ -351,8 +351,8 @@ class AlarmTracker:
         for ident in [i for i in episodes if i not in now_broken]:
             del episodes[ident]
         raised: List[Alarm] = []
-        if found and any(self._at_once(v) for v in found):
-            instant = [v for v in found if self._at_once(v)]
+        instant = [v for v in found if self._at_once(v)] if found else []
+        if instant:
             for v in instant:
                 episode = episodes.get(v.invariant)
                 if episode is None:  # (or a variance that fell below its minimum first)
