@@ -72,14 +72,17 @@ def factor(severities: Sequence[float], level: float) -> float:
 
 def scaled(margin: Sequence[float], by: float, logarithmic: bool) -> list[float]:
     """A margin ``[centre, limit]`` whose distance from the centre is multiplied by ``by``
-    (in the logarithm for a variance).
+    (in the logarithm for a variance; a limit past any float is ``inf``).
 
     >>> scaled([1.0, 3.0], 2.0, False), round(scaled([1.0, math.e], 2.0, True)[1], 6)
     ([1.0, 5.0], 7.389056)
+    >>> scaled([1.0, 1e300], 2.0, True)
+    [1.0, inf]
     """
     centre, limit = float(margin[0]), float(margin[1])
     if logarithmic:
-        return [centre, math.exp(math.log(centre) + by * (math.log(limit) - math.log(centre)))]
+        logged = math.log(centre) + by * (math.log(limit) - math.log(centre))
+        return [centre, math.exp(logged) if logged < 700 else math.inf]
     return [centre, centre + by * (limit - centre)]
 
 
@@ -109,7 +112,10 @@ def check_severe(
             logarithmic = family == VARIANCE
             given = inv["params"]["margin"]
             margin = {side: scaled(pair, whole, logarithmic) for side, pair in given.items()}
-            inv["params"] = dict(inv["params"], margin=margin)
+            # a limit past any float is no margin (as :meth:`.envelope.Envelopes.margin`)
+            margin = {side: pair for side, pair in margin.items() if math.isfinite(pair[1])}
+            params = {k: v for k, v in inv["params"].items() if k != "margin"}
+            inv["params"] = dict(params, margin=margin) if margin else params
             found.widened += 1
         if max(severities) < SEVERE:
             continue

@@ -122,3 +122,22 @@ def test_severity_and_scaled_margins_agree() -> None:
         )
         == 1.0
     )
+
+
+def test_a_variance_margin_widened_past_any_float_is_no_margin() -> None:
+    """A variance's margin widens in the logarithm: held-out severities can take its limit
+    past any float, and that side then has no margin (as one computed past any float)."""
+    wide = {"max": [1.0, 1e300], "min": [1.0, 0.5]}
+    params: dict[str, Any] = {"min": 0.1, "margin": wide}
+    invariants: list[dict[str, Any]] = [{"id": "v", "family": "variance", "params": params}]
+    units = [held_out(k, {"v": 2.0} if k == 0 else {}) for k in range(12)]
+    for unit in units:
+        for trace in unit.trace.values():
+            trace["family"] = "variance"
+    found = check_severe(invariants, units, 0.05, 0.001)
+    assert found.widened == 1
+    margin = invariants[0]["params"]["margin"]
+    assert set(margin) == {"min"} and 0 < margin["min"][1] < 0.5
+    invariants[0]["params"]["margin"] = {"max": [1.0, 1e300]}
+    check_severe(invariants, units, 0.05, 0.001)
+    assert "margin" not in invariants[0]["params"] and invariants[0]["params"]["min"] == 0.1
