@@ -559,10 +559,20 @@ SELECT: list[str | None] = [None]
 """How classification chooses its invariants (``--select``; None: imrosc's default)."""
 DETECTOR: list[str | None] = [None]
 """Whether classification learns fault detectors (``--detector``; None: imrosc's default)."""
+STEP_TAIL: list[str | None] = [None]
+"""How steps' margins model the units' largest steps (``--step-tail``, ``<detect
+step_tail>``; None: imrosc's default)."""
 
 
 def learn(config: Path, bags: Sequence[Path], workers: int | None) -> dict[str, Any]:
-    """The invariants document ``run_detect`` gives (exits with its diagnostics if none)."""
+    """The invariants document ``run_detect`` gives (exits with its diagnostics if none);
+    ``--step-tail`` is written into ``config``'s <detect> first."""
+    if STEP_TAIL[0] is not None:
+        tree = etree.parse(str(config))
+        detect = tree.getroot().find("detect")
+        assert detect is not None, config
+        detect.set("step_tail", STEP_TAIL[0])
+        tree.write(str(config))
     result = run_detect(config, bags=list(bags), workers=workers, budget=BUDGET[0])
     if result.document is None:
         sys.exit(f"inference failed for {config}:\n{render_text(result.diagnostics, 1)}")
@@ -1148,6 +1158,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         'docs/families/detector.md; "none": invariants only)',
     )
     parser.add_argument(
+        "--step-tail",
+        choices=("larger", "select"),
+        default=None,
+        help="<detect step_tail>: how steps' margins model the units' largest steps (default: "
+        "imrosc's, larger; docs/calibration.md section 4)",
+    )
+    parser.add_argument(
         "--alfa-test",
         type=Path,
         default=None,
@@ -1159,6 +1176,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     BUDGET[0] = args.budget
     SELECT[0] = args.select
     DETECTOR[0] = args.detector
+    STEP_TAIL[0] = args.step_tail
     parts = [p.strip() for p in args.only.split(",") if p.strip()]
     unknown = sorted(set(parts) - set(PARTS))
     if unknown or args.folds < 2:

@@ -276,6 +276,7 @@ def run_detect(
             result.units,
             tunables.budget,
             workers=workers or default_workers(),
+            step_tail=tunables.step_tail,
             replays=replays,
         )
         out.calibration_seconds = time.monotonic() - started - out.seconds

@@ -141,9 +141,12 @@ def calibrate(
     folds: int = 5,
     workers: int = 1,
     replays: Replays | None = None,
+    step_tail: str = "larger",
 ) -> Calibration:
     """Calibrate ``document`` (an invariants document, changed in place) on ``units``; the
-    held-out replays run in ``workers`` processes, or with ``replays`` (a cluster)."""
+    held-out replays run in ``workers`` processes, or with ``replays`` (a cluster);
+    ``step_tail``: how steps' margins model the units' largest steps
+    (:meth:`.envelope.Envelopes.margin`)."""
     segments = any(u.span is not None for u in units)
     report = Calibration(budget, "segments" if segments else "runs", len(units))
     if len(units) < 2:
@@ -152,7 +155,7 @@ def calibrate(
     # time segments of one bag give no margins: a landing is in one segment only, and one
     # run cannot say how hard the next one's is
     margins = len({bag_path(u.bag) for u in units}) >= 2
-    envelopes = Envelopes(document, views, budget, margins=margins)
+    envelopes = Envelopes(document, views, budget, margins=margins, step_tail=step_tail)
     everyone = set(range(len(views)))
     final = envelopes.document(everyone, final=True)
     report.widened, report.dropped = envelopes.widened, envelopes.dropped

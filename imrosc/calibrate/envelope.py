@@ -35,7 +35,7 @@ from imrosc.calibrate.limits import (
     with_value,
 )
 from imrosc.calibrate.text import retext
-from imrosc.calibrate.tolerance import prediction_bound, tolerances, too_many
+from imrosc.calibrate.tolerance import maxima_bound, prediction_bound, tolerances, too_many
 from imrosc.infer.core import Invariant
 from imrosc.infer.engine import Unit
 from imrosc.invariants import invariant_id
@@ -156,10 +156,13 @@ class Envelopes:
         budget: float,
         *,
         margins: bool = False,
+        step_tail: str = "larger",
     ) -> None:
         self.source = document
         self.margins = margins
         """Whether the ranges of one scalar get margins (:meth:`margin`)."""
+        self.step_tail = step_tail
+        """How a step's margin models the units' largest steps (:meth:`margin`)."""
         self.types, self.integer = _types(document)
         self.budget = budget
         self.count = len(views)
@@ -300,10 +303,14 @@ class Envelopes:
         ``shared`` (a step): both limits share one margin, that of the units' largest
         step either way (a jump has no preferred direction). A run's largest step is a
         positive maximum whose spread is multiplicative where jumps are part of normal
-        operation (a waypoint switch moves a track error by whatever the geometry gives):
-        its limit is the larger of the normal bound and the same bound taken in the
-        logarithm (a log-normal model), which reaches as far as such a tail does and stays
-        near the normal one where the units' largest steps are alike (sensor noise)."""
+        operation (a waypoint switch moves a track error by whatever the geometry gives)
+        and additive where steps are sensor noise. Its limit is the larger of the normal
+        bound and the same bound taken in the logarithm (a log-normal model), which
+        reaches as far as such a tail does (:attr:`step_tail` ``larger``, the default); or,
+        with ``select``, the bound of the model that predicts the units' largest steps held
+        out in turn the better (:func:`.tolerance.maxima_bound`): as narrow as the normal
+        bound where the units' steps are alike, but a new session whose jumps go beyond
+        every unit's is then beyond the margin too."""
         found: dict[str, list[float]] = {}
         level = self.severe_level
         supports, known = limits.supports[:, chosen], limits.known[:, chosen]
@@ -319,7 +326,10 @@ class Envelopes:
             centre = math.fsum(held) / len(held)
             bound = prediction_bound(held, level)
             if shared and bound is not None and min(held) > 0:
-                bound = max(bound, _lognormal_bound(held, level))
+                if self.step_tail == "select":
+                    bound = maxima_bound(held, level)
+                else:
+                    bound = max(bound, _lognormal_bound(held, level))
             if bound is None or not bound > centre or not math.isfinite(bound):
                 continue
             try:

@@ -6,8 +6,15 @@ import math
 
 import numpy as np
 import pytest
+from scipy import stats
 
-from imrosc.calibrate.tolerance import conformal, prediction_bound, tolerance
+from imrosc.calibrate.tolerance import (
+    conformal,
+    held_out_score,
+    maxima_bound,
+    prediction_bound,
+    tolerance,
+)
 
 
 def test_the_prediction_bound_is_the_t_interval_of_one_new_value() -> None:
@@ -76,3 +83,72 @@ def test_rounded_counts_of_a_steady_rate_are_covered_at_their_level() -> None:
         corrected += counts[6] > (prediction_bound(seen, 0.01, resolution=1.0) or math.inf)
     assert plain / trials > 0.02
     assert corrected / trials <= 0.01
+
+
+def score(values: list[float], logarithmic: bool = False) -> float:
+    found = held_out_score(values, logarithmic)
+    assert found is not None
+    return found
+
+
+def bound(values: list[float], level: float, logarithmic: bool = False) -> float:
+    """The normal prediction bound of ``values``, or (``logarithmic``) the log-normal one."""
+    found = prediction_bound([math.log(v) for v in values] if logarithmic else values, level)
+    assert found is not None
+    return math.exp(found) if logarithmic else found
+
+
+def maxima(values: list[float], level: float) -> float:
+    found = maxima_bound(values, level)
+    assert found is not None
+    return found
+
+
+def test_the_held_out_score_is_the_leave_one_out_t_log_density() -> None:
+    values = [1.0, 2.0, 4.0, 7.0]
+    expected = 0.0
+    for k, value in enumerate(values):
+        others = values[:k] + values[k + 1 :]
+        spread = float(np.std(others, ddof=1)) * math.sqrt(1 + 1 / 3)
+        expected += stats.t.logpdf((value - np.mean(others)) / spread, 2) - math.log(spread)
+    assert score(values) == pytest.approx(expected, rel=1e-9)
+    logged = [math.log(v) for v in values]
+    assert score(values, logarithmic=True) == pytest.approx(score(logged) - sum(logged), rel=1e-9)
+    assert held_out_score([1.0, 2.0]) is None
+    assert held_out_score([0.0, 1.0, 2.0], logarithmic=True) is None
+
+
+def test_the_choice_of_model_does_not_depend_on_the_unit() -> None:
+    """Both scores are densities of the values themselves: a change of unit shifts both by
+    the same amount, so metres and millimetres choose alike."""
+    values = [0.0253, 0.0455, 0.0298, 0.0073, 0.024, 0.0332]
+    scaled_values = [1000 * v for v in values]
+    gap = score(values) - score(values, logarithmic=True)
+    scaled_gap = score(scaled_values) - score(scaled_values, logarithmic=True)
+    assert gap == pytest.approx(scaled_gap, rel=1e-9)
+    assert maxima(scaled_values, 1e-4) == pytest.approx(1000 * maxima(values, 1e-4))
+
+
+def test_maxima_bound_takes_the_model_that_predicts_held_out_units_better() -> None:
+    """Sixteen units' maxima drawn normal (a coefficient of variation of 0.25, where the two
+    models differ) or log-normal: each model is chosen for its own draws far more often
+    than not."""
+    rng = np.random.default_rng(5)
+    level = 1e-4
+    normal_picked = lognormal_picked = 0
+    for _ in range(100):
+        alike = list(rng.normal(4.0, 1.0, size=16))
+        spread = list(rng.lognormal(0.0, 1.5, size=16))
+        normal_picked += maxima(alike, level) == bound(alike, level)
+        lognormal_picked += maxima(spread, level) == pytest.approx(bound(spread, level, True))
+    assert normal_picked > 60 and lognormal_picked > 90
+
+
+def test_maxima_bound_keeps_the_larger_bound_when_the_units_cannot_tell() -> None:
+    few = [0.02, 0.03]  # too few to hold one out and predict it from the rest
+    larger = max(bound(few, 0.01), bound(few, 0.01, True))
+    assert maxima(few, 0.01) == pytest.approx(larger)
+    alike = [0.02, 0.02, 0.03]  # held out, the 0.03's others are all alike
+    assert maxima(alike, 0.01) == pytest.approx(bound(alike, 0.01, True))
+    assert maxima([0.0, 0.1, 0.2], 0.01) == bound([0.0, 0.1, 0.2], 0.01)
+    assert maxima_bound([0.1], 0.01) is None
