@@ -46,10 +46,13 @@ replay runs the alarm engine). The variants, each a question about the score:
 * ``--final average``: the detector applied to the held-out flights is the mean of the
   cross-fitting's fold models of the chosen penalty (the models whose held-out scores set
   the threshold), not a model fitted again on every run;
-* ``--offsets D,D,...``: a diagnosis, not a detector: the figures again with every fold's
+* ``--offsets=D,D,...``: a diagnosis, not a detector: the figures again with every fold's
   threshold moved by each ``D`` (log-odds), to say what the threshold's level costs;
 * ``--fit-samples N``: fit the regressions on at most ``N`` samples (the product's
-  :data:`imrosc.detectors.FIT_SAMPLES` otherwise; the quadratic features need fewer).
+  :data:`imrosc.detectors.FIT_SAMPLES` otherwise; the quadratic features need fewer);
+* ``--inner-folds K``: the cross-fitting's blocked folds (the product's
+  :data:`imrosc.detectors.FOLDS` otherwise): more folds fit each held-out score on more of
+  the runs, closer to the detector fitted on all of them.
 """
 
 from __future__ import annotations
@@ -373,12 +376,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--evidence", choices=("mean", "cusum", "probability"), default="mean")
     parser.add_argument("--horizon", type=float, default=None, help="seconds after the onset")
     parser.add_argument("--final", choices=FINALS, default="refit")
-    parser.add_argument("--offsets", default="", help="log-odds, comma-separated")
+    parser.add_argument("--offsets", default="", help="log-odds, comma-separated (--offsets=-1,1)")
     parser.add_argument("--fit-samples", type=int, default=detectors.FIT_SAMPLES)
+    parser.add_argument("--inner-folds", type=int, default=detectors.FOLDS)
     parser.add_argument("--folds", type=int, default=5)
     args = parser.parse_args(argv)
     offsets = [float(d) for d in args.offsets.split(",") if d.strip()]
     detectors.FIT_SAMPLES = args.fit_samples
+    detectors.FOLDS = args.inner_folds
     onsets: dict[str, dict[str, Any]] = json.loads((ALFA / "onsets.json").read_text())
     started = time.monotonic()
     flights: dict[str, Flight] = {n: (i, *read(ALFA / n)) for n, i in sorted(onsets.items())}
@@ -430,8 +435,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 start = info["start_ns"] / 1e9
                 found.append(Outcome(name, group, onset, alarms, start=start))
     print_outcomes(outcomes)
+    if shifted:
+        print("\nevery fold's threshold moved by (log-odds):")
     for shift, found in shifted.items():
-        print(f"\nevery threshold {shift:+g}: {describe(score(found))}")
+        print(f"  {shift:+g}: {describe(score(found))}")
     print(f"{time.monotonic() - started:.0f} s")
     return 0
 
