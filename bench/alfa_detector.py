@@ -32,7 +32,27 @@ replay runs the alarm engine). The variants, each a question about the score:
   ``S = max(0, S + (score - k) dt)``, the drift ``k`` from 0, 1, 2, 4 chosen by the
   cross-fitting in place of the smoothing;
 * ``--horizon S``: the fit labels as faulty only the first ``S`` seconds after each onset
-  and leaves the later samples out (the threshold and the choice still see every sample).
+  and leaves the later samples out (the threshold and the choice still see every sample);
+* ``--features interactions``: the base statistics and the products of every pair (squares
+  included) of the variables' 1 s means, standardised by the fold's nominal samples (a
+  quadratic score: "descending while the altitude error grows");
+* ``--features relations``: the base statistics and each variable's 1 s mean less its ridge
+  prediction from the other variables' 1 s means (fitted on the fold's nominal samples, in
+  units of its nominal spread): the cross-variable relations good flights keep;
+* ``--features squash``: the base statistics, each through ``asinh`` of its deviation from
+  its nominal median in units of its nominal median absolute deviation (heavy tails tamed);
+* ``--evidence probability``: the trailing mean of the probability ``1 / (1 + e^-score)`` in
+  place of the log-odds (a good flight's odd moment then adds at most 1 per sample);
+* ``--final average``: the detector applied to the held-out flights is the mean of the
+  cross-fitting's fold models of the chosen penalty (the models whose held-out scores set
+  the threshold), not a model fitted again on every run;
+* ``--offsets=D,D,...``: a diagnosis, not a detector: the figures again with every fold's
+  threshold moved by each ``D`` (log-odds), to say what the threshold's level costs;
+* ``--fit-samples N``: fit the regressions on at most ``N`` samples (the product's
+  :data:`imrosc.detectors.FIT_SAMPLES` otherwise; the quadratic features need fewer);
+* ``--inner-folds K``: the cross-fitting's blocked folds (the product's
+  :data:`imrosc.detectors.FOLDS` otherwise): more folds fit each held-out score on more of
+  the runs, closer to the detector fitted on all of them.
 """
 
 from __future__ import annotations
@@ -74,6 +94,8 @@ CUSUM_DRIFTS = (0.0, 1.0, 2.0, 4.0)
 """Log-odds the CUSUM's drift is chosen from (``--evidence cusum``)."""
 RIDGE = 1e-3
 """The residual model's ridge, per sample, on standardised inputs."""
+FINALS = ("refit", "average")
+"""How the detector applied to the held-out flights is made (``--final``)."""
 
 
 def window_stats(times: Any, values: Any, window: float, slope: bool = False) -> Any:
@@ -151,6 +173,101 @@ class Residuals:
         return found
 
 
+class Relations:
+    """Each variable's deviation from what the others say it is: a ridge regression of its
+    (standardised) value on the other variables' values, fitted on nominal rows; the
+    residual in units of its nominal spread."""
+
+    def __init__(self, nominal: Any) -> None:
+        self.center, self.scale = spread(nominal)
+        z = (nominal - self.center) / self.scale
+        width = z.shape[1]
+        self.models: list[tuple[list[int], Any]] = []
+        for j in range(width):
+            others = [c for c in range(width) if c != j]
+            x = np.hstack([z[:, others], np.ones((len(z), 1))])
+            gram = x.T @ x + RIDGE * len(x) * np.eye(x.shape[1])
+            self.models.append((others, np.linalg.solve(gram, x.T @ z[:, j])))
+        _, self.spread = spread(self.raw(nominal))
+
+    def raw(self, values: Any) -> Any:
+        z = (values - self.center) / self.scale
+        found = np.empty_like(z)
+        for j, (others, w) in enumerate(self.models):
+            found[:, j] = z[:, j] - (z[:, others] @ w[:-1] + w[-1])
+        return found
+
+    def of(self, values: Any) -> Any:
+        return self.raw(values) / self.spread
+
+
+def spread(rows: Any) -> tuple[Any, Any]:
+    """The columns' means and standard deviations (1 where a column is constant)."""
+    center, scale = rows.mean(axis=0), rows.std(axis=0)
+    scale[scale == 0] = 1.0
+    return center, scale
+
+
+def products(z: Any) -> Any:
+    """The products of every pair of columns of ``z``, squares included (``i <= j``)."""
+    i, j = np.triu_indices(z.shape[1])
+    return z[:, i] * z[:, j]
+
+
+def squashed(rows: Any, nominal: Any) -> Any:
+    """``asinh`` of each column's deviation from its nominal median in units of its nominal
+    median absolute deviation (the mean absolute one where that is 0; 1 where both are)."""
+    median = np.median(nominal, axis=0)
+    deviation = np.abs(nominal - median)
+    unit = np.median(deviation, axis=0)
+    fallback = deviation.mean(axis=0)
+    unit = np.where(unit > 0, unit, np.where(fallback > 0, fallback, 1.0))
+    return np.arcsinh((rows - median) / unit)
+
+
+def probability(times: Any, scores: Any, window: float, smooth: float) -> Any:
+    """The trailing mean of the probability of the scores, as
+    :func:`imrosc.runtime.detector.evidence` means the log-odds."""
+    odds = np.clip(np.nan_to_num(np.asarray(scores, dtype=np.float64)), -30.0, 30.0)
+    return evidence(times, 1.0 / (1.0 + np.exp(-odds)), window, smooth)
+
+
+class Linear:
+    """A detector's score as one linear function of the statistics (what the runtime's
+    standardised weights amount to)."""
+
+    def __init__(self, weights: Any, bias: float) -> None:
+        self.weights, self.bias = weights, bias
+
+    @classmethod
+    def mean_of(cls, models: Sequence[Any]) -> Linear:
+        """The mean of fitted :class:`imrosc.detectors.Model`s' scores, itself linear."""
+        slopes = [m.weights[:-1] / m.scale for m in models]
+        biases = [float(m.weights[-1] - s @ m.center) for m, s in zip(models, slopes, strict=True)]
+        return cls(np.mean(slopes, axis=0), float(np.mean(biases)))
+
+    def scores(self, run: Any) -> Any:
+        return run.stats @ self.weights + self.bias
+
+
+class Recorded:
+    """:func:`imrosc.detectors.fit`, keeping the models of the latest cross-fitting per
+    penalty (``--final average``): :func:`imrosc.detectors.choose` fits the folds of each
+    penalty in turn."""
+
+    def __init__(self, fit: Callable[..., Any]) -> None:
+        self.fit = fit
+        self.models: dict[float, list[Any]] = {}
+
+    def __call__(self, runs: Sequence[Any], strength: float) -> Any:
+        model = self.fit(runs, strength)
+        self.models.setdefault(strength, []).append(model)
+        return model
+
+    def forget(self) -> None:
+        self.models.clear()
+
+
 Flight = tuple[Mapping[str, Any], Any, Any]
 """A flight's entry in ``onsets.json``, its sample times (s) and values."""
 
@@ -186,6 +303,26 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
             lambda t, v: np.hstack([window_stats(t, filled(v), w) for w in windows]),
             max(windows),
         )
+    if kind in ("interactions", "relations", "squash"):
+        nominal = np.vstack([features(*nominal_part(f), 1.0) for f in training])
+        width = nominal.shape[1] // 3
+        if kind == "squash":
+            return (lambda t, v: squashed(features(t, v, 1.0), nominal)), 1.0
+        if kind == "relations":
+            relations = Relations(nominal[:, :width])
+
+            def with_relations(t: Any, v: Any) -> Any:
+                found = features(t, v, 1.0)
+                return np.hstack([found, relations.of(found[:, :width])])
+
+            return with_relations, 1.0
+        center, scale = spread(nominal[:, :width])
+
+        def with_products(t: Any, v: Any) -> Any:
+            found = features(t, v, 1.0)
+            return np.hstack([found, products((found[:, :width] - center) / scale)])
+
+        return with_products, 1.0
     if kind == "residual":
         model = Residuals([filled(nominal_part(f)[1]) for f in training])
 
@@ -236,31 +373,49 @@ def with_horizon(horizon: float | None) -> Callable[..., Any]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--features", default="base")
-    parser.add_argument("--evidence", choices=("mean", "cusum"), default="mean")
+    parser.add_argument("--evidence", choices=("mean", "cusum", "probability"), default="mean")
     parser.add_argument("--horizon", type=float, default=None, help="seconds after the onset")
+    parser.add_argument("--final", choices=FINALS, default="refit")
+    parser.add_argument("--offsets", default="", help="log-odds, comma-separated (--offsets=-1,1)")
+    parser.add_argument("--fit-samples", type=int, default=detectors.FIT_SAMPLES)
+    parser.add_argument("--inner-folds", type=int, default=detectors.FOLDS)
     parser.add_argument("--folds", type=int, default=5)
     args = parser.parse_args(argv)
+    offsets = [float(d) for d in args.offsets.split(",") if d.strip()]
+    detectors.FIT_SAMPLES = args.fit_samples
+    detectors.FOLDS = args.inner_folds
     onsets: dict[str, dict[str, Any]] = json.loads((ALFA / "onsets.json").read_text())
     started = time.monotonic()
     flights: dict[str, Flight] = {n: (i, *read(ALFA / n)) for n, i in sorted(onsets.items())}
     print(f"read {len(flights)} flights in {time.monotonic() - started:.1f} s; {REFERENCE}")
-    weigh = cusum if args.evidence == "cusum" else evidence
+    weighs: dict[str, Callable[[Any, Any, float, float], Any]] = {
+        "mean": evidence,
+        "cusum": cusum,
+        "probability": probability,
+    }
+    weigh = weighs[args.evidence]
     if args.evidence == "cusum":
         # choose() tries each of SMOOTHING, weighed by the evidence its module names
         detectors.SMOOTHING = CUSUM_DRIFTS  # type: ignore[assignment]
-        detectors.evidence = cusum  # type: ignore[attr-defined,assignment]
-    detectors.fit = with_horizon(args.horizon)
+    detectors.evidence = weigh  # type: ignore[attr-defined,assignment]
+    recorded = Recorded(with_horizon(args.horizon))
+    detectors.fit = recorded
     outcomes: list[Outcome] = []
+    shifted: dict[float, list[Outcome]] = {d: [] for d in offsets}
     for index, held in enumerate(session_folds(onsets, args.folds)):
         training = [n for n in flights if n not in held]
         stats, window = features_of(args.features, [flights[n] for n in training])
         detectors.WINDOW = window
         runs = runs_of(training, flights, stats)
+        recorded.forget()
         choice = detectors.choose(runs, 0.05)
         if choice is None:
             print(f"fold {index}: no detector")
             continue
-        model = detectors.fit(runs, choice.strength)
+        if args.final == "average":
+            model = Linear.mean_of(recorded.models[choice.strength])
+        else:
+            model = detectors.fit(runs, choice.strength)
         delays = list(choice.delays.values())
         print(
             f"fold {index}: penalty {choice.strength:g}, {args.evidence} "
@@ -272,11 +427,32 @@ def main(argv: Sequence[str] | None = None) -> int:
             info, times, values = flights[name]
             run = detectors.Run(name, times[0], None, times, stats(times, values))
             weighed = weigh(times, model.scores(run), window, choice.smooth)
-            over = np.flatnonzero(weighed > choice.threshold)
             onset = None if info["onset_ns"] is None else info["onset_ns"] / 1e9
-            alarms = (float(times[over[0]]),) if len(over) else ()
             group = info["class"] if onset is not None else "no_failure"
-            outcomes.append(Outcome(name, group, onset, alarms, start=info["start_ns"] / 1e9))
+            for shift, found in [(0.0, outcomes), *shifted.items()]:
+                over = np.flatnonzero(weighed > choice.threshold + shift)
+                alarms = (float(times[over[0]]),) if len(over) else ()
+                start = info["start_ns"] / 1e9
+                found.append(Outcome(name, group, onset, alarms, start=start))
+    print_outcomes(outcomes)
+    if shifted:
+        print("\nevery fold's threshold moved by (log-odds):")
+    for shift, found in shifted.items():
+        print(f"  {shift:+g}: {describe(score(found))}")
+    print(f"{time.monotonic() - started:.0f} s")
+    return 0
+
+
+def describe(s: Any) -> str:
+    """Recall, false-alarm flights and mean delay, in a line."""
+    return (
+        f"detected {s.detected} of {s.faulty}, false alarms on {s.false_alarms} of {s.runs} "
+        f"flights, mean delay {s.mean_delay:.2f} s"
+    )
+
+
+def print_outcomes(outcomes: Sequence[Outcome]) -> None:
+    """Per flight its delay, then the scores per class."""
     print("\nflights: delay (s), '-' missed, 'FA' an alarm before the onset or on a good flight")
     for o in sorted(outcomes, key=lambda o: o.name):
         shown = "FA" if o.false_alarm else ("-" if o.delay is None else f"{o.delay:.2f}")
@@ -287,8 +463,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     table = {g: {"detector": score(found)} for g, found in sorted(groups.items())}
     table["overall"] = {"detector": score(outcomes)}
     print_scores(table)
-    print(f"{time.monotonic() - started:.0f} s")
-    return 0
 
 
 if __name__ == "__main__":
