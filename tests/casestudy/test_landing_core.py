@@ -361,3 +361,19 @@ def test_a_landing_called_off_high_over_the_platform_pursues_at_once() -> None:
     state, waypoint, task = control.step(t + 0.1, L.TASK, high, -0.3)
     assert state == L.TASK and task == L.TASK_TRACK
     assert waypoint == pytest.approx((0.0, 0.0, L.PLATFORM_TOP + control.approach))
+
+
+def test_a_waypoint_that_stopped_coming_is_held_at_rest() -> None:
+    # the waypoint moved along x at the platform's speed until t = 1 s (20 a second)
+    loop = L.Attitude()
+    for k in range(21):
+        loop.see_waypoint(k * 0.05, L.PLATFORM_SPEED * k * 0.05, 0.0, 1.0)
+    at_rest = (0.0, 0.0, 0.0)
+    between = loop.command(L.TASK, (0.3, 0.0, 1.0), (0.3, 0.0, 1.0), at_rest, 1.04)
+    assert between.pitch > 0.04  # between two waypoints its speed is fed forward
+    # none for 0.6 s (the controller sends none, or a monitor withholds them): pid_ctrl holds
+    # the UAV where it is, and the held point stands still; the platform's last speed fed
+    # forward would fly the UAV on at it (over the object it stood on, in the occupied
+    # scenario, catching its legs on it)
+    held = loop.command(L.TASK, (0.3, 0.0, 1.0), (0.3, 0.0, 1.0), at_rest, 1.6)
+    assert held.pitch == pytest.approx(0.0) and held.roll == pytest.approx(0.0)

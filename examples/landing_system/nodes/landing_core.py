@@ -392,7 +392,10 @@ class Uav:
 class Attitude:
     """``/a/pid_ctrl``: a PD position loop from the waypoint to roll, pitch and thrust; the
     waypoint's velocity (its smoothed finite difference) is fed forward, so the UAV keeps up
-    with a moving platform without a steady lag."""
+    with a moving platform without a steady lag. A waypoint that stopped coming (none for
+    :attr:`smoothing` s: the controller sends none, or a monitor withholds them) is a point at
+    rest: its last velocity is no longer fed forward, so a UAV holding a stale waypoint (or,
+    in ``pid_ctrl``, where it is) stops instead of flying on at the platform's last speed."""
 
     kp_xy: float = 1.6
     kd_xy: float = 1.8
@@ -437,6 +440,8 @@ class Attitude:
         ex = waypoint[0] - pose[0]
         ey = waypoint[1] - pose[1]
         ez = waypoint[2] - pose[2]
+        if t is not None and self.last is not None and t - self.last[0] > self.smoothing:
+            self.target_velocity = (0.0, 0.0)  # no waypoint for a while: it stands still
         tvx, tvy = self.target_velocity
         ix, iy = self.integral
         if t is not None and self.stamp is not None and pose[2] > UAV_REST + 0.1:

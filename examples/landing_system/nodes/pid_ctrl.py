@@ -2,7 +2,10 @@
 """``/a/pid_ctrl``: the UAV's position loop (:class:`landing_core.Attitude`). From the waypoint
 (``/a/task_waypose``), the UAV's pose (``/a/subject_pose``) and the control state
 (``/a/subject_ctrl_state``) it commands roll, pitch and thrust on ``/a/cmd_attitude``
-(``geometry_msgs/Twist``, 50 Hz; motors off in startup and shutdown)."""
+(``geometry_msgs/Twist``, 50 Hz; motors off in startup and shutdown). The waypoint's velocity
+is fed forward while waypoints come; without one for 0.3 s (none sent, or a monitor withholds
+them) the held waypoint is a point at rest, and after 0.5 s the loop holds the UAV where it
+is."""
 
 from __future__ import annotations
 
