@@ -1,14 +1,16 @@
 """Inference on a Dask cluster: speed-up, memory per worker, bytes sent to the client.
 
     python bench/fleet.py [--bags 40] [--duration 30] [--repeats 2] [--folder DIR]
-                          [--client-catalogue] [--no-pool] [--only-speedup]
+                          [--client-catalogue] [--no-pool] [--only-speedup] [--dask-defaults]
 
 Writes ``--bags`` simulated runs of the landing system (``imrosc.sim``, ROS 1 bags of
 ``--duration`` s each) into ``DIR/bags`` (kept and reused), then runs ``imrosc infer``'s
 detect stage on ``examples/landing_sim.xml``'s configuration over them:
 
 (a) with a ``distributed.LocalCluster`` of 1 and of 2 single-threaded worker processes
-    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the seconds of
+    (loopback, no dashboard), each a fresh cluster with the Dask settings docs/fleet.md
+    recommends (``imrosc.fleet.CLUSTER_CONFIG``; ``--dask-defaults``: Dask's own), and with the
+    local pool ``-j 2``; it prints the seconds of
     inference (the catalogue of the bags: a task per bag, each bag's note merged by the client;
     the two passes over them; the merge) and of calibration (its held-out replays: on the
     cluster, or in the pool), and the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores.

@@ -7,12 +7,15 @@ few KB, goes to the client, which merges the notes in bag order as one process r
 bags in turn would. The client then sends the compiled configuration once (one task whose
 answer every worker fetches once), then one task per bag: its path and run number. A worker
 reads the bag and updates fresh states of every point: the bag's answer, which stays on the
-cluster. The client fetches of each answer only its summary (messages, and for calibration
-the bag's own invariants), and joins the answers of adjacent bags as they complete with join tasks
-(:class:`~imrosc.fleet.tree.OrderedTree` over futures: bags 0 and 1, 2 and 3, then 0-1 and
-2-3, ...), the exact merge of ``-j 1`` run on the workers; it fetches the root, the merged
-states of every bag. Samples never leave the worker that read them, and the invariants file
-is byte for byte the one a single process writes.
+cluster. The client fetches of each answer only its summary (messages, errors, the values of
+its discrete variables, and for calibration the bag's own invariants), and joins the answers of
+adjacent bags as they complete with join tasks (:class:`~imrosc.fleet.tree.OrderedTree` over
+futures: blocks of halving size, each a balanced tree, joined left to right), the exact merge
+of ``-j 1`` run on the workers; it fetches the root, the merged states of every bag. The
+second pass starts as soon as every summary of the first is in (the conditions it needs come
+from the discrete values), while the first pass's last joins still run. Samples never leave
+the worker that read them, and the invariants file is byte for byte the one a single process
+writes.
 
 Calibration's held-out replays are tasks too: each fold's bags in as many groups as give
 every worker one, each fold's document sent once. The replays of ``imrosc replay``,
