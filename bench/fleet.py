@@ -1,14 +1,16 @@
 """Inference on a Dask cluster: speed-up, memory per worker, bytes sent to the client.
 
     python bench/fleet.py [--bags 40] [--duration 30] [--repeats 2] [--folder DIR]
-                          [--client-catalogue] [--no-pool] [--only-speedup]
+                          [--client-catalogue] [--no-pool] [--only-speedup] [--dask-defaults]
 
 Writes ``--bags`` simulated runs of the landing system (``imrosc.sim``, ROS 1 bags of
 ``--duration`` s each) into ``DIR/bags`` (kept and reused), then runs ``imrosc infer``'s
 detect stage on ``examples/landing_sim.xml``'s configuration over them:
 
 (a) with a ``distributed.LocalCluster`` of 1 and of 2 single-threaded worker processes
-    (loopback), each a fresh cluster, and with the local pool ``-j 2``; it prints the seconds of
+    (loopback, no dashboard), each a fresh cluster with the Dask settings docs/fleet.md
+    recommends (``imrosc.fleet.CLUSTER_CONFIG``; ``--dask-defaults``: Dask's own), and with the
+    local pool ``-j 2``; it prints the seconds of
     inference (the catalogue of the bags: a task per bag, each bag's note merged by the client;
     the two passes over them; the merge) and of calibration (its held-out replays: on the
     cluster, or in the pool), and the speed-up of 2 workers over 1. Target: >= 1.7x on 2 cores.
@@ -44,9 +46,10 @@ import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -56,7 +59,7 @@ sys.path.insert(0, str(ROOT))
 from imrosc.calibrate.rule import HeldOut, Job  # noqa: E402
 from imrosc.demo import example_configs  # noqa: E402
 from imrosc.detect import DetectResult, prepare, run_detect  # noqa: E402
-from imrosc.fleet import Fleet  # noqa: E402
+from imrosc.fleet import CLUSTER_CONFIG, Fleet  # noqa: E402
 from imrosc.fleet.cluster import _join as fleet_join  # noqa: E402
 from imrosc.fleet.cluster import _summary as fleet_summary  # noqa: E402
 from imrosc.infer.engine import BagJob, Merged, run_bag, segments_for  # noqa: E402
@@ -145,23 +148,30 @@ class Cpu:
 
 
 def on_cluster(
-    config: Path, bags: Sequence[Path], workers: int, catalogue: str = "workers"
+    config: Path,
+    bags: Sequence[Path],
+    workers: int,
+    settings: Mapping[str, Any],
+    catalogue: str = "workers",
 ) -> tuple[DetectResult, list[float], list[float], Cpu]:
-    """The detect stage on a fresh LocalCluster of ``workers`` processes, calibration's
+    """The detect stage on a fresh LocalCluster of ``workers`` processes with the Dask
+    ``settings`` (the scheduler's, the nannies' and the workers'), calibration's
     replays included, the bags catalogued by the ``catalogue`` (``workers``: a task per bag;
     ``client``: this process reads them in turn, as before); the workers' RSS when they
     started (the least), then each worker's peak RSS (MB) when inference was done (before
     calibration's replays), then at the end; and what the CPUs did during inference."""
+    import dask
     import distributed
 
     with (
+        dask.config.set(settings),
         distributed.LocalCluster(
             n_workers=workers,
             processes=True,
             threads_per_worker=1,
             host="127.0.0.1",
             scheduler_port=0,
-            dashboard_address=":0",
+            dashboard_address=None,
             silence_logs=40,
         ) as cluster,
         distributed.Client(cluster, set_as_default=False) as client,
@@ -288,7 +298,14 @@ def main() -> None:
     )
     parser.add_argument("--no-pool", action="store_true", help="skip the -j 2 case")
     parser.add_argument("--only-speedup", action="store_true", help="(a) only")
+    parser.add_argument(
+        "--dask-defaults",
+        action="store_true",
+        help="clusters with Dask's default settings instead of docs/fleet.md's recommended ones "
+        "(imrosc.fleet.CLUSTER_CONFIG)",
+    )
     args = parser.parse_args()
+    settings = {} if args.dask_defaults else CLUSTER_CONFIG
     folder = args.folder or Path(tempfile.mkdtemp(prefix="imrosc-fleet-"))
     folder.mkdir(parents=True, exist_ok=True)
     source = next(p for p in example_configs() if p.name == CONFIG)
@@ -334,7 +351,7 @@ def main() -> None:
     for repeat in range(args.repeats):
         seconds: dict[int, tuple[float, float]] = {}
         for workers in (1, 2):
-            result, inferred, peak, cpu = on_cluster(config, bags, workers)
+            result, inferred, peak, cpu = on_cluster(config, bags, workers, settings)
             report(f"LocalCluster {workers} worker{'s' * (workers > 1)} #{repeat + 1}", result, cpu)
             seconds[workers] = (result.seconds, result.seconds + result.calibration_seconds)
             if workers == 2:
@@ -343,7 +360,7 @@ def main() -> None:
         pairs.append((*seconds[1], *seconds[2]))
         if args.client_catalogue:
             on_workers = cpu
-            result, _, _, cpu = on_cluster(config, bags, 2, catalogue="client")
+            result, _, _, cpu = on_cluster(config, bags, 2, settings, catalogue="client")
             report(f"  the same, client catalogue #{repeat + 1}", result, cpu)
             client_cases.append(
                 (
@@ -370,7 +387,7 @@ def main() -> None:
         return
 
     half = bags[: len(bags) // 2]
-    _, after_inference[len(half)], peaks[len(half)], _ = on_cluster(config, half, 2)
+    _, after_inference[len(half)], peaks[len(half)], _ = on_cluster(config, half, 2, settings)
     print("(b) peak RSS of each of 2 workers, after inference and at the end (calibration):")
     for count in sorted(peaks):
         started, *peak = peaks[count]

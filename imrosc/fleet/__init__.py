@@ -8,6 +8,6 @@ it only when a scheduler is given. ``docs/fleet.md`` says how to run a cluster.
 
 from __future__ import annotations
 
-from imrosc.fleet.cluster import Fleet, FleetError, connect
+from imrosc.fleet.cluster import CLUSTER_CONFIG, Fleet, FleetError, connect
 
-__all__ = ["Fleet", "FleetError", "connect"]
+__all__ = ["CLUSTER_CONFIG", "Fleet", "FleetError", "connect"]

@@ -7,12 +7,15 @@ few KB, goes to the client, which merges the notes in bag order as one process r
 bags in turn would. The client then sends the compiled configuration once (one task whose
 answer every worker fetches once), then one task per bag: its path and run number. A worker
 reads the bag and updates fresh states of every point: the bag's answer, which stays on the
-cluster. The client fetches of each answer only its summary (messages, and for calibration
-the bag's own invariants), and joins the answers of adjacent bags as they complete with join tasks
-(:class:`~imrosc.fleet.tree.OrderedTree` over futures: bags 0 and 1, 2 and 3, then 0-1 and
-2-3, ...), the exact merge of ``-j 1`` run on the workers; it fetches the root, the merged
-states of every bag. Samples never leave the worker that read them, and the invariants file
-is byte for byte the one a single process writes.
+cluster. The client fetches of each answer only its summary (messages, errors, the values of
+its discrete variables, and for calibration the bag's own invariants), and joins the answers of
+adjacent bags as they complete with join tasks (:class:`~imrosc.fleet.tree.OrderedTree` over
+futures: blocks of halving size, each a balanced tree, joined left to right), the exact merge
+of ``-j 1`` run on the workers; it fetches the root, the merged states of every bag. The
+second pass starts as soon as every summary of the first is in (the conditions it needs come
+from the discrete values), while the first pass's last joins still run. Samples never leave
+the worker that read them, and the invariants file is byte for byte the one a single process
+writes.
 
 Calibration's held-out replays are tasks too: each fold's bags in as many groups as give
 every worker one, each fold's document sent once. The replays of ``imrosc replay``,
@@ -43,7 +46,16 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from imrosc import __version__
 from imrosc.calibrate.envelope import Envelopes, FoldDocument
 from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
-from imrosc.infer.engine import BagJob, BagResult, Merged, Progress, Unit, run_bag
+from imrosc.infer.engine import (
+    BagJob,
+    BagResult,
+    DiscreteValues,
+    Early,
+    Merged,
+    Progress,
+    Unit,
+    run_bag,
+)
 from imrosc.progress import bag_done
 from imrosc.replay import RunResult
 from imrosc.translate.catalog import BagNote, note_bag
@@ -62,6 +74,18 @@ JOIN_PRIORITY = 1
 CONNECT_TIMEOUT = 10.0
 """Seconds to reach the scheduler."""
 INSTALL = "pip install 'imrosc[fleet]'"
+CLUSTER_CONFIG: dict[str, Any] = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "500ms",
+}
+"""The Dask settings ``docs/fleet.md`` recommends for the scheduler and workers of an imrosc
+cluster (as ``DASK_DISTRIBUTED__...`` variables where they start): no statistical profiler
+sampling each worker's thread every 10 ms (about 4 % of a busy worker's CPU), and the event
+loops' tick monitors, system monitors and the nannies' memory monitors at a second or half a
+second instead of 20, 500 and 100 ms (on two cores, a LocalCluster's scheduler and nannies
+took 0.07 of a core for them beside the workers)."""
 KILLED = "its Dask workers died while reading it, on every try (a bag too big for their memory?)"
 
 
@@ -111,13 +135,19 @@ def _answer(task: Task, template: BagJob, bag: Path, run: int, name: Path) -> Me
     return Merged.of(result)
 
 
-Summary = tuple[int, list[Unit], str | None]
-"""What the client fetches of a bag's answer: its messages, calibration units and error."""
+Summary = tuple[int, list[Unit], str | None, dict[str, DiscreteValues]]
+"""What the client fetches of a bag's answer: its messages, calibration units, error and the
+values of its points' discrete variables (by point key)."""
 
 
 def _summary(answer: Merged) -> Summary:
     """A bag's :data:`Summary`."""
-    return answer.messages, answer.units, next(iter(answer.failed.values()), None)
+    discrete = {
+        key: state.discrete
+        for key, state in (answer.states or {}).items()
+        if state.discrete is not None
+    }
+    return answer.messages, answer.units, next(iter(answer.failed.values()), None), discrete
 
 
 def _join(left: Merged, right: Merged) -> Merged:
@@ -340,18 +370,18 @@ class Fleet:
     def __call__(self, jobs: Sequence[BagJob], progress: Progress | None) -> Merged:
         """Run one pass's jobs (they differ only in bag and run) as one task per bag and
         merge their answers in bag order on the cluster."""
-        if not jobs:
-            return Merged()
+        return self.begin(jobs, progress).result()
+
+    def begin(self, jobs: Sequence[BagJob], progress: Progress | None) -> _Pass:
+        """Start a pass: its bags' tasks submitted (:class:`~imrosc.infer.engine.Staged`)."""
+        return _Pass(self, list(jobs), progress)
+
+    @contextmanager
+    def _lost(self) -> Iterator[None]:
+        """The scheduler's loss as a :class:`FleetError`."""
         distributed = _distributed()
         try:
-            bad: set[int] = set()
-            merged = self._pass(jobs, progress, bad)
-            if merged is None:
-                # the workers killed by a bad bag took answers along, and computing one of
-                # them again failed too: once more, without the bags that kill workers
-                merged = self._pass(jobs, None, bad)
-            if merged is None:
-                raise FleetError(f"{self.address}: the Dask workers keep dying")
+            yield
         except distributed.client.FutureCancelledError:
             raise FleetError(f"{self.address}: lost the Dask scheduler") from None
         except (OSError, TimeoutError) as error:
@@ -363,73 +393,6 @@ class Fleet:
                 f"{self.address}: the scheduler cannot load imrosc's tasks: it runs another "
                 f"imrosc than this {__version__}"
             ) from None
-        return merged
-
-    def _pass(
-        self, jobs: Sequence[BagJob], progress: Progress | None, bad: set[int]
-    ) -> Merged | None:
-        """One try at a pass; ``bad``: the bags whose workers die reading them (given as
-        failed bags without a try, and those found added); ``None`` when an answer was lost
-        with its workers and could not be computed again."""
-        distributed = _distributed()
-        token = uuid.uuid4().hex[:12]
-        client = self.client
-
-        def join(left: Any, right: Any) -> Any:
-            key = f"imrosc-join-{uuid.uuid4().hex}"
-            # before the bags still queued (Dask runs what was submitted first, first): the
-            # answers waiting for their neighbour stay few
-            return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
-
-        def killed(index: int) -> Any:
-            return client.submit(_failed, jobs[index].bag, KILLED, pure=False)
-
-        tree: OrderedTree[Any] = OrderedTree(len(jobs), join)
-        units: list[list[Unit]] = [[] for _ in jobs]
-        # a task, not scattered data: the scheduler keeps it and computes it again when the
-        # workers that held it die
-        template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
-        client.replicate([template])  # the bags' tasks then go to any worker
-        answers = [
-            killed(i) if i in bad else self._submit(template, job, f"{token}-{i}")
-            for i, job in enumerate(jobs)
-        ]
-        summaries = {
-            client.submit(
-                _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
-            ): i
-            for i, answer in enumerate(answers)
-        }
-        doubtful = []
-        for summary in distributed.as_completed(list(summaries), loop=client.loop):
-            index = summaries.pop(summary)
-            got = self._summary(summary)
-            if got is None:
-                doubtful.append(index)
-                continue
-            messages, units[index], error = got
-            tree.add(index, answers[index])
-            answers[index] = None  # the tree holds it until it is joined
-            bag_done(progress, jobs[index].bag, messages, error)
-        # a worker that dies takes the tasks queued on it along: each bag whose workers died
-        # is tried once more, alone on the cluster, before it is called bad
-        for index in doubtful:
-            answer = self._submit(template, jobs[index], f"{token}-{index}-alone")
-            got = self._summary(client.submit(_summary, answer, pure=False))
-            if got is None:
-                bad.add(index)
-                answer, got = killed(index), (0, [], KILLED)
-            messages, units[index], error = got
-            tree.add(index, answer)
-            bag_done(progress, jobs[index].bag, messages, error)
-        try:
-            merged: Merged = tree.result().result()
-        except distributed.KilledWorker:
-            return None
-        finally:
-            template.release()
-        merged.units = [unit for found in units for unit in found]
-        return merged
 
     def note_bags(self, bags: Sequence[Path]) -> list[BagNote]:
         """The catalogue's pre-pass: each bag's note (:func:`~imrosc.translate.catalog.note_bag`:
@@ -669,6 +632,147 @@ class Fleet:
         finally:
             future.release()
         return found
+
+
+class _Pass:
+    """A pass on the cluster (:class:`~imrosc.infer.engine.Staged`): its bags' tasks submitted
+    when made; :meth:`early` collects each bag's summary as it completes (its messages, error,
+    calibration units and discrete values) and submits the joins of adjacent answers;
+    :meth:`result` fetches the root of the joins, the merged states of every bag."""
+
+    def __init__(
+        self,
+        fleet: Fleet,
+        jobs: list[BagJob],
+        progress: Progress | None,
+        bad: set[int] | None = None,
+    ) -> None:
+        self.fleet = fleet
+        self.jobs = jobs
+        self.progress = progress
+        self.bad: set[int] = set(bad or ())
+        """The bags whose workers die reading them (given as failed bags without a try)."""
+        self._early: Early | None = None
+        self._units: list[list[Unit]] = [[] for _ in jobs]
+        self._tree: OrderedTree[Any] | None = None
+        self._template: Any = None
+        self._summaries: dict[Any, int] = {}
+        self._answers: list[Any] = []
+        if jobs:
+            with fleet._lost():
+                self._submit()
+
+    def _submit(self) -> None:
+        client, jobs = self.fleet.client, self.jobs
+        token = uuid.uuid4().hex[:12]
+
+        def join(left: Any, right: Any) -> Any:
+            key = f"imrosc-join-{uuid.uuid4().hex}"
+            # before the bags still queued (Dask runs what was submitted first, first): the
+            # answers waiting for their neighbour stay few
+            return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
+
+        self._tree = OrderedTree(len(jobs), join)
+        # a task, not scattered data: the scheduler keeps it and computes it again when the
+        # workers that held it die
+        self._template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
+        client.replicate([self._template])  # the bags' tasks then go to any worker
+        self._token = token
+        self._answers = [
+            self._killed(i) if i in self.bad else self._bag(job, f"{token}-{i}")
+            for i, job in enumerate(jobs)
+        ]
+        self._summaries = {
+            client.submit(
+                _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
+            ): i
+            for i, answer in enumerate(self._answers)
+        }
+
+    def _killed(self, index: int) -> Any:
+        return self.fleet.client.submit(_failed, self.jobs[index].bag, KILLED, pure=False)
+
+    def _bag(self, job: BagJob, key: str) -> Any:
+        return self.fleet._submit(self._template, job, key)
+
+    def early(self) -> Early:
+        """Each bag's summary as it completes; once all are in, the discrete values merged
+        over the bags and the failed bags."""
+        if self._early is not None:
+            return self._early
+        early = Early()
+        if not self.jobs:
+            self._early = early
+            return early
+        distributed = _distributed()
+        client, tree = self.fleet.client, self._tree
+        assert tree is not None
+
+        def take(index: int, answer: Any, got: Summary) -> None:
+            messages, self._units[index], error, discrete = got
+            if error is not None:
+                early.failed.add(self.jobs[index].bag)
+            for key, values in discrete.items():
+                mine = early.discrete.get(key)
+                if mine is None:
+                    early.discrete[key] = values
+                else:
+                    mine.merge(values)
+            tree.add(index, answer)
+            bag_done(self.progress, self.jobs[index].bag, messages, error)
+
+        with self.fleet._lost():
+            doubtful = []
+            for summary in distributed.as_completed(list(self._summaries), loop=client.loop):
+                index = self._summaries.pop(summary)
+                got = self.fleet._summary(summary)
+                if got is None:
+                    doubtful.append(index)
+                    continue
+                take(index, self._answers[index], got)
+                self._answers[index] = None  # the tree holds it until it is joined
+            # a worker that dies takes the tasks queued on it along: each bag whose workers
+            # died is tried once more, alone on the cluster, before it is called bad
+            for index in doubtful:
+                answer = self._bag(self.jobs[index], f"{self._token}-{index}-alone")
+                got = self.fleet._summary(client.submit(_summary, answer, pure=False))
+                if got is None:
+                    self.bad.add(index)
+                    answer, got = self._killed(index), (0, [], KILLED, {})
+                take(index, answer, got)
+        # the points' order, as in the merged states
+        order = {spec.key: i for i, spec in enumerate(self.jobs[0].specs)}
+        early.discrete = dict(sorted(early.discrete.items(), key=lambda kv: order[kv[0]]))
+        self._early = early
+        return early
+
+    def result(self) -> Merged:
+        """The root of the joins: every bag's states merged in bag order, and their units.
+        When the workers that a bad bag killed took answers along and computing one of them
+        again failed too, the pass runs once more without the bags that kill workers."""
+        if not self.jobs:
+            return Merged()
+        self.early()
+        distributed = _distributed()
+        assert self._tree is not None
+        with self.fleet._lost():
+            try:
+                merged: Merged = self._tree.result().result()
+            except distributed.KilledWorker:
+                again = _Pass(self.fleet, self.jobs, None, self.bad)
+                again.early()
+                assert again._tree is not None
+                try:
+                    merged = again._tree.result().result()
+                except distributed.KilledWorker:
+                    raise FleetError(f"{self.fleet.address}: the Dask workers keep dying") from None
+                finally:
+                    again._template.release()
+                self._units = again._units
+            finally:
+                self._template.release()
+        merged.units = [unit for found in self._units for unit in found]
+        return merged
 
 
 @contextmanager

@@ -2,9 +2,15 @@
 
 The merge of inference states is exact and associative, but not commutative: a state absorbs
 the runs that come *after* its own. :class:`OrderedTree` joins the answers of consecutive bags
-pairwise, level by level, as they complete (bags 0 and 1, 2 and 3, then 0-1 and 2-3, ...),
-so the grouping is the same whatever order the answers arrive in, the client holds at most
-one pending answer per level and bag, and the result equals a left fold in bag order.
+as they complete, in a tree fixed by the count alone, so the grouping is the same whatever
+order the answers arrive in and the result equals a left fold in bag order.
+
+The tree is shaped for bags that complete about in order (a cluster reads them in order): the
+bags are cut in consecutive blocks of halving size (20, 10, 5, 3, 1 and 1 of 40 bags), each
+block a balanced tree, and the blocks are joined left to right. The joins inside the early
+blocks run beside the later bags, and when the last bag completes, one or two joins are left
+(a balanced tree over every bag leaves a chain as deep as the tree, a join and a transfer of
+the states between workers each).
 """
 
 from __future__ import annotations
@@ -15,14 +21,33 @@ from typing import Generic, TypeVar
 T = TypeVar("T")
 
 
+def blocks(count: int) -> list[tuple[int, int]]:
+    """The consecutive blocks ``(first, stop)`` of halving size that cover ``count`` bags.
+
+    >>> blocks(40)
+    [(0, 20), (20, 30), (30, 35), (35, 38), (38, 39), (39, 40)]
+    """
+    found, first = [], 0
+    while first < count:
+        size = (count - first + 1) // 2
+        found.append((first, first + size))
+        first += size
+    return found
+
+
 class OrderedTree(Generic[T]):
-    """Join ``count`` values, given by position in any order, as a balanced binary tree.
+    """Join ``count`` values, given by position in any order, as a tree of :func:`blocks`.
 
     >>> tree = OrderedTree(5, lambda a, b: f"({a}{b})")
     >>> for index in (4, 1, 3, 0, 2):
     ...     tree.add(index, "abcde"[index])
     >>> tree.result()
-    '(((ab)(cd))e)'
+    '((((ab)c)d)e)'
+    >>> tree = OrderedTree(8, lambda a, b: f"({a}{b})")
+    >>> for index in range(8):
+    ...     tree.add(index, "abcdefgh"[index])
+    >>> tree.result()
+    '(((((ab)(cd))(ef))g)h)'
     """
 
     def __init__(self, count: int, join: Callable[[T, T], T]) -> None:
@@ -30,31 +55,50 @@ class OrderedTree(Generic[T]):
             raise ValueError("an ordered tree needs at least one value")
         self.count = count
         self.join = join
-        self.pending: list[dict[int, T]] = []
-        """Per level, the nodes that wait for their sibling, by position at that level."""
+        self.parent: list[int] = [-1] * count
+        """Each node's parent (the leaves are the nodes ``0 .. count - 1``; -1: the root)."""
+        self.children: dict[int, tuple[int, int]] = {}
+        """Each inner node's left and right child."""
+        self.pending: dict[int, T] = {}
+        """The nodes whose value waits for its sibling's."""
         self.added = 0
         self._root: list[T] = []
+        spine = -1
+        for first, stop in blocks(count):
+            block = self._balanced(first, stop)
+            spine = block if spine < 0 else self._node(spine, block)
+
+    def _node(self, left: int, right: int) -> int:
+        node = len(self.parent)
+        self.parent.append(-1)
+        self.parent[left] = self.parent[right] = node
+        self.children[node] = (left, right)
+        return node
+
+    def _balanced(self, first: int, stop: int) -> int:
+        if stop - first == 1:
+            return first
+        middle = first + (stop - first + 1) // 2
+        return self._node(self._balanced(first, middle), self._balanced(middle, stop))
 
     def add(self, index: int, value: T) -> None:
         """The value at ``index`` (each index once)."""
         if not 0 <= index < self.count:
             raise IndexError(f"position {index} out of 0..{self.count - 1}")
         self.added += 1
-        level, width = 0, self.count
-        while width > 1:
-            if len(self.pending) <= level:
-                self.pending.append({})
-            sibling = index ^ 1
-            if sibling < width:  # else the odd one out at this level goes up alone
-                other = self.pending[level].pop(sibling, None)
-                if other is None:
-                    self.pending[level][index] = value
-                    return
-                value = self.join(other, value) if sibling < index else self.join(value, other)
-            index //= 2
-            width = (width + 1) // 2
-            level += 1
-        self._root.append(value)
+        node = index
+        while True:
+            parent = self.parent[node]
+            if parent < 0:
+                self._root.append(value)
+                return
+            left, right = self.children[parent]
+            other = self.pending.pop(right if node == left else left, None)
+            if other is None:
+                self.pending[node] = value
+                return
+            value = self.join(value, other) if node == left else self.join(other, value)
+            node = parent
 
     def result(self) -> T:
         """The join of every value, once all are added."""

@@ -20,7 +20,7 @@ import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -518,6 +518,51 @@ BagReducer = Callable[[Sequence[BagJob], Progress | None], Merged]
 answers merged in bag order."""
 
 
+@dataclass
+class Early:
+    """What a pass run elsewhere tells as soon as every bag is read, before its merged states
+    arrive: the values of its points' discrete variables merged over every bag (per point
+    key, in the points' order), which give the conditions of the second pass, and the bags
+    that failed."""
+
+    discrete: dict[str, DiscreteValues] = field(default_factory=dict)
+    failed: set[Path] = field(default_factory=set)
+
+
+class Staged(Protocol):
+    """A pass started elsewhere (:meth:`StagedReducer.begin`)."""
+
+    def early(self) -> Early:
+        """Once every bag is read: the pass's :class:`Early` facts."""
+        ...
+
+    def result(self) -> Merged:
+        """The pass's answers merged in bag order."""
+        ...
+
+
+@runtime_checkable
+class StagedReducer(Protocol):
+    """A :data:`BagReducer` that can start a pass and tell its :class:`Early` facts before its
+    merged answers (a cluster: the second pass starts while the first one's answers are
+    still being joined)."""
+
+    def __call__(self, jobs: Sequence[BagJob], progress: Progress | None) -> Merged: ...
+
+    def begin(self, jobs: Sequence[BagJob], progress: Progress | None) -> Staged:
+        """Start the pass (its tasks submitted)."""
+        ...
+
+
+def discovered_in(discrete: Mapping[str, DiscreteValues]) -> tuple[Discovered, ...]:
+    """The conditions found in the first pass's merged discrete values, by point."""
+    return tuple(
+        Discovered(key, variable, value)
+        for key, values in discrete.items()
+        for variable, value in values.conditions()
+    )
+
+
 def _merge(
     results: Iterable[BagResult],
     specs: Sequence[PointSpec],
@@ -570,6 +615,19 @@ def infer(
             return _unpack(reducer(jobs, shown), specs, tunables, found)
         return _merge(_map(jobs, workers, shown), specs, tunables, found)
 
+    def second_pass(
+        discovered: tuple[Discovered, ...], failed: Iterable[Path]
+    ) -> tuple[tuple[PointSpec, ...], list[BagJob]]:
+        """The second pass's points (those with conditions) and jobs (the bags read)."""
+        points = {d.point for d in discovered}
+        second_specs = tuple(s for s in specs if s.key in points)
+        bad = set(failed)
+        return second_specs, [
+            BagJob(b, i, second_specs, layouts, frozen, tunables, discovered, False, units)
+            for i, b in enumerate(ordered)
+            if b not in bad
+        ]
+
     ordered = sorted(bags)
     frozen = {topic: frozenset(names) for topic, names in callerids.items()}
     units = segments_for(len(ordered)) if calibrate else 0
@@ -578,26 +636,29 @@ def infer(
         for i, b in enumerate(ordered)
     ]
     found: list[Unit] = []
-    first, failed, messages, empty = run(jobs, specs, progress, found)
-    discovered = tuple(
-        Discovered(key, variable, value)
-        for key, state in first.items()
-        if state.discrete is not None
-        for variable, value in state.discrete.conditions()
-    )
-    if not discovered:
-        return InferenceResult(first, ordered, failed, messages, empty=empty, units=found)
-    points = {d.point for d in discovered}
-    second_specs = tuple(s for s in specs if s.key in points)
-    good = [b for b in ordered if b not in failed]
-    second = [
-        BagJob(
-            b, ordered.index(b), second_specs, layouts, frozen, tunables, discovered, False, units
-        )
-        for b in good
-    ]
     more: list[Unit] = []
-    extra, _, _, _ = run(second, second_specs, None, more)
+    if isinstance(reducer, StagedReducer) and jobs:
+        # the second pass starts as soon as the first one's bags are read, while their
+        # answers are still being joined on the cluster
+        started = reducer.begin(jobs, progress)
+        early = started.early()
+        discovered = discovered_in(early.discrete)
+        second_specs, second = second_pass(discovered, early.failed)
+        later = reducer.begin(second, None) if discovered and second else None
+        first, failed, messages, empty = _unpack(started.result(), specs, tunables, found)
+        if not discovered:
+            return InferenceResult(first, ordered, failed, messages, empty=empty, units=found)
+        merged = later.result() if later is not None else Merged()
+        extra, _, _, _ = _unpack(merged, second_specs, tunables, more)
+    else:
+        first, failed, messages, empty = run(jobs, specs, progress, found)
+        discovered = discovered_in(
+            {key: state.discrete for key, state in first.items() if state.discrete is not None}
+        )
+        if not discovered:
+            return InferenceResult(first, ordered, failed, messages, empty=empty, units=found)
+        second_specs, second = second_pass(discovered, failed)
+        extra, _, _, _ = run(second, second_specs, None, more)
     first.update(extra)
     _join_units(found, more)
     return InferenceResult(first, ordered, failed, messages, discovered, empty, found)
