@@ -31,9 +31,10 @@ gives the figures).
    ``<monitor>`` checks the refined file (``--invariants inferred``: the inferred one, as
    the example has it; scope, detect and monitor otherwise unchanged);
 3. ``imrosc build --backend ros1`` with ``examples/uav_landing.graph.yaml``;
-4. per scenario, ``--trials`` trials (seeds 0, 1, ...) through the system's launch file
-   (without the monitor) and through the ``system_monitored.launch`` the build rewrote
-   (with it: blocking, and commanding the task state when an invariant breaks).
+4. per scenario, ``--trials`` trials (seeds ``--first-seed``, 0 by default, and on)
+   through the system's launch file (without the monitor) and through the
+   ``system_monitored.launch`` the build rewrote (with it: blocking, and commanding the
+   task state when an invariant breaks).
 
 Printed: Table 5.2's layout per scenario (success %, average time to land of the successes,
 landings re-initiated, and the invariants whose alarms the monitor raised most often over
@@ -406,16 +407,25 @@ def record_runs(lanes: Sequence[Lane], work: Path, args: argparse.Namespace) -> 
         )
 
 
+def trial_tasks(
+    scenarios: Sequence[str], trials: int, first_seed: int = 0
+) -> list[tuple[str, bool, int]]:
+    """The trials to run, in order: per scenario, without then with the monitor, ``trials``
+    seeds from ``first_seed`` (a choice made on seeds 0-9 is checked on 10-19)."""
+    seeds = range(first_seed, first_seed + trials)
+    return [(s, m, seed) for s in scenarios for m in (False, True) for seed in seeds]
+
+
 def run_trials(
     lanes: Sequence[Lane],
     scenarios: Sequence[str],
     launches: dict[bool, Path],
     args: argparse.Namespace,
 ) -> dict[tuple[str, bool], Row]:
-    """``--trials`` trials (seeds 0, 1, ...) of each scenario without and with the monitor
-    (``launches[False]``, ``launches[True]``), on the lanes at once; a line per trial as it
-    ends."""
-    tasks = [(s, m, seed) for s in scenarios for m in (False, True) for seed in range(args.trials)]
+    """``--trials`` trials (seeds from ``--first-seed``) of each scenario without and with
+    the monitor (``launches[False]``, ``launches[True]``), on the lanes at once; a line per
+    trial as it ends."""
+    tasks = trial_tasks(scenarios, args.trials, args.first_seed)
 
     def run(lane: Lane, task: tuple[str, bool, int]) -> Outcome:
         scenario, monitor, seed = task
@@ -442,6 +452,13 @@ def run_trials(
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=10)
+    parser.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help="the trials' first seed (default 0: seeds 0, 1, ...); other seeds check a "
+        "choice made on the default ones",
+    )
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
     parser.add_argument("--nominal", type=int, default=20, help="recorded normal runs")
     parser.add_argument("--fail-runs", type=int, default=1, help="recorded runs per fault")

@@ -90,3 +90,13 @@ def test_a_failing_task_stops_the_lanes() -> None:
     with pytest.raises(RuntimeError, match="no outcome"):
         c.on_lanes(lanes, list(range(5)), run)
     assert begun == [0, 1]  # nothing begun after the failure
+
+
+def test_the_trials_start_at_the_first_seed() -> None:
+    assert c.trial_tasks(["wind"], 2, first_seed=10) == [
+        ("wind", False, 10),
+        ("wind", False, 11),
+        ("wind", True, 10),
+        ("wind", True, 11),
+    ]
+    assert [seed for _, _, seed in c.trial_tasks(["normal"], 3)] == [0, 1, 2] * 2
