@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from imrosc.calibrate.tolerance import prediction_bound
-from imrosc.detect import run_detect
 from imrosc.replay import Replayer
+from tests.calibrate import learn_scalar
 from tests.translate import msg, write_bag
 
 FLOAT = "std_msgs/msg/Float64"
@@ -31,15 +31,7 @@ def spiky(path: Path, seed: int, spike: float) -> Path:
 
 
 def learn(folder: Path, bags: list[Path], tail: str) -> dict[str, Any]:
-    listed = "".join(f"<bag>{b.name}</bag>" for b in bags)
-    path = folder / f"{tail}.xml"
-    path.write_text(
-        f'<imROS project="c"><scope><publish id="a">/a/x</publish></scope>'
-        f'<detect inv="{tail}.inv" step_tail="{tail}">{listed}</detect></imROS>'
-    )
-    result = run_detect(path, workers=1)
-    assert result.document is not None
-    return result.document
+    return learn_scalar(folder, bags, tail, f' step_tail="{tail}"')
 
 
 def step_of(document: dict[str, Any]) -> dict[str, Any]:

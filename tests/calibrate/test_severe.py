@@ -10,9 +10,9 @@ import numpy as np
 
 from imrosc.calibrate.rule import HeldOut
 from imrosc.calibrate.severe import check_severe, factor, scaled
-from imrosc.detect import run_detect
 from imrosc.replay import Replayer
 from imrosc.runtime.alarms import AlarmRule, margins_of, severity
+from tests.calibrate import learn_scalar
 from tests.translate import msg, write_bag
 
 FLOAT = "std_msgs/msg/Float64"
@@ -29,21 +29,9 @@ def walk(path: Path, seed: int, jump_at: float | None = None) -> Path:
     return write_bag(path, messages)
 
 
-def learn(folder: Path, bags: list[Path]) -> dict[str, Any]:
-    listed = "".join(f"<bag>{b.name}</bag>" for b in bags)
-    path = folder / "c.xml"
-    path.write_text(
-        f'<imROS project="c"><scope><publish id="a">/a/x</publish></scope>'
-        f'<detect inv="c.inv">{listed}</detect></imROS>'
-    )
-    result = run_detect(path, workers=1)
-    assert result.document is not None
-    return result.document
-
-
 def test_ranges_get_margins_beyond_their_limits_and_a_jump_alarms_at_once(tmp_path: Path) -> None:
     bags = [walk(tmp_path / f"good_{k}.bag", k) for k in range(6)]
-    document = learn(tmp_path, bags)
+    document = learn_scalar(tmp_path, bags)
     steps = [i for i in document["invariants"] if i["family"] == "step"]
     assert steps, "a walk's steps are far narrower than its range"
     (step,) = steps
@@ -65,7 +53,7 @@ def test_ranges_get_margins_beyond_their_limits_and_a_jump_alarms_at_once(tmp_pa
 
 
 def test_segments_of_one_bag_give_no_margins(tmp_path: Path) -> None:
-    document = learn(tmp_path, [walk(tmp_path / "only.bag", 1)])
+    document = learn_scalar(tmp_path, [walk(tmp_path / "only.bag", 1)])
     assert document["calibration"]["units"] == "segments"
     assert not any("margin" in i["params"] for i in document["invariants"])
     assert "severe" not in document["calibration"]
