@@ -10,16 +10,17 @@ stand-in ``landing_system`` beside the workspace: an ament index entry and one r
 per executable the launch file names, each playing its node of the example's graph (the topics
 and types of ``uav_landing.graph.yaml``; ``/vicon`` publishes ``/clock``, since the launch file
 sets ``use_sim_time``). ``/a/car_ctrl`` commands the state its test driver asks for on
-``/standin/command``; ``/a/ctrl_state_machine`` and ``/a/pid_ctrl`` print what they hear.
+``/standin/command``; it, ``/a/ctrl_state_machine`` and ``/a/pid_ctrl`` print what they hear.
 
 The invariants are the example's inferred from two simulated runs, kept to those of the state
 command alone (``cmd_subject_ctrl_state.data <= 6``): the stand-ins do not fly, so the
 invariants over poses would break all the time. The example's alarm rule applies (three
 violating commands in a row or 0.3 s of them, in ROS time). The driver checks that good
-commands and every waypoint are relayed, that a bad command (200) is blocked once the alarm is
-raised, warned on ``/m/broken_inv`` and answered by action ``f`` (``{data: 3}`` to the state
-machine), and that good commands flow again; the state machine's output shows the same through
-the remap. SIGINT then stops ``ros2 launch`` and every node cleanly.
+commands and every platform position are relayed, that a bad command (200) is blocked once
+the alarm is raised, warned on ``/m/broken_inv`` and answered by action ``f`` (``{data: 3}``
+to the state machine), and that good commands flow again; the state machine's output shows
+the same through the remap, and the waypoints reach the position loop straight (they are not
+blocked). SIGINT then stops ``ros2 launch`` and every node cleanly.
 """
 
 from __future__ import annotations
@@ -133,6 +134,12 @@ elif name == "/a/car_ctrl":
     node.create_subscription(UInt8, "/standin/command", asked, 10)
     every(0.1, lambda: commands.publish(UInt8(data=command[0])))
     every(0.05, pose("/a/task_waypose"))
+    heard_car = []
+    def car_pose(message):
+        if not heard_car:
+            say(f"STANDIN {name} heard {cars.topic_name}")
+        heard_car.append(message)
+    cars = node.create_subscription(PoseStamped, "/a/car_pose", car_pose, 10)
 elif name == "/a/pid_ctrl":
     heard_waypose = []
     def waypose(message):
@@ -177,7 +184,7 @@ node = Node("driver")
 executor = MultiThreadedExecutor(num_threads=2)
 executor.add_node(node)
 threading.Thread(target=executor.spin, daemon=True).start()
-out = {"relayed": [], "relayed_info": [], "waypoints": 0, "warnings": []}
+out = {"relayed": [], "relayed_info": [], "poses": 0, "warnings": []}
 phase = ["good"]
 
 def relayed(message, info):
@@ -187,11 +194,11 @@ def relayed(message, info):
         [info.get("publication_sequence_number"), info.get("source_timestamp"), time.time()]
     )
 
-def waypoint(message):
-    out["waypoints"] += 1
+def car_pose(message):
+    out["poses"] += 1
 
 node.create_subscription(UInt8, "/m/a/cmd_subject_ctrl_state", relayed, 100)
-node.create_subscription(PoseStamped, "/m/a/task_waypose", waypoint, 100)
+node.create_subscription(PoseStamped, "/m/a/car_pose", car_pose, 100)
 node.create_subscription(String, "/m/broken_inv", lambda m: out["warnings"].append(m.data), 100)
 latched = QoSProfile(
     depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
@@ -209,7 +216,7 @@ def wait(what, timeout):
 def count(which, value):
     return sum(1 for p, v in out["relayed"] if p == which and v == value)
 
-out["relaying"] = wait(lambda: count("good", 3) >= 5 and out["waypoints"] >= 5, 60.0)
+out["relaying"] = wait(lambda: count("good", 3) >= 5 and out["poses"] >= 5, 60.0)
 wait(lambda: ask.get_subscription_count() > 0, 30.0)
 
 def hears(topic):
@@ -365,7 +372,9 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
             timeout=240,
         )
         assert driver.returncode == 0, driver.stdout + driver.stderr + launch.output
-        launch.wait_for("STANDIN /a/pid_ctrl heard /m/a/task_waypose", 10)
+        launch.wait_for("STANDIN /a/car_ctrl heard /m/a/car_pose", 10)
+        # the waypoints go straight to the position loop (not blocked)
+        launch.wait_for("STANDIN /a/pid_ctrl heard /a/task_waypose", 10)
         code = launch.stop(signal.SIGINT, timeout=30)  # Ctrl-C: ros2 launch stops its nodes
         left = launch.alive_in_group()
     finally:
@@ -376,7 +385,7 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
         out["relayed"], [(w["time"], w["alarm"], w.get("rule")) for w in warnings]
     )
     context = f"{summary}\n{json.dumps(out)}\n{launch.output}\n{summary}"
-    assert out["relaying"] and out["recovered"], context  # good commands and waypoints relayed
+    assert out["relaying"] and out["recovered"], context  # good commands and positions relayed
     assert out["inputs"], context  # the monitor subscribed to every input of point a
     # only the monitor publishes on the relay (its relay and action f's publisher), and only
     # the stand-in car_ctrl on the command topic
