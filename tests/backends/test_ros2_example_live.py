@@ -100,6 +100,16 @@ def pose(topic, kind=PoseStamped):
     return publish
 
 
+def listen(topic):
+    # says when the first message of a topic (after its remap) comes
+    heard = []
+    def hear(message):
+        if not heard:
+            say(f"STANDIN {name} heard {subscription.topic_name}")
+        heard.append(message)
+    subscription = node.create_subscription(PoseStamped, topic, hear, 10)
+
+
 if name == "/vicon":
     clock = node.create_publisher(Clock, "/clock", 10)
     start = time.monotonic()
@@ -134,19 +144,9 @@ elif name == "/a/car_ctrl":
     node.create_subscription(UInt8, "/standin/command", asked, 10)
     every(0.1, lambda: commands.publish(UInt8(data=command[0])))
     every(0.05, pose("/a/task_waypose"))
-    heard_car = []
-    def car_pose(message):
-        if not heard_car:
-            say(f"STANDIN {name} heard {cars.topic_name}")
-        heard_car.append(message)
-    cars = node.create_subscription(PoseStamped, "/a/car_pose", car_pose, 10)
+    listen("/a/car_pose")
 elif name == "/a/pid_ctrl":
-    heard_waypose = []
-    def waypose(message):
-        if not heard_waypose:
-            say(f"STANDIN {name} heard {subscription.topic_name}")
-        heard_waypose.append(message)
-    subscription = node.create_subscription(PoseStamped, "/a/task_waypose", waypose, 10)
+    listen("/a/task_waypose")
     node.create_subscription(PoseStamped, "/a/subject_pose", lambda m: None, 10)
     node.create_subscription(UInt8, "/a/subject_ctrl_state", lambda m: None, 10)
 else:  # the listeners of the state
