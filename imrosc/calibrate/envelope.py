@@ -326,10 +326,7 @@ class Envelopes:
             centre = math.fsum(held) / len(held)
             bound = prediction_bound(held, level)
             if shared and bound is not None and min(held) > 0:
-                if self.step_tail == "select":
-                    bound = maxima_bound(held, level)
-                else:
-                    bound = max(bound, _lognormal_bound(held, level))
+                bound = maxima_bound(held, level, select=self.step_tail == "select")
             if bound is None or not bound > centre or not math.isfinite(bound):
                 continue
             try:
@@ -403,19 +400,6 @@ class Envelopes:
             params["vertices"] = vertices(params["A"], offsets, params["vertices"])
         invariant["params"] = params
         return moved
-
-
-def _lognormal_bound(values: Sequence[float], level: float) -> float:
-    """The prediction bound of one more positive value at ``level`` in the logarithm
-    (``inf`` past any float; the values' smallest when they are too few).
-
-    >>> round(_lognormal_bound([1.0, 10.0, 100.0], 0.05), 1) > 100
-    True
-    """
-    logged = prediction_bound([math.log(v) for v in values], level)
-    if logged is None:
-        return min(values)
-    return math.exp(logged) if logged < 700 else math.inf
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from imrosc.calibrate.rule import HeldOut
-from imrosc.calibrate.tolerance import prediction_bound, too_many
+from imrosc.calibrate.tolerance import exp_or_inf, prediction_bound, too_many
 from imrosc.runtime.families import VARIANCE
 
 SEVERE = 1.0
@@ -81,8 +81,7 @@ def scaled(margin: Sequence[float], by: float, logarithmic: bool) -> list[float]
     """
     centre, limit = float(margin[0]), float(margin[1])
     if logarithmic:
-        logged = math.log(centre) + by * (math.log(limit) - math.log(centre))
-        return [centre, math.exp(logged) if logged < 700 else math.inf]
+        return [centre, exp_or_inf(math.log(centre) + by * (math.log(limit) - math.log(centre)))]
     return [centre, centre + by * (limit - centre)]
 
 

@@ -121,12 +121,32 @@ def held_out_score(values: Sequence[float], logarithmic: bool = False) -> float 
     return float(np.sum(densities))
 
 
-def maxima_bound(values: Sequence[float], alpha: float) -> float | None:
+def exp_or_inf(logged: float) -> float:
+    """``exp(logged)``, or ``inf`` past the largest float (a bound taken in the logarithm).
+
+    >>> exp_or_inf(0.0), exp_or_inf(1000.0)
+    (1.0, inf)
+    """
+    return math.exp(logged) if logged < 700 else math.inf
+
+
+def lognormal_bound(values: Sequence[float], alpha: float) -> float:
+    """The ``1 - alpha`` prediction bound of one more of the positive ``values`` taken in the
+    logarithm (``inf`` past any float; the values' smallest when they are too few).
+
+    >>> round(lognormal_bound([1.0, 10.0, 100.0], 0.05), 1) > 100
+    True
+    """
+    logged = prediction_bound([math.log(v) for v in values], alpha)
+    return min(values) if logged is None else exp_or_inf(logged)
+
+
+def maxima_bound(values: Sequence[float], alpha: float, select: bool = True) -> float | None:
     """The ``1 - alpha`` prediction bound of one more of the positive ``values`` (units'
     largest steps) under the model, normal or log-normal, that predicts the values held
     out in turn the better (:func:`held_out_score`); the larger of the two bounds when the
-    scores cannot tell (fewer than three values, or values alike), ``None`` with fewer than
-    two values.
+    scores cannot tell (fewer than three values, or values alike) or without ``select``,
+    ``None`` with fewer than two values.
 
     The largest step of a run is a positive maximum: where steps are sensor noise, the runs'
     largest steps are alike and a normal model predicts them; where jumps are part of normal
@@ -146,8 +166,9 @@ def maxima_bound(values: Sequence[float], alpha: float) -> float | None:
     normal = prediction_bound(values, alpha)
     if normal is None or min(values) <= 0:
         return normal
-    logged = prediction_bound([math.log(v) for v in values], alpha)
-    lognormal = math.inf if logged is None or logged >= 700 else math.exp(logged)
+    lognormal = lognormal_bound(values, alpha)
+    if not select:
+        return max(normal, lognormal)
     plain, skewed = held_out_score(values), held_out_score(values, logarithmic=True)
     if plain is None or skewed is None:
         return max(normal, lognormal)
