@@ -650,6 +650,8 @@ class _Pass:
         self.fleet = fleet
         self.jobs = jobs
         self.progress = progress
+        self.retried = bad is not None
+        """Whether this is the pass's second try (:meth:`result`)."""
         self.bad: set[int] = set(bad or ())
         """The bags whose workers die reading them (given as failed bags without a try)."""
         self._early: Early | None = None
@@ -759,15 +761,10 @@ class _Pass:
             try:
                 merged: Merged = self._tree.result().result()
             except distributed.KilledWorker:
-                again = _Pass(self.fleet, self.jobs, None, self.bad)
-                again.early()
-                assert again._tree is not None
-                try:
-                    merged = again._tree.result().result()
-                except distributed.KilledWorker:
+                if self.retried:
                     raise FleetError(f"{self.fleet.address}: the Dask workers keep dying") from None
-                finally:
-                    again._template.release()
+                again = _Pass(self.fleet, self.jobs, None, self.bad)
+                merged = again.result()
                 self._units = again._units
             finally:
                 self._template.release()
