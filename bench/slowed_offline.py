@@ -32,6 +32,10 @@ controller could have:
 * ``predicting``: moves the platform's last pose on by its estimated velocity while the
   pose is late (dead reckoning, up to 3 s);
 * ``near integral``: its position loop integrates only within 0.3 m of the waypoint;
+* ``reset``: its position loop resets its integral on a setpoint step (a waypoint more than
+  10 cm from the one before: the platform moves 1.5 cm between two 20 Hz waypoints), so the
+  integral of the chases after stale poses that jumped does not push the UAV past the fresh
+  ones;
 * ``heard``: decides to land only when a platform pose arrives (the 1.5 s over the platform
   judged on what it hears: a withheld pose starts no landing);
 * ``disarm``: once its motors have been off for 2 s it is landed for good and takes no
@@ -117,25 +121,46 @@ class NearIntegral(core.Attitude):
         return super().command(state, waypoint, pose, velocity, t)
 
 
-CONTROLLERS: dict[str, tuple[dict[str, object], bool]] = {
-    "as is": ({}, False),
-    "disarm": ({"disarm": 2.0}, False),
-    "heard": ({"heard_only": True}, False),
-    "heard+disarm": ({"heard_only": True, "disarm": 2.0}, False),
-    "predicting": ({"predict": 3.0}, False),
-    "predicting+near": ({"predict": 3.0}, True),
-    "pred+near+heard+disarm": ({"predict": 3.0, "heard_only": True, "disarm": 2.0}, True),
-    "pred+near+heard+disarm0.5": ({"predict": 3.0, "heard_only": True, "disarm": 0.5}, True),
+class ResetIntegral(core.Attitude):
+    """Resets its integral on a setpoint step: a waypoint more than :attr:`jump` m from the
+    one before."""
+
+    jump: float = 0.1
+
+    def see_waypoint(self, t: float, x: float, y: float, z: float) -> None:
+        last = self.last
+        if last is not None and math.hypot(x - last[1], y - last[2]) > self.jump:
+            self.integral = (0.0, 0.0)
+        super().see_waypoint(t, x, y, z)
+
+
+LOOPS: dict[str, type[core.Attitude]] = {
+    "plain": core.Attitude,
+    "near": NearIntegral,
+    "reset": ResetIntegral,
+}
+"""The position loops of the rows: the example's, and its two ways not to wind up."""
+
+CONTROLLERS: dict[str, tuple[dict[str, object], str]] = {
+    "as is": ({}, "plain"),
+    "reset": ({}, "reset"),
+    "disarm": ({"disarm": 2.0}, "plain"),
+    "heard": ({"heard_only": True}, "plain"),
+    "heard+disarm": ({"heard_only": True, "disarm": 2.0}, "plain"),
+    "predicting": ({"predict": 3.0}, "plain"),
+    "predicting+near": ({"predict": 3.0}, "near"),
+    "pred+near+heard+disarm": ({"predict": 3.0, "heard_only": True, "disarm": 2.0}, "near"),
+    "pred+near+heard+disarm0.5": ({"predict": 3.0, "heard_only": True, "disarm": 0.5}, "near"),
 }
 
 
 def controller(name: str) -> tuple[Variant, core.Attitude]:
     """A fresh controller and position loop of the row ``name``."""
-    settings, near = CONTROLLERS[name]
+    settings, loop = CONTROLLERS[name]
     control = Variant()
     for key, value in settings.items():
         setattr(control, key, value)
-    return control, NearIntegral() if near else core.Attitude()
+    return control, LOOPS[loop]()
 
 
 def trial(seed: int, mode: str, name: str, timeout: float) -> tuple[bool, float]:

@@ -407,12 +407,6 @@ class Attitude:
     ki_xy: float = 0.6
     max_integral: float = 3.0
     """Acceleration (m/s^2) the integral term may give: it takes up a steady wind."""
-    jump: float = 0.1
-    """A waypoint this far (m, horizontally) from the one before is a new setpoint, not the
-    platform moving on (at 0.3 m/s it moves 1.5 cm between two 20 Hz waypoints): the
-    integral starts again from zero, as a position loop resets its integrator on a setpoint
-    step. What it took up chasing the old setpoint (a platform pose that jumped after a
-    stretch of stale ones) would otherwise push the UAV past the new one for seconds."""
     last: tuple[float, float, float, float] | None = None
     target_velocity: tuple[float, float] = (0.0, 0.0)
     integral: tuple[float, float] = (0.0, 0.0)
@@ -420,8 +414,6 @@ class Attitude:
 
     def see_waypoint(self, t: float, x: float, y: float, z: float) -> None:
         """A waypoint arrived (``/a/task_waypose``)."""
-        if self.last is not None and math.hypot(x - self.last[1], y - self.last[2]) > self.jump:
-            self.integral = (0.0, 0.0)  # a setpoint step: no integral from the old setpoint
         if self.last is not None and t > self.last[0]:
             dt = t - self.last[0]
             a = min(1.0, dt / self.smoothing)
