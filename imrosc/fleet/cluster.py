@@ -60,7 +60,7 @@ from imrosc.progress import bag_done
 from imrosc.replay import RunResult
 from imrosc.translate.catalog import BagNote, note_bag
 
-from .tree import OrderedTree
+from .tree import OrderedTree, cut
 
 if TYPE_CHECKING:
     from imrosc.classify import RunOutcome, RunTask
@@ -609,7 +609,8 @@ class Fleet:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
         return [answer for answer in answers if answer is not None]
 
-    def _submit(self, template: Any, job: BagJob, key: str) -> Any:
+    def _submit(self, template: Any, job: BagJob, key: str, worker: str | None = None) -> Any:
+        where = {} if worker is None else {"workers": [worker], "allow_other_workers": True}
         return self.client.submit(
             _answer,
             self.task,
@@ -620,6 +621,7 @@ class Fleet:
             key=f"imrosc-bag-{key}",
             retries=RETRIES,
             pure=False,
+            **where,
         )
 
     def _summary(self, future: Any) -> Summary | None:
@@ -636,9 +638,10 @@ class Fleet:
 
 class _Pass:
     """A pass on the cluster (:class:`~imrosc.infer.engine.Staged`): its bags' tasks submitted
-    when made; :meth:`early` collects each bag's summary as it completes (its messages, error,
-    calibration units and discrete values) and submits the joins of adjacent answers;
-    :meth:`result` fetches the root of the joins, the merged states of every bag."""
+    when made, each worker a consecutive share of the bags, with the joins of adjacent answers
+    (the whole tree: a join runs as soon as its answers are computed); :meth:`early` collects
+    each bag's summary as it completes (its messages, error, calibration units and discrete
+    values); :meth:`result` fetches the root of the joins, the merged states of every bag."""
 
     def __init__(
         self,
@@ -656,10 +659,10 @@ class _Pass:
         """The bags whose workers die reading them (given as failed bags without a try)."""
         self._early: Early | None = None
         self._units: list[list[Unit]] = [[] for _ in jobs]
-        self._tree: OrderedTree[Any] | None = None
+        self._root: Any = None
+        """The future of the root of the joins."""
         self._template: Any = None
         self._summaries: dict[Any, int] = {}
-        self._answers: list[Any] = []
         if jobs:
             with fleet._lost():
                 self._submit()
@@ -674,28 +677,39 @@ class _Pass:
             # answers waiting for their neighbour stay few
             return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
 
-        self._tree = OrderedTree(len(jobs), join)
         # a task, not scattered data: the scheduler keeps it and computes it again when the
         # workers that held it die
         self._template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
         client.replicate([self._template])  # the bags' tasks then go to any worker
         self._token = token
-        self._answers = [
-            self._killed(i) if i in self.bad else self._bag(job, f"{token}-{i}")
+        # each worker reads a consecutive share of the bags, in order (any other worker takes
+        # a bag if it is free or the worker is lost): the joins inside a share find both
+        # answers on its worker, and only the shares' joins move states between workers
+        workers = sorted(client.scheduler_info().get("workers", {})) or [None]
+        sizes = cut(len(jobs), len(workers))
+        where = [w for w, size in zip(workers, sizes, strict=False) for _ in range(size)]
+        answers = [
+            self._killed(i) if i in self.bad else self._bag(job, f"{token}-{i}", where[i])
             for i, job in enumerate(jobs)
         ]
         self._summaries = {
             client.submit(
                 _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
             ): i
-            for i, answer in enumerate(self._answers)
+            for i, answer in enumerate(answers)
         }
+        # the whole tree at once: a join runs as soon as its two answers are computed,
+        # without waiting for the client to hear of them
+        tree: OrderedTree[Any] = OrderedTree(len(jobs), join, sizes)
+        for index, answer in enumerate(answers):
+            tree.add(index, answer)
+        self._root = tree.result()
 
     def _killed(self, index: int) -> Any:
         return self.fleet.client.submit(_failed, self.jobs[index].bag, KILLED, pure=False)
 
-    def _bag(self, job: BagJob, key: str) -> Any:
-        return self.fleet._submit(self._template, job, key)
+    def _bag(self, job: BagJob, key: str, worker: str | None = None) -> Any:
+        return self.fleet._submit(self._template, job, key, worker)
 
     def early(self) -> Early:
         """Each bag's summary as it completes; once all are in, the discrete values merged
@@ -707,10 +721,9 @@ class _Pass:
             self._early = early
             return early
         distributed = _distributed()
-        client, tree = self.fleet.client, self._tree
-        assert tree is not None
+        client = self.fleet.client
 
-        def take(index: int, answer: Any, got: Summary) -> None:
+        def take(index: int, got: Summary) -> None:
             messages, self._units[index], error, discrete = got
             if error is not None:
                 early.failed.add(self.jobs[index].bag)
@@ -720,7 +733,6 @@ class _Pass:
                     early.discrete[key] = values
                 else:
                     mine.merge(values)
-            tree.add(index, answer)
             bag_done(self.progress, self.jobs[index].bag, messages, error)
 
         with self.fleet._lost():
@@ -731,17 +743,18 @@ class _Pass:
                 if got is None:
                     doubtful.append(index)
                     continue
-                take(index, self._answers[index], got)
-                self._answers[index] = None  # the tree holds it until it is joined
+                take(index, got)
             # a worker that dies takes the tasks queued on it along: each bag whose workers
-            # died is tried once more, alone on the cluster, before it is called bad
+            # died is tried once more, alone on the cluster, before it is called bad (the
+            # joins above its answer failed with it: :meth:`result` runs the pass again)
             for index in doubtful:
                 answer = self._bag(self.jobs[index], f"{self._token}-{index}-alone")
                 got = self.fleet._summary(client.submit(_summary, answer, pure=False))
+                answer.release()
                 if got is None:
                     self.bad.add(index)
-                    answer, got = self._killed(index), (0, [], KILLED, {})
-                take(index, answer, got)
+                    got = (0, [], KILLED, {})
+                take(index, got)
         # the points' order, as in the merged states
         order = {spec.key: i for i, spec in enumerate(self.jobs[0].specs)}
         early.discrete = dict(sorted(early.discrete.items(), key=lambda kv: order[kv[0]]))
@@ -750,16 +763,15 @@ class _Pass:
 
     def result(self) -> Merged:
         """The root of the joins: every bag's states merged in bag order, and their units.
-        When the workers that a bad bag killed took answers along and computing one of them
-        again failed too, the pass runs once more without the bags that kill workers."""
+        When a bag's workers died on every try (the joins above it failed with it), the pass
+        runs once more, the bags that kill workers given as failed."""
         if not self.jobs:
             return Merged()
         self.early()
         distributed = _distributed()
-        assert self._tree is not None
         with self.fleet._lost():
             try:
-                merged: Merged = self._tree.result().result()
+                merged: Merged = self._root.result()
             except distributed.KilledWorker:
                 if self.retried:
                     raise FleetError(f"{self.fleet.address}: the Dask workers keep dying") from None
@@ -767,6 +779,7 @@ class _Pass:
                 merged = again.result()
                 self._units = again._units
             finally:
+                self._root.release()
                 self._template.release()
         merged.units = [unit for found in self._units for unit in found]
         return merged
