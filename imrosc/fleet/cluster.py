@@ -5,14 +5,15 @@ Before anything is compiled, the catalogue of the bags (each topic's type, its p
 the record topics) is read by one task per bag (:meth:`Fleet.note_bags`): each bag's note, a
 few KB, goes to the client, which merges the notes in bag order as one process reading the
 bags in turn would. The client then sends the compiled configuration once (one task whose
-answer every worker fetches once), then one task per bag: its path and run number. A worker
-reads the bag and updates fresh states of every point: the bag's answer, which stays on the
-cluster. The client fetches of each answer only its summary (messages, errors, the values of
-its discrete variables, and for calibration the bag's own invariants), and joins the answers of
-adjacent bags as they complete with join tasks (:class:`~imrosc.fleet.tree.OrderedTree` over
-futures: blocks of halving size, each a balanced tree, joined left to right), the exact merge
-of ``-j 1`` run on the workers; it fetches the root, the merged states of every bag. The
-second pass starts as soon as every summary of the first is in (the conditions it needs come
+answer every worker fetches once), then one task per bag: its path and run number, each
+worker a consecutive share of the bags. A worker reads the bag and updates fresh states of
+every point: the bag's answer, which stays on the cluster. The client fetches of each answer
+only its summary (messages, errors, the values of its discrete variables, and for calibration
+the bag's own invariants); the answers of adjacent bags are joined by join tasks submitted
+with the bags (:class:`~imrosc.fleet.tree.OrderedTree` over futures: each share's blocks of
+halving size, each a balanced tree, joined left to right, the shares joined as a balanced
+tree), the exact merge of ``-j 1`` run on the workers as soon as both answers are computed;
+the client fetches the root, the merged states of every bag. The second pass starts as soon as every summary of the first is in (the conditions it needs come
 from the discrete values), while the first pass's last joins still run. Samples never leave
 the worker that read them, and the invariants file is byte for byte the one a single process
 writes.
@@ -26,9 +27,8 @@ A bag that cannot be read is answered with its error, as in one process. A task 
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
 3 by default); a task that raises is retried :data:`RETRIES` times. A bag that keeps killing
 its workers (one too big for their memory) is tried once more alone on the cluster (so that
-the bags queued beside it are not blamed), then reported as a bag that could not be read; if
-the workers it killed took answers of other bags along and computing one again failed, the
-pass runs once more with that bag left out.
+the bags queued beside it are not blamed), then reported as a bag that could not be read; the
+joins above it failed with it, so the pass runs once more with that bag given as failed.
 """
 
 from __future__ import annotations
@@ -44,8 +44,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from imrosc import __version__
-from imrosc.calibrate.envelope import Envelopes, FoldDocument
-from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import (
     BagJob,
     BagResult,
@@ -57,13 +55,15 @@ from imrosc.infer.engine import (
     run_bag,
 )
 from imrosc.progress import bag_done
-from imrosc.replay import RunResult
 from imrosc.translate.catalog import BagNote, note_bag
 
 from .tree import OrderedTree, cut
 
 if TYPE_CHECKING:
+    from imrosc.calibrate.envelope import Envelopes, FoldDocument
+    from imrosc.calibrate.rule import HeldOut, Job
     from imrosc.classify import RunOutcome, RunTask
+    from imrosc.replay import RunResult
 
 T = TypeVar("T")
 
@@ -123,6 +123,8 @@ def _unsealed(sealed: _Sealed) -> Any:
 def _fold_document(envelopes: Envelopes, units: frozenset[int]) -> dict[str, Any]:
     """A calibration task: a fold's document, learnt from ``units`` (built on the worker
     that replays the fold, from the envelopes sent once)."""
+    from imrosc.calibrate.envelope import FoldDocument
+
     return FoldDocument(envelopes, units).build()
 
 
@@ -199,6 +201,8 @@ def _replay(
     """A calibration task: some bags' held-out units of a fold replayed, each bag
     ``(path, spans, name)``, with the fold's engine built for the task and dropped after
     (a worker's tasks are consecutive slices of the folds: :func:`shares`)."""
+    from imrosc.calibrate.rule import held_out, held_out_replayer
+
     replayer = held_out_replayer(document)
     found = []
     for bag, spans, name in bags:
@@ -503,6 +507,8 @@ class Fleet:
     ) -> Any:
         """The future of a fold's document: built by a task from its envelopes (sent once,
         their future kept in ``sent``), or sent as it is."""
+        from imrosc.calibrate.envelope import FoldDocument
+
         client = self.client
         if not isinstance(learnt, FoldDocument):
             return client.submit(_unsealed, _Sealed(learnt), key=key, **where)
@@ -522,6 +528,7 @@ class Fleet:
     ) -> list[tuple[RunResult, dict[str, Any]]]:
         """``imrosc replay``: one task per bag (the document sent once), the runs in bag
         order; ``progress`` hears of each bag as it completes."""
+        from imrosc.replay import RunResult
 
         def killed(bag: Path) -> tuple[RunResult, dict[str, Any]]:
             result = RunResult(bag)
