@@ -13,8 +13,9 @@ the bag's own invariants); the answers of adjacent bags are joined by join tasks
 with the bags (:class:`~imrosc.fleet.tree.OrderedTree` over futures: each share's blocks of
 halving size, each a balanced tree, joined left to right, the shares joined as a balanced
 tree), the exact merge of ``-j 1`` run on the workers as soon as both answers are computed;
-the client fetches the root, the merged states of every bag. The second pass starts as soon as every summary of the first is in (the conditions it needs come
-from the discrete values), while the first pass's last joins still run. Samples never leave
+the client fetches the root, the merged states of every bag. The second pass starts as soon
+as every summary of the first is in (the conditions it needs come from the discrete values),
+while the first pass's last joins still run. Samples never leave
 the worker that read them, and the invariants file is byte for byte the one a single process
 writes.
 
@@ -70,7 +71,8 @@ T = TypeVar("T")
 RETRIES = 2
 """How many times a bag's task that raised is run again."""
 JOIN_PRIORITY = 1
-"""Joins and summaries run before the bags still queued (those have priority 0)."""
+"""Joins and summaries run before the bags still queued (those have priority 0 and less: a
+pass's bag ``i`` has ``-i``, so that a worker reads its share in order)."""
 CONNECT_TIMEOUT = 10.0
 """Seconds to reach the scheduler."""
 INSTALL = "pip install 'imrosc[fleet]'"
@@ -617,6 +619,8 @@ class Fleet:
         return [answer for answer in answers if answer is not None]
 
     def _submit(self, template: Any, job: BagJob, key: str, worker: str | None = None) -> Any:
+        """A bag's task, suggested to ``worker``: a worker runs its bags in order (tasks
+        submitted together tie on Dask's priority and would run in any order)."""
         where = {} if worker is None else {"workers": [worker], "allow_other_workers": True}
         return self.client.submit(
             _answer,
@@ -628,6 +632,7 @@ class Fleet:
             key=f"imrosc-bag-{key}",
             retries=RETRIES,
             pure=False,
+            priority=-job.run,
             **where,
         )
 
