@@ -5,15 +5,17 @@ Before anything is compiled, the catalogue of the bags (each topic's type, its p
 the record topics) is read by one task per bag (:meth:`Fleet.note_bags`): each bag's note, a
 few KB, goes to the client, which merges the notes in bag order as one process reading the
 bags in turn would. The client then sends the compiled configuration once (one task whose
-answer every worker fetches once), then one task per bag: its path and run number. A worker
-reads the bag and updates fresh states of every point: the bag's answer, which stays on the
-cluster. The client fetches of each answer only its summary (messages, errors, the values of
-its discrete variables, and for calibration the bag's own invariants), and joins the answers of
-adjacent bags as they complete with join tasks (:class:`~imrosc.fleet.tree.OrderedTree` over
-futures: blocks of halving size, each a balanced tree, joined left to right), the exact merge
-of ``-j 1`` run on the workers; it fetches the root, the merged states of every bag. The
-second pass starts as soon as every summary of the first is in (the conditions it needs come
-from the discrete values), while the first pass's last joins still run. Samples never leave
+answer every worker fetches once), then one task per bag: its path and run number, each
+worker a consecutive share of the bags. A worker reads the bag and updates fresh states of
+every point: the bag's answer, which stays on the cluster. The client fetches of each answer
+only its summary (messages, errors, the values of its discrete variables, and for calibration
+the bag's own invariants); the answers of adjacent bags are joined by join tasks submitted
+with the bags (:class:`~imrosc.fleet.tree.OrderedTree` over futures: each share's blocks of
+halving size, each a balanced tree, joined left to right, the shares joined as a balanced
+tree), the exact merge of ``-j 1`` run on the workers as soon as both answers are computed;
+the client fetches the root, the merged states of every bag. The second pass starts as soon
+as every summary of the first is in (the conditions it needs come from the discrete values),
+while the first pass's last joins still run. Samples never leave
 the worker that read them, and the invariants file is byte for byte the one a single process
 writes.
 
@@ -26,9 +28,8 @@ A bag that cannot be read is answered with its error, as in one process. A task 
 dies is run again on another worker by the scheduler (``distributed.scheduler.allowed-failures``,
 3 by default); a task that raises is retried :data:`RETRIES` times. A bag that keeps killing
 its workers (one too big for their memory) is tried once more alone on the cluster (so that
-the bags queued beside it are not blamed), then reported as a bag that could not be read; if
-the workers it killed took answers of other bags along and computing one again failed, the
-pass runs once more with that bag left out.
+the bags queued beside it are not blamed), then reported as a bag that could not be read; the
+joins above it failed with it, so the pass runs once more with that bag given as failed.
 """
 
 from __future__ import annotations
@@ -44,8 +45,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from imrosc import __version__
-from imrosc.calibrate.envelope import Envelopes, FoldDocument
-from imrosc.calibrate.rule import HeldOut, Job, held_out, held_out_replayer
 from imrosc.infer.engine import (
     BagJob,
     BagResult,
@@ -57,20 +56,23 @@ from imrosc.infer.engine import (
     run_bag,
 )
 from imrosc.progress import bag_done
-from imrosc.replay import RunResult
 from imrosc.translate.catalog import BagNote, note_bag
 
-from .tree import OrderedTree
+from .tree import OrderedTree, cut
 
 if TYPE_CHECKING:
+    from imrosc.calibrate.envelope import Envelopes, FoldDocument
+    from imrosc.calibrate.rule import HeldOut, Job
     from imrosc.classify import RunOutcome, RunTask
+    from imrosc.replay import RunResult
 
 T = TypeVar("T")
 
 RETRIES = 2
 """How many times a bag's task that raised is run again."""
 JOIN_PRIORITY = 1
-"""Joins and summaries run before the bags still queued (those have priority 0)."""
+"""Joins and summaries run before the bags still queued (those have priority 0 and less: a
+pass's bag ``i`` has ``-i``, so that a worker reads its share in order)."""
 CONNECT_TIMEOUT = 10.0
 """Seconds to reach the scheduler."""
 INSTALL = "pip install 'imrosc[fleet]'"
@@ -123,6 +125,8 @@ def _unsealed(sealed: _Sealed) -> Any:
 def _fold_document(envelopes: Envelopes, units: frozenset[int]) -> dict[str, Any]:
     """A calibration task: a fold's document, learnt from ``units`` (built on the worker
     that replays the fold, from the envelopes sent once)."""
+    from imrosc.calibrate.envelope import FoldDocument
+
     return FoldDocument(envelopes, units).build()
 
 
@@ -199,6 +203,8 @@ def _replay(
     """A calibration task: some bags' held-out units of a fold replayed, each bag
     ``(path, spans, name)``, with the fold's engine built for the task and dropped after
     (a worker's tasks are consecutive slices of the folds: :func:`shares`)."""
+    from imrosc.calibrate.rule import held_out, held_out_replayer
+
     replayer = held_out_replayer(document)
     found = []
     for bag, spans, name in bags:
@@ -503,6 +509,8 @@ class Fleet:
     ) -> Any:
         """The future of a fold's document: built by a task from its envelopes (sent once,
         their future kept in ``sent``), or sent as it is."""
+        from imrosc.calibrate.envelope import FoldDocument
+
         client = self.client
         if not isinstance(learnt, FoldDocument):
             return client.submit(_unsealed, _Sealed(learnt), key=key, **where)
@@ -522,6 +530,7 @@ class Fleet:
     ) -> list[tuple[RunResult, dict[str, Any]]]:
         """``imrosc replay``: one task per bag (the document sent once), the runs in bag
         order; ``progress`` hears of each bag as it completes."""
+        from imrosc.replay import RunResult
 
         def killed(bag: Path) -> tuple[RunResult, dict[str, Any]]:
             result = RunResult(bag)
@@ -609,7 +618,10 @@ class Fleet:
             raise FleetError(f"{self.address}: lost the Dask scheduler: {error}") from None
         return [answer for answer in answers if answer is not None]
 
-    def _submit(self, template: Any, job: BagJob, key: str) -> Any:
+    def _submit(self, template: Any, job: BagJob, key: str, worker: str | None = None) -> Any:
+        """A bag's task, suggested to ``worker``: a worker runs its bags in order (tasks
+        submitted together tie on Dask's priority and would run in any order)."""
+        where = {} if worker is None else {"workers": [worker], "allow_other_workers": True}
         return self.client.submit(
             _answer,
             self.task,
@@ -620,6 +632,8 @@ class Fleet:
             key=f"imrosc-bag-{key}",
             retries=RETRIES,
             pure=False,
+            priority=-job.run,
+            **where,
         )
 
     def _summary(self, future: Any) -> Summary | None:
@@ -636,9 +650,10 @@ class Fleet:
 
 class _Pass:
     """A pass on the cluster (:class:`~imrosc.infer.engine.Staged`): its bags' tasks submitted
-    when made; :meth:`early` collects each bag's summary as it completes (its messages, error,
-    calibration units and discrete values) and submits the joins of adjacent answers;
-    :meth:`result` fetches the root of the joins, the merged states of every bag."""
+    when made, each worker a consecutive share of the bags, with the joins of adjacent answers
+    (the whole tree: a join runs as soon as its answers are computed); :meth:`early` collects
+    each bag's summary as it completes (its messages, error, calibration units and discrete
+    values); :meth:`result` fetches the root of the joins, the merged states of every bag."""
 
     def __init__(
         self,
@@ -656,10 +671,10 @@ class _Pass:
         """The bags whose workers die reading them (given as failed bags without a try)."""
         self._early: Early | None = None
         self._units: list[list[Unit]] = [[] for _ in jobs]
-        self._tree: OrderedTree[Any] | None = None
+        self._root: Any = None
+        """The future of the root of the joins."""
         self._template: Any = None
         self._summaries: dict[Any, int] = {}
-        self._answers: list[Any] = []
         if jobs:
             with fleet._lost():
                 self._submit()
@@ -674,28 +689,39 @@ class _Pass:
             # answers waiting for their neighbour stay few
             return client.submit(_join, left, right, key=key, priority=JOIN_PRIORITY)
 
-        self._tree = OrderedTree(len(jobs), join)
         # a task, not scattered data: the scheduler keeps it and computes it again when the
         # workers that held it die
         self._template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
         client.replicate([self._template])  # the bags' tasks then go to any worker
         self._token = token
-        self._answers = [
-            self._killed(i) if i in self.bad else self._bag(job, f"{token}-{i}")
+        # each worker reads a consecutive share of the bags, in order (any other worker takes
+        # a bag if it is free or the worker is lost): the joins inside a share find both
+        # answers on its worker, and only the shares' joins move states between workers
+        workers = sorted(client.scheduler_info().get("workers", {})) or [None]
+        sizes = cut(len(jobs), len(workers))
+        where = [w for w, size in zip(workers, sizes, strict=False) for _ in range(size)]
+        answers = [
+            self._killed(i) if i in self.bad else self._bag(job, f"{token}-{i}", where[i])
             for i, job in enumerate(jobs)
         ]
         self._summaries = {
             client.submit(
                 _summary, answer, key=f"imrosc-summary-{token}-{i}", priority=JOIN_PRIORITY
             ): i
-            for i, answer in enumerate(self._answers)
+            for i, answer in enumerate(answers)
         }
+        # the whole tree at once: a join runs as soon as its two answers are computed,
+        # without waiting for the client to hear of them
+        tree: OrderedTree[Any] = OrderedTree(len(jobs), join, sizes)
+        for index, answer in enumerate(answers):
+            tree.add(index, answer)
+        self._root = tree.result()
 
     def _killed(self, index: int) -> Any:
         return self.fleet.client.submit(_failed, self.jobs[index].bag, KILLED, pure=False)
 
-    def _bag(self, job: BagJob, key: str) -> Any:
-        return self.fleet._submit(self._template, job, key)
+    def _bag(self, job: BagJob, key: str, worker: str | None = None) -> Any:
+        return self.fleet._submit(self._template, job, key, worker)
 
     def early(self) -> Early:
         """Each bag's summary as it completes; once all are in, the discrete values merged
@@ -707,10 +733,9 @@ class _Pass:
             self._early = early
             return early
         distributed = _distributed()
-        client, tree = self.fleet.client, self._tree
-        assert tree is not None
+        client = self.fleet.client
 
-        def take(index: int, answer: Any, got: Summary) -> None:
+        def take(index: int, got: Summary) -> None:
             messages, self._units[index], error, discrete = got
             if error is not None:
                 early.failed.add(self.jobs[index].bag)
@@ -720,7 +745,6 @@ class _Pass:
                     early.discrete[key] = values
                 else:
                     mine.merge(values)
-            tree.add(index, answer)
             bag_done(self.progress, self.jobs[index].bag, messages, error)
 
         with self.fleet._lost():
@@ -731,17 +755,18 @@ class _Pass:
                 if got is None:
                     doubtful.append(index)
                     continue
-                take(index, self._answers[index], got)
-                self._answers[index] = None  # the tree holds it until it is joined
+                take(index, got)
             # a worker that dies takes the tasks queued on it along: each bag whose workers
-            # died is tried once more, alone on the cluster, before it is called bad
+            # died is tried once more, alone on the cluster, before it is called bad (the
+            # joins above its answer failed with it: :meth:`result` runs the pass again)
             for index in doubtful:
                 answer = self._bag(self.jobs[index], f"{self._token}-{index}-alone")
                 got = self.fleet._summary(client.submit(_summary, answer, pure=False))
+                answer.release()
                 if got is None:
                     self.bad.add(index)
-                    answer, got = self._killed(index), (0, [], KILLED, {})
-                take(index, answer, got)
+                    got = (0, [], KILLED, {})
+                take(index, got)
         # the points' order, as in the merged states
         order = {spec.key: i for i, spec in enumerate(self.jobs[0].specs)}
         early.discrete = dict(sorted(early.discrete.items(), key=lambda kv: order[kv[0]]))
@@ -750,16 +775,15 @@ class _Pass:
 
     def result(self) -> Merged:
         """The root of the joins: every bag's states merged in bag order, and their units.
-        When the workers that a bad bag killed took answers along and computing one of them
-        again failed too, the pass runs once more without the bags that kill workers."""
+        When a bag's workers died on every try (the joins above it failed with it), the pass
+        runs once more, the bags that kill workers given as failed."""
         if not self.jobs:
             return Merged()
         self.early()
         distributed = _distributed()
-        assert self._tree is not None
         with self.fleet._lost():
             try:
-                merged: Merged = self._tree.result().result()
+                merged: Merged = self._root.result()
             except distributed.KilledWorker:
                 if self.retried:
                     raise FleetError(f"{self.fleet.address}: the Dask workers keep dying") from None
@@ -767,6 +791,7 @@ class _Pass:
                 merged = again.result()
                 self._units = again._units
             finally:
+                self._root.release()
                 self._template.release()
         merged.units = [unit for found in self._units for unit in found]
         return merged

@@ -5,17 +5,19 @@ the runs that come *after* its own. :class:`OrderedTree` joins the answers of co
 as they complete, in a tree fixed by the count alone, so the grouping is the same whatever
 order the answers arrive in and the result equals a left fold in bag order.
 
-The tree is shaped for bags that complete about in order (a cluster reads them in order): the
-bags are cut in consecutive blocks of halving size (20, 10, 5, 3, 1 and 1 of 40 bags), each
-block a balanced tree, and the blocks are joined left to right. The joins inside the early
-blocks run beside the later bags, and when the last bag completes, one or two joins are left
-(a balanced tree over every bag leaves a chain as deep as the tree, a join and a transfer of
-the states between workers each).
+The tree is shaped for bags that complete about in order: the bags are cut in consecutive
+shares (one per worker, which reads its share in order), each share cut in consecutive blocks
+of halving size (20, 10, 5, 3, 1 and 1 of 40 bags), each block a balanced tree, the blocks
+joined left to right, and the shares joined as a balanced tree. The joins inside a share's
+early blocks run beside its later bags, and when its last bag completes, one or two joins are
+left (a balanced tree over every bag leaves a chain as deep as the tree, a join and a transfer
+of the states between workers each); the shares, which end about together, then take as many
+joins as the depth of their tree.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Generic, TypeVar
 
 T = TypeVar("T")
@@ -35,8 +37,21 @@ def blocks(count: int) -> list[tuple[int, int]]:
     return found
 
 
+def cut(count: int, parts: int) -> list[int]:
+    """The sizes of ``parts`` consecutive shares of ``count`` values (the first ones a value
+    more; no empty share).
+
+    >>> cut(40, 3)
+    [14, 13, 13]
+    """
+    parts = max(1, min(parts, count))
+    return [count // parts + (part < count % parts) for part in range(parts)]
+
+
 class OrderedTree(Generic[T]):
-    """Join ``count`` values, given by position in any order, as a tree of :func:`blocks`.
+    """Join ``count`` values, given by position in any order, as a tree of :func:`blocks` in
+    each of the consecutive ``shares`` (their sizes; one share of every value by default),
+    the shares joined as a balanced tree.
 
     >>> tree = OrderedTree(5, lambda a, b: f"({a}{b})")
     >>> for index in (4, 1, 3, 0, 2):
@@ -48,11 +63,21 @@ class OrderedTree(Generic[T]):
     ...     tree.add(index, "abcdefgh"[index])
     >>> tree.result()
     '(((((ab)(cd))(ef))g)h)'
+    >>> tree = OrderedTree(8, lambda a, b: f"({a}{b})", shares=[4, 4])
+    >>> for index in range(8):
+    ...     tree.add(index, "abcdefgh"[index])
+    >>> tree.result()
+    '((((ab)c)d)(((ef)g)h))'
     """
 
-    def __init__(self, count: int, join: Callable[[T, T], T]) -> None:
+    def __init__(
+        self, count: int, join: Callable[[T, T], T], shares: Sequence[int] | None = None
+    ) -> None:
         if count < 1:
             raise ValueError("an ordered tree needs at least one value")
+        sizes = list(shares) if shares is not None else [count]
+        if sum(sizes) != count or min(sizes) < 1:
+            raise ValueError(f"shares {sizes} do not cut {count} values")
         self.count = count
         self.join = join
         self.parent: list[int] = [-1] * count
@@ -63,10 +88,22 @@ class OrderedTree(Generic[T]):
         """The nodes whose value waits for its sibling's."""
         self.added = 0
         self._root: list[T] = []
-        spine = -1
-        for first, stop in blocks(count):
-            block = self._balanced(first, stop)
-            spine = block if spine < 0 else self._node(spine, block)
+        roots, first = [], 0
+        for size in sizes:
+            spine = -1
+            for start, stop in blocks(size):
+                block = self._balanced(first + start, first + stop)
+                spine = block if spine < 0 else self._node(spine, block)
+            roots.append(spine)
+            first += size
+        self._joined(roots)
+
+    def _joined(self, nodes: list[int]) -> int:
+        """The root of a balanced tree over ``nodes`` (consecutive, in order)."""
+        if len(nodes) == 1:
+            return nodes[0]
+        middle = (len(nodes) + 1) // 2
+        return self._node(self._joined(nodes[:middle]), self._joined(nodes[middle:]))
 
     def _node(self, left: int, right: int) -> int:
         node = len(self.parent)

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from imrosc.fleet.cluster import shares
-from imrosc.fleet.tree import OrderedTree
+from imrosc.fleet.tree import OrderedTree, cut
 
 
 @given(st.integers(1, 40).flatmap(lambda n: st.permutations(range(n))))
@@ -34,6 +34,40 @@ def test_any_arrival_order_joins_adjacent_values_in_position_order(order: list[i
     for index in range(count):
         first.add(index, names[index])
     assert again.result() == first.result()
+
+
+@given(st.integers(1, 40).flatmap(lambda n: st.permutations(range(n))), st.integers(1, 8))
+def test_shares_join_adjacent_values_in_position_order(order: list[int], parts: int) -> None:
+    """Each worker's consecutive share, then the shares: still the left fold in position
+    order, whatever the order the values come in, and the same grouping every time."""
+    count = len(order)
+    sizes = cut(count, parts)
+    assert sum(sizes) == count and len(sizes) == min(parts, count)
+    assert max(sizes) - min(sizes) <= 1
+    names = [f"<{i}>" for i in range(count)]
+    flat: OrderedTree[str] = OrderedTree(count, lambda a, b: a + b, sizes)
+    grouped: OrderedTree[str] = OrderedTree(count, lambda a, b: f"({a}{b})", sizes)
+    first: OrderedTree[str] = OrderedTree(count, lambda a, b: f"({a}{b})", sizes)
+    for index in order:
+        flat.add(index, names[index])
+        grouped.add(index, names[index])
+    for index in range(count):
+        first.add(index, names[index])
+    assert flat.result() == "".join(names)
+    assert grouped.result() == first.result()
+    # the shares' own trees are those of the shares alone
+    if len(sizes) == 2:
+        alone: OrderedTree[str] = OrderedTree(sizes[0], lambda a, b: f"({a}{b})")
+        for index in range(sizes[0]):
+            alone.add(index, names[index])
+        assert first.result().startswith("(" + alone.result())
+
+
+def test_shares_that_do_not_cut_the_values_are_an_error() -> None:
+    with pytest.raises(ValueError, match="do not cut"):
+        OrderedTree(4, lambda a, b: a + b, [2, 1])
+    with pytest.raises(ValueError, match="do not cut"):
+        OrderedTree(4, lambda a, b: a + b, [4, 0])
 
 
 @given(st.integers(1, 64))
