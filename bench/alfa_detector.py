@@ -52,7 +52,25 @@ replay runs the alarm engine). The variants, each a question about the score:
   :data:`imrosc.detectors.FIT_SAMPLES` otherwise; the quadratic features need fewer);
 * ``--inner-folds K``: the cross-fitting's blocked folds (the product's
   :data:`imrosc.detectors.FOLDS` otherwise): more folds fit each held-out score on more of
-  the runs, closer to the detector fitted on all of them.
+  the runs, closer to the detector fitted on all of them;
+* ``--nominal-copies once``: a fault flight's part before its onset is not also a good run
+  of its own (``twice``, the default, is what ``bench/efficacy.py`` gives classification:
+  the pre-onset copies are <success> runs beside the whole flights), as
+  :func:`imrosc.classify.nominal_copy` now has it;
+* ``--features rls:LAGS,FORGET[,alone]``: Keipour et al.'s online adaptation without their
+  physical model (:class:`Adapted`): per flight, recursive least squares with the
+  forgetting factor ``FORGET`` of every field on the ``LAGS`` previous samples of all
+  fields, started from the fold's nominal fit; the 1 s mean and standard deviation of each
+  field's innovation over its own running spread, and of the parameters' change, beside
+  the base statistics (or ``alone``);
+* ``--evidence relative:S``: each score less the flight's own exponential running mean of
+  its earlier scores over ``S`` seconds, then smoothed as the product smooths (a flight's
+  standing regime absorbed, a rise shorter than ``S`` not);
+* ``--model gbm1`` / ``gbm2``: a gradient-boosted sum of depth-1 / depth-2 trees on the
+  statistics (:func:`boost`: logistic loss, Newton leaves, 32 quantile thresholds per
+  statistic, shrinkage 0.1), the number of trees from ``--trees`` chosen by the
+  cross-fitting in place of the penalty: comparisons, so that a large spread alone can be
+  nominal while a shifted mean is a fault.
 """
 
 from __future__ import annotations
@@ -70,6 +88,7 @@ from typing import Any
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from scipy.signal import lfilter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -230,6 +249,29 @@ def probability(times: Any, scores: Any, window: float, smooth: float) -> Any:
     :func:`imrosc.runtime.detector.evidence` means the log-odds."""
     odds = np.clip(np.nan_to_num(np.asarray(scores, dtype=np.float64)), -30.0, 30.0)
     return evidence(times, 1.0 / (1.0 + np.exp(-odds)), window, smooth)
+
+
+def relative(memory: float) -> Callable[[Any, Any, float, float], Any]:
+    """Evidence of each score less the flight's own running mean of its earlier scores
+    (exponential, ``memory`` seconds): a flight's standing regime, its trim or a lasting
+    oscillation, is absorbed; a rise that lasts less than ``memory`` is not."""
+
+    def weigh(times: Any, scores: Any, window: float, smooth: float) -> Any:
+        at = np.asarray(times, dtype=np.float64)
+        values = np.clip(np.nan_to_num(np.asarray(scores, dtype=np.float64)), -30.0, 30.0)
+        found = np.zeros(len(values))
+        spanning = at - at[0] >= window if len(at) else np.zeros(0, dtype=bool)
+        if spanning.any():
+            first = int(np.argmax(spanning))
+            tail = values[first:]
+            # the samples are 20 Hz: one forgetting factor per sample of the median step
+            step = float(np.median(np.diff(at))) if len(at) > 1 else 0.05
+            keep = math.exp(-step / memory)
+            level, _ = lfilter([1.0 - keep], [1.0, -keep], tail[:-1], zi=[keep * tail[0]])
+            found[first:] = tail - np.concatenate(([tail[0]], level))
+        return evidence(times, found, window, smooth)
+
+    return weigh
 
 
 class Linear:
@@ -581,7 +623,7 @@ def with_horizon(horizon: float | None) -> Callable[..., Any]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--features", default="base")
-    parser.add_argument("--evidence", choices=("mean", "cusum", "probability"), default="mean")
+    parser.add_argument("--evidence", default="mean", help="mean, cusum, probability, relative:S")
     parser.add_argument("--horizon", type=float, default=None, help="seconds after the onset")
     parser.add_argument("--final", choices=FINALS, default="refit")
     parser.add_argument("--offsets", default="", help="log-odds, comma-separated (--offsets=-1,1)")
@@ -604,6 +646,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "cusum": cusum,
         "probability": probability,
     }
+    if args.evidence.startswith("relative:"):
+        weighs[args.evidence] = relative(float(args.evidence.split(":", 1)[1]))
     weigh = weighs[args.evidence]
     if args.evidence == "cusum":
         # choose() tries each of SMOOTHING, weighed by the evidence its module names

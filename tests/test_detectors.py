@@ -219,3 +219,41 @@ def test_classification_reports_the_refused_detectors(monkeypatch: pytest.Monkey
     entry = classify.refused_entry(refused[0])
     assert entry["held_out_failed"] == 6 and entry["detected"] == ["run5.bag"]
     assert entry["chance"] == pytest.approx(1 - (10 / 11) ** 6)
+
+
+def test_a_good_run_copied_from_a_failed_runs_nominal_part_is_learnt_from_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A <success> run whose samples are a failed run's before its onset (a bench's copy of
+    the failed bag cut at the onset) is not a good run of its own: the failed run holds
+    those samples as nominal already, and twice they would weigh twice in the fit and be
+    two of the threshold's held-out extremes. A run that differs, or runs on past the
+    onset, is kept."""
+    seen: list[list[str]] = []
+    learnt = detectors.learn
+
+    def spy(key: str, variables: Any, runs: Any, alpha: float = 1.0) -> Any:
+        seen.append([r.name for r in runs])
+        return learnt(key, variables, runs, alpha)
+
+    monkeypatch.setattr(classify, "learn", spy)
+    point = {
+        "kind": "publish",
+        "variables": [{"name": "x", "type": "float"}, {"name": "y", "type": "float"}],
+    }
+    document = {"points": {"p": point}, "calibration": {"budget": 0.05}}
+    success = {o.bag: o for o in (_outcome(s, None, ("p",)) for s in range(1, 5))}
+    failed = {o.bag: o for o in (_outcome(s, 12.0, ("p",)) for s in range(5, 11))}
+    whole = failed[Path("run5.bag")].samples["p"]
+    before = int(np.searchsorted(whole.times, 500.0 + 12.0))
+    cuts = {
+        "copy.bag": Sampled(whole.times[:before], whole.rows[:before]),
+        "past.bag": Sampled(whole.times[: before + 5], whole.rows[: before + 5]),
+        "other.bag": Sampled(whole.times[:before], whole.rows[:before] + 1.0),
+    }
+    for name, samples in cuts.items():
+        success[Path(name)] = RunOutcome(Path(name), start=500.0, samples={"p": samples})
+    assert classify.nominal_copy(cuts["copy.bag"], "p", failed)
+    classify.learn_detectors(document, success, failed)
+    assert "copy.bag" not in seen[0] and {"past.bag", "other.bag"} <= set(seen[0])
+    assert "run5.bag" in seen[0] and len(seen[0]) == 4 + 2 + 6
