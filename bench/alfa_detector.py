@@ -58,6 +58,9 @@ replay runs the alarm engine). The variants, each a question about the score:
   its own, as classification learnt before :func:`imrosc.classify.nominal_copy` (the
   <success> runs ``bench/efficacy.py`` gives it hold the pre-onset copies beside the whole
   flights); ``once``, the default, is classification's;
+* ``--features A|B|...``: alternatives, each fold's the one whose cross-fitted choice ranks
+  best (:meth:`imrosc.detectors.Choice.rank`: held-out detections, then mean delay), from
+  the fold's training flights alone;
 * ``--features rls:LAGS,FORGET[,alone]``: Keipour et al.'s online adaptation without their
   physical model (:class:`Adapted`): per flight, recursive least squares with the
   forgetting factor ``FORGET`` of every field on the ``LAGS`` previous samples of all
@@ -666,14 +669,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     shifted: dict[float, list[Outcome]] = {d: [] for d in offsets}
     for index, held in enumerate(session_folds(onsets, args.folds)):
         training = [n for n in flights if n not in held]
-        stats, window = features_of(args.features, [flights[n] for n in training])
-        detectors.WINDOW = window
-        runs = runs_of(training, flights, stats, args.nominal_copies)
-        recorded.forget()
-        choice = detectors.choose(runs, 0.05)
-        if choice is None:
+        found = None
+        for kind in args.features.split("|"):  # alternatives: the cross-fitting's best
+            stats, window = features_of(kind, [flights[n] for n in training])
+            detectors.WINDOW = window
+            runs = runs_of(training, flights, stats, args.nominal_copies)
+            recorded.forget()
+            tried = detectors.choose(runs, 0.05)
+            if tried is not None and (found is None or tried.rank() > found[0].rank()):
+                found = (tried, kind, stats, window, runs, dict(recorded.models))
+        if found is None:
             print(f"fold {index}: no detector")
             continue
+        choice, kind, stats, window, runs, models = found
+        detectors.WINDOW = window
+        recorded.models = models
+        if "|" in args.features:
+            print(f"fold {index}: {kind}")
         if args.final == "average":
             model = Linear.mean_of(recorded.models[choice.strength])
         else:
