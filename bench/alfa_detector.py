@@ -669,19 +669,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     shifted: dict[float, list[Outcome]] = {d: [] for d in offsets}
     for index, held in enumerate(session_folds(onsets, args.folds)):
         training = [n for n in flights if n not in held]
-        found = None
+        best = None
         for kind in args.features.split("|"):  # alternatives: the cross-fitting's best
             stats, window = features_of(kind, [flights[n] for n in training])
             detectors.WINDOW = window
             runs = runs_of(training, flights, stats, args.nominal_copies)
             recorded.forget()
             tried = detectors.choose(runs, 0.05)
-            if tried is not None and (found is None or tried.rank() > found[0].rank()):
-                found = (tried, kind, stats, window, runs, dict(recorded.models))
-        if found is None:
+            if tried is not None and (best is None or tried.rank() > best[0].rank()):
+                best = (tried, kind, stats, window, runs, dict(recorded.models))
+        if best is None:
             print(f"fold {index}: no detector")
             continue
-        choice, kind, stats, window, runs, models = found
+        choice, kind, stats, window, runs, models = best
         detectors.WINDOW = window
         recorded.models = models
         if "|" in args.features:
