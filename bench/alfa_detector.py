@@ -9,10 +9,9 @@ This script runs that learning directly on the samples of ``/alfa/merged``, thro
 same session folds and scoring, in about a minute, to say what a change to the detector
 would do before it is built:
 
-* per fold, the runs classification learns from: the other folds' no-failure flights as
-  good runs, their fault flights whole with the onset as failed runs (the fault flights'
-  pre-onset copies ``bench/efficacy.py`` also gives as <success> runs are left out, as
-  :func:`imrosc.classify.nominal_copy` leaves them out);
+* per fold, the runs classification would see: the other folds' no-failure flights and
+  their fault flights' parts before the onset as good runs, their fault flights whole
+  with the onset as failed runs;
 * :func:`imrosc.detectors.choose` (penalty, smoothing, cross-fitted threshold at the
   budget 0.05 of one point) and :func:`imrosc.detectors.fit` on all of them;
 * each held-out flight's evidence (:func:`imrosc.runtime.detector.evidence`) against the
@@ -54,10 +53,9 @@ replay runs the alarm engine). The variants, each a question about the score:
 * ``--inner-folds K``: the cross-fitting's blocked folds (the product's
   :data:`imrosc.detectors.FOLDS` otherwise): more folds fit each held-out score on more of
   the runs, closer to the detector fitted on all of them;
-* ``--nominal-copies twice``: a fault flight's part before its onset is also a good run of
-  its own, as classification learnt before :func:`imrosc.classify.nominal_copy` (the
-  <success> runs ``bench/efficacy.py`` gives it hold the pre-onset copies beside the whole
-  flights); ``once``, the default, is classification's;
+* ``--nominal-copies once``: a fault flight's part before its onset is not also a good run
+  of its own (``twice``, the default, is what ``bench/efficacy.py`` gives classification:
+  the pre-onset copies are <success> runs beside the whole flights);
 * ``--features A|B|...``: alternatives, each fold's the one whose cross-fitted choice ranks
   best (:meth:`imrosc.detectors.Choice.rank`: held-out detections, then mean delay), from
   the fold's training flights alone;
@@ -584,10 +582,10 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
 
 
 def runs_of(
-    names: Sequence[str], flights: Mapping[str, Flight], stats: Features, copies: str = "once"
+    names: Sequence[str], flights: Mapping[str, Flight], stats: Features, copies: str = "twice"
 ) -> list[Any]:
-    """The runs classification learns from of ``names`` (module docstring); with ``copies``
-    "twice" a fault flight's part before its onset is also a good run of its own."""
+    """The runs classification sees of ``names`` (module docstring); with ``copies`` "once"
+    a fault flight's part before its onset is not also a good run of its own."""
     runs = []
     for name in names:
         info, times, values = flights[name]
@@ -634,7 +632,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--fit-samples", type=int, default=detectors.FIT_SAMPLES)
     parser.add_argument("--inner-folds", type=int, default=detectors.FOLDS)
     parser.add_argument("--folds", type=int, default=5)
-    parser.add_argument("--nominal-copies", choices=("once", "twice"), default="once")
+    parser.add_argument("--nominal-copies", choices=("twice", "once"), default="twice")
     parser.add_argument("--model", choices=("logistic", "gbm1", "gbm2"), default="logistic")
     parser.add_argument("--trees", default="30,100,300", help="--model gbm: tree counts")
     args = parser.parse_args(argv)

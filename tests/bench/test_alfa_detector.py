@@ -55,7 +55,7 @@ def test_a_fault_flight_gives_its_part_before_the_onset_and_itself_whole() -> No
     info: dict[str, Any] = {"start_ns": 99_000_000_000, "onset_ns": 105_000_000_000, "onset_s": 6.0}
     good: dict[str, Any] = {"start_ns": 99_000_000_000, "onset_ns": None}
     flights = {"f": (info, times, np.ones((20, 1))), "g": (good, times, np.ones((20, 1)))}
-    runs = a.runs_of(["f", "g"], flights, lambda t, v: v, "twice")
+    runs = a.runs_of(["f", "g"], flights, lambda t, v: v)
     assert [(r.name, r.onset, len(r.times)) for r in runs] == [
         ("f (before)", None, 10),
         ("f", 6.0, 20),
@@ -137,7 +137,7 @@ def test_once_a_fault_flight_is_not_also_a_good_run() -> None:
     times = np.arange(100.0, 110.0, 0.5)
     info: dict[str, Any] = {"start_ns": 99_000_000_000, "onset_ns": 105_000_000_000, "onset_s": 6.0}
     flights = {"f": (info, times, np.ones((20, 1)))}
-    runs = a.runs_of(["f"], flights, lambda t, v: v)
+    runs = a.runs_of(["f"], flights, lambda t, v: v, "once")
     assert [(r.name, r.onset, len(r.times)) for r in runs] == [("f", 6.0, 20)]
 
 
