@@ -1175,9 +1175,7 @@ def learn_detectors(
             run_of(str(bag), o.start, o.onset if bag in failed else None, o.samples[key])
             for group in (success, failed)
             for bag, o in group.items()
-            if key in o.samples
-            and len(o.samples[key].times)
-            and not (group is success and nominal_copy(o.samples[key], key, failed))
+            if key in o.samples and len(o.samples[key].times)
         ]
         if learnable(variables, runs):
             candidates.append((key, variables, runs))
@@ -1192,26 +1190,6 @@ def learn_detectors(
         elif learnt is not None:
             found.append(learnt)
     return found, refused
-
-
-def nominal_copy(samples: Sampled, key: str, failed: Mapping[Path, RunOutcome]) -> bool:
-    """Whether a successful run's samples of point ``key`` are those of a failed run before
-    its onset (a copy of its nominal part, as a bench cutting failed bags at their onsets
-    gives): the failed run already holds them as nominal samples, and counted twice its
-    good stretch would weigh twice in the fit and be two of the threshold's held-out
-    extremes."""
-    count = len(samples.times)
-    for o in failed.values():
-        theirs = o.samples.get(key)
-        if o.onset is None or theirs is None or len(theirs.times) < count:
-            continue
-        if samples.times[-1] - o.start >= o.onset:
-            continue  # beyond the onset: not the nominal part
-        if np.array_equal(theirs.times[:count], samples.times) and np.array_equal(
-            theirs.rows[:count], samples.rows, equal_nan=True
-        ):
-            return True
-    return False
 
 
 def detector_nominal(learnt: Learnt) -> Nominal:
