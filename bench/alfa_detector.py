@@ -52,7 +52,27 @@ replay runs the alarm engine). The variants, each a question about the score:
   :data:`imrosc.detectors.FIT_SAMPLES` otherwise; the quadratic features need fewer);
 * ``--inner-folds K``: the cross-fitting's blocked folds (the product's
   :data:`imrosc.detectors.FOLDS` otherwise): more folds fit each held-out score on more of
-  the runs, closer to the detector fitted on all of them.
+  the runs, closer to the detector fitted on all of them;
+* ``--nominal-copies once``: a fault flight's part before its onset is not also a good run
+  of its own (``twice``, the default, is what ``bench/efficacy.py`` gives classification:
+  the pre-onset copies are <success> runs beside the whole flights);
+* ``--features A|B|...``: alternatives, each fold's the one whose cross-fitted choice ranks
+  best (:meth:`imrosc.detectors.Choice.rank`: held-out detections, then mean delay), from
+  the fold's training flights alone;
+* ``--features rls:LAGS,FORGET[,alone]``: Keipour et al.'s online adaptation without their
+  physical model (:class:`Adapted`): per flight, recursive least squares with the
+  forgetting factor ``FORGET`` of every field on the ``LAGS`` previous samples of all
+  fields, started from the fold's nominal fit; the 1 s mean and standard deviation of each
+  field's innovation over its own running spread, and of the parameters' change, beside
+  the base statistics (or ``alone``);
+* ``--evidence relative:S``: each score less the flight's own exponential running mean of
+  its earlier scores over ``S`` seconds, then smoothed as the product smooths (a flight's
+  standing regime absorbed, a rise shorter than ``S`` not);
+* ``--model gbm1`` / ``gbm2``: a gradient-boosted sum of depth-1 / depth-2 trees on the
+  statistics (:func:`boost`: logistic loss, Newton leaves, 32 quantile thresholds per
+  statistic, shrinkage 0.1), the number of trees from ``--trees`` chosen by the
+  cross-fitting in place of the penalty: comparisons, so that a large spread alone can be
+  nominal while a shifted mean is a fault.
 """
 
 from __future__ import annotations
@@ -70,6 +90,7 @@ from typing import Any
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from scipy.signal import lfilter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -232,6 +253,29 @@ def probability(times: Any, scores: Any, window: float, smooth: float) -> Any:
     return evidence(times, 1.0 / (1.0 + np.exp(-odds)), window, smooth)
 
 
+def relative(memory: float) -> Callable[[Any, Any, float, float], Any]:
+    """Evidence of each score less the flight's own running mean of its earlier scores
+    (exponential, ``memory`` seconds): a flight's standing regime, its trim or a lasting
+    oscillation, is absorbed; a rise that lasts less than ``memory`` is not."""
+
+    def weigh(times: Any, scores: Any, window: float, smooth: float) -> Any:
+        at = np.asarray(times, dtype=np.float64)
+        values = np.clip(np.nan_to_num(np.asarray(scores, dtype=np.float64)), -30.0, 30.0)
+        found = np.zeros(len(values))
+        spanning = at - at[0] >= window if len(at) else np.zeros(0, dtype=bool)
+        if spanning.any():
+            first = int(np.argmax(spanning))
+            tail = values[first:]
+            # the samples are 20 Hz: one forgetting factor per sample of the median step
+            step = float(np.median(np.diff(at))) if len(at) > 1 else 0.05
+            keep = math.exp(-step / memory)
+            level, _ = lfilter([1.0 - keep], [1.0, -keep], tail[:-1], zi=[keep * tail[0]])
+            found[first:] = tail - np.concatenate(([tail[0]], level))
+        return evidence(times, found, window, smooth)
+
+    return weigh
+
+
 class Linear:
     """A detector's score as one linear function of the statistics (what the runtime's
     standardised weights amount to)."""
@@ -266,6 +310,188 @@ class Recorded:
 
     def forget(self) -> None:
         self.models.clear()
+
+
+class Adapted:
+    """Per flight, recursive least squares with forgetting (Keipour et al.'s idea without
+    their physical model): every field, standardised by the fold's nominal samples, as an
+    ARX model of the ``lags`` previous samples of all fields, its parameters adapted at each
+    sample with the forgetting factor ``forget``. A flight starts from the fleet's model
+    (a ridge regression on the fold's nominal samples) with the information of one
+    forgetting horizon of them (``1 / (1 - forget)`` samples), so that its first seconds
+    are not a transient; its own trim and oscillations are then absorbed, while a sudden
+    change of dynamics shows as innovations (the a-priori one-step errors) large against
+    their own running spread (the same forgetting) before the parameters follow.
+    Per sample: each field's innovation over its running spread, and the size of the
+    parameters' change (in standardised units)."""
+
+    def __init__(self, nominal: Sequence[Any], lags: int, forget: float) -> None:
+        self.lags, self.forget = lags, forget
+        stacked = np.vstack(nominal)
+        self.center, self.scale = spread(stacked)
+        inputs, outputs = [], []
+        for x in nominal:
+            phi, y = self.pairs((x - self.center) / self.scale)
+            inputs.append(phi)
+            outputs.append(y)
+        phi, y = np.vstack(inputs), np.vstack(outputs)
+        count = len(phi)
+        gram = phi.T @ phi / count + RIDGE * np.eye(phi.shape[1])
+        self.theta = np.linalg.solve(gram, phi.T @ y / count)
+        memory = 1.0 / (1.0 - forget)
+        self.p0 = np.linalg.inv(gram) / memory
+        self.variance = np.maximum(((y - phi @ self.theta) ** 2).mean(axis=0), 1e-6)
+
+    def pairs(self, z: Any) -> tuple[Any, Any]:
+        """The regressors (the ``lags`` previous samples, then 1) and outputs of ``z``."""
+        n = len(z)
+        padded = np.vstack([np.repeat(z[:1], self.lags, axis=0), z])
+        lagged = [padded[self.lags - k : self.lags - k + n] for k in range(1, self.lags + 1)]
+        return np.hstack([*lagged, np.ones((n, 1))]), z
+
+    def of(self, values: Any) -> Any:
+        phi, y = self.pairs((values - self.center) / self.scale)
+        theta, p = self.theta.copy(), self.p0.copy()
+        variance = self.variance.copy()
+        bound = float(np.trace(self.p0))
+        lam = self.forget
+        found = np.empty((len(y), y.shape[1] + 1))
+        for k in range(len(y)):
+            f = phi[k]
+            pf = p @ f
+            gain = pf / (lam + f @ pf)
+            error = y[k] - f @ theta
+            found[k, :-1] = error / np.sqrt(variance)
+            step = np.outer(gain, error)
+            found[k, -1] = math.sqrt(float((step * step).sum()))
+            theta += step
+            p = (p - np.outer(gain, pf)) / lam
+            trace = float(np.trace(p))
+            if trace > bound:  # no wind-up while a flight does not excite every direction
+                p *= bound / trace
+            variance = lam * variance + (1.0 - lam) * error * error
+        return found
+
+
+BINS = 32
+"""Candidate thresholds per statistic of a tree's split (its nominal-and-faulty quantiles)."""
+SHRINK = 0.1
+"""Each tree's leaves are shrunk by this much (boosting's learning rate)."""
+LEAF_PENALTY = 1.0
+"""The L2 penalty on a leaf's value, in units of the samples' (weighted) curvature."""
+
+
+def best_split(bins: Any, g: Any, h: Any, rows: Any, width: int) -> tuple[float, int, int]:
+    """The gain, statistic and bin of the best split of ``rows`` (Newton's gain)."""
+    sub = bins[rows]
+    offsets = sub + (np.arange(width) * BINS)[None, :]
+    gh = np.bincount(offsets.ravel(), np.repeat(g[rows], width), width * BINS).reshape(width, BINS)
+    hh = np.bincount(offsets.ravel(), np.repeat(h[rows], width), width * BINS).reshape(width, BINS)
+    gl, hl = np.cumsum(gh, axis=1)[:, :-1], np.cumsum(hh, axis=1)[:, :-1]
+    gt, ht = gh.sum(axis=1, keepdims=True), hh.sum(axis=1, keepdims=True)
+    gr, hr = gt - gl, ht - hl
+    reg = LEAF_PENALTY
+    gain = gl**2 / (hl + reg) + gr**2 / (hr + reg) - gt**2 / (ht + reg)
+    gain[(hl <= 0) | (hr <= 0)] = -np.inf
+    f, b = np.unravel_index(int(np.argmax(gain)), gain.shape)
+    return float(gain[f, b]), int(f), int(b)
+
+
+def leaf(g: Any, h: Any, rows: Any) -> float:
+    return float(-SHRINK * g[rows].sum() / (h[rows].sum() + LEAF_PENALTY))
+
+
+class Tree:
+    """A depth-2 tree: ``x[feature] <= at`` then each side's own comparison."""
+
+    def __init__(self, feature: int, at: float, sides: list[tuple[int, float, float, float]]):
+        self.feature, self.at, self.sides = feature, at, sides
+
+    def __call__(self, x: Any) -> Any:
+        low = x[:, self.feature] <= self.at
+        out = np.empty(len(x))
+        for mask, (f, t, a, b) in ((low, self.sides[0]), (~low, self.sides[1])):
+            out[mask] = np.where(x[mask, f] <= t, a, b)
+        return out
+
+
+class Forest:
+    def __init__(self, trees: list[Any], rounds: int, bias: float) -> None:
+        self.trees, self.rounds, self.bias = trees, rounds, bias
+
+    def scores(self, run: Any) -> Any:
+        x = np.nan_to_num(run.stats)
+        total = np.full(len(x), self.bias)
+        for tree in self.trees[: self.rounds]:
+            total += tree(x)
+        return total
+
+
+def boost(runs: Sequence[Any], rounds: int, depth: int) -> Forest:
+    """:class:`Forest` of ``rounds`` trees of ``depth`` 1 or 2 fitted on ``runs`` (at most
+    :data:`imrosc.detectors.FIT_SAMPLES` samples, thinned evenly)."""
+    total = sum(int(r.scored.sum()) for r in runs)
+    every = max(1, -(-total // detectors.FIT_SAMPLES))
+    x = np.nan_to_num(np.vstack([r.stats[r.scored][::every] for r in runs]))
+    y = np.concatenate([r.faulty[r.scored][::every] for r in runs]).astype(np.float64)
+    positives = max(1.0, float(y.sum()))
+    negatives = max(1.0, len(y) - positives)
+    weight = np.where(y > 0, len(y) / (2 * positives), len(y) / (2 * negatives))
+    weight /= weight.mean()
+    width = x.shape[1]
+    edges = np.quantile(x, np.linspace(0, 1, BINS + 1)[1:-1], axis=0).T  # width x (BINS-1)
+    bins = np.empty(x.shape, dtype=np.int64)
+    for j in range(width):
+        bins[:, j] = np.searchsorted(edges[j], x[:, j], side="left")
+    cut = np.hstack([edges, np.full((width, 1), np.inf)])  # bin b: x <= cut[j, b]
+    score = np.zeros(len(y))
+    trees: list[Any] = []
+    everything = np.arange(len(y))
+    for _ in range(rounds):
+        p = 1 / (1 + np.exp(-np.clip(score, -30, 30)))
+        g, h = weight * (p - y), weight * p * (1 - p)
+        _, f, b = best_split(bins, g, h, everything, width)
+        low = bins[:, f] <= b
+        sides = []
+        for rows in (np.flatnonzero(low), np.flatnonzero(~low)):
+            if depth >= 2 and len(rows) > 1:
+                gain, f2, b2 = best_split(bins, g, h, rows, width)
+            else:
+                gain, f2, b2 = -np.inf, 0, BINS - 1
+            if not np.isfinite(gain):
+                f2, b2 = 0, BINS - 1
+            below = rows[bins[rows, f2] <= b2]
+            above = rows[bins[rows, f2] > b2]
+            sides.append(
+                (
+                    f2,
+                    float(cut[f2, b2]),
+                    leaf(g, h, below) if len(below) else 0.0,
+                    leaf(g, h, above) if len(above) else 0.0,
+                )
+            )
+        tree = Tree(f, float(cut[f, b]), sides)
+        trees.append(tree)
+        score += tree(x)
+    return Forest(trees, rounds, 0.0)
+
+
+class Boosting:
+    """``detectors.fit`` for ``--model gbm``: the penalty grid is the number of trees,
+    negated (:func:`imrosc.detectors.choose` breaks ties towards the larger penalty: here the
+    fewer trees); the trees of one training set are fitted once, for the most, and cut for
+    fewer."""
+
+    def __init__(self, depth: int) -> None:
+        self.depth = depth
+        self.fitted: dict[tuple[str, ...], Forest] = {}
+
+    def __call__(self, runs: Sequence[Any], strength: float) -> Any:
+        key = tuple(sorted(r.name for r in runs))
+        if key not in self.fitted:
+            self.fitted[key] = boost(runs, int(-min(detectors.PENALTIES)), self.depth)
+        full = self.fitted[key]
+        return Forest(full.trees, int(-strength), full.bias)
 
 
 Flight = tuple[Mapping[str, Any], Any, Any]
@@ -323,6 +549,26 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
             return np.hstack([found, products((found[:, :width] - center) / scale)])
 
         return with_products, 1.0
+    if kind.startswith("rls:"):
+        # rls:LAGS,FORGET[,alone]: the adapted models' innovations (their 1 s mean and
+        # standard deviation, and the parameters' mean change) beside the base statistics,
+        # or alone
+        spec = kind.split(":", 1)[1].split(",")
+        adapted = Adapted(
+            [filled(nominal_part(f)[1]) for f in training], int(spec[0]), float(spec[1])
+        )
+        alone = spec[2:] == ["alone"]
+
+        def with_innovations(t: Any, v: Any) -> Any:
+            x = filled(v)
+            found = window_stats(t, adapted.of(x), 1.0)
+            width = found.shape[1] // 3
+            innovations = found[:, : 2 * width]
+            if alone:
+                return innovations
+            return np.hstack([features(t, v, 1.0), innovations])
+
+        return with_innovations, 1.0
     if kind == "residual":
         model = Residuals([filled(nominal_part(f)[1]) for f in training])
 
@@ -335,8 +581,11 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
     raise SystemExit(f"unknown --features {kind}")
 
 
-def runs_of(names: Sequence[str], flights: Mapping[str, Flight], stats: Features) -> list[Any]:
-    """The runs classification sees of ``names`` (module docstring)."""
+def runs_of(
+    names: Sequence[str], flights: Mapping[str, Flight], stats: Features, copies: str = "twice"
+) -> list[Any]:
+    """The runs classification sees of ``names`` (module docstring); with ``copies`` "once"
+    a fault flight's part before its onset is not also a good run of its own."""
     runs = []
     for name in names:
         info, times, values = flights[name]
@@ -346,7 +595,10 @@ def runs_of(names: Sequence[str], flights: Mapping[str, Flight], stats: Features
             runs.append(detectors.Run(name, start, None, times, found))
             continue
         before = times < info["onset_ns"] / 1e9
-        runs.append(detectors.Run(name + " (before)", start, None, times[before], found[before]))
+        if copies == "twice":
+            runs.append(
+                detectors.Run(name + " (before)", start, None, times[before], found[before])
+            )
         runs.append(detectors.Run(name, start, info["onset_s"], times, found))
     return runs
 
@@ -373,13 +625,16 @@ def with_horizon(horizon: float | None) -> Callable[..., Any]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--features", default="base")
-    parser.add_argument("--evidence", choices=("mean", "cusum", "probability"), default="mean")
+    parser.add_argument("--evidence", default="mean", help="mean, cusum, probability, relative:S")
     parser.add_argument("--horizon", type=float, default=None, help="seconds after the onset")
     parser.add_argument("--final", choices=FINALS, default="refit")
     parser.add_argument("--offsets", default="", help="log-odds, comma-separated (--offsets=-1,1)")
     parser.add_argument("--fit-samples", type=int, default=detectors.FIT_SAMPLES)
     parser.add_argument("--inner-folds", type=int, default=detectors.FOLDS)
     parser.add_argument("--folds", type=int, default=5)
+    parser.add_argument("--nominal-copies", choices=("twice", "once"), default="twice")
+    parser.add_argument("--model", choices=("logistic", "gbm1", "gbm2"), default="logistic")
+    parser.add_argument("--trees", default="30,100,300", help="--model gbm: tree counts")
     args = parser.parse_args(argv)
     offsets = [float(d) for d in args.offsets.split(",") if d.strip()]
     detectors.FIT_SAMPLES = args.fit_samples
@@ -393,6 +648,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "cusum": cusum,
         "probability": probability,
     }
+    if args.evidence.startswith("relative:"):
+        weighs[args.evidence] = relative(float(args.evidence.split(":", 1)[1]))
     weigh = weighs[args.evidence]
     if args.evidence == "cusum":
         # choose() tries each of SMOOTHING, weighed by the evidence its module names
@@ -400,18 +657,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     detectors.evidence = weigh  # type: ignore[attr-defined,assignment]
     recorded = Recorded(with_horizon(args.horizon))
     detectors.fit = recorded
+    if args.model != "logistic":
+        if args.final != "refit" or args.horizon is not None:
+            raise SystemExit("--model gbm: with --final refit and no --horizon only")
+        detectors.PENALTIES = tuple(-float(n) for n in args.trees.split(","))  # type: ignore[assignment]
+        recorded = Recorded(Boosting(int(args.model[-1])))
+        detectors.fit = recorded
     outcomes: list[Outcome] = []
     shifted: dict[float, list[Outcome]] = {d: [] for d in offsets}
     for index, held in enumerate(session_folds(onsets, args.folds)):
         training = [n for n in flights if n not in held]
-        stats, window = features_of(args.features, [flights[n] for n in training])
-        detectors.WINDOW = window
-        runs = runs_of(training, flights, stats)
-        recorded.forget()
-        choice = detectors.choose(runs, 0.05)
-        if choice is None:
+        best = None
+        for kind in args.features.split("|"):  # alternatives: the cross-fitting's best
+            stats, window = features_of(kind, [flights[n] for n in training])
+            detectors.WINDOW = window
+            runs = runs_of(training, flights, stats, args.nominal_copies)
+            recorded.forget()
+            tried = detectors.choose(runs, 0.05)
+            if tried is not None and (best is None or tried.rank() > best[0].rank()):
+                best = (tried, kind, stats, window, runs, dict(recorded.models))
+        if best is None:
             print(f"fold {index}: no detector")
             continue
+        choice, kind, stats, window, runs, models = best
+        detectors.WINDOW = window
+        recorded.models = models
+        if "|" in args.features:
+            print(f"fold {index}: {kind}")
         if args.final == "average":
             model = Linear.mean_of(recorded.models[choice.strength])
         else:

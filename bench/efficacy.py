@@ -603,7 +603,10 @@ def refine(
 def describe_detectors(report: Mapping[str, Any]) -> str:
     """The learnt detectors a classification's report lists: kept and refused (chance
     explains their held-out detections; docs/families/detector.md), with their points."""
-    kept = sorted(d["point"] for d in report.get("detectors", ()))
+    kept = sorted(
+        f"{d['point']}: {d['held_out_nominal']} held-out nominal runs"
+        for d in report.get("detectors", ())
+    )
     refused = sorted(d["point"] for d in report.get("detectors_refused", ()))
     return (
         f"detectors {len(kept)} learnt ({', '.join(kept) or '-'}), "

@@ -131,3 +131,70 @@ def test_the_mean_of_fold_models_scores_their_mean() -> None:
     assert np.allclose(mean.scores(run), (models[0].scores(run) + models[1].scores(run)) / 2)
     recorded.forget()
     assert not recorded.models
+
+
+def test_once_a_fault_flight_is_not_also_a_good_run() -> None:
+    times = np.arange(100.0, 110.0, 0.5)
+    info: dict[str, Any] = {"start_ns": 99_000_000_000, "onset_ns": 105_000_000_000, "onset_s": 6.0}
+    flights = {"f": (info, times, np.ones((20, 1)))}
+    runs = a.runs_of(["f"], flights, lambda t, v: v, "once")
+    assert [(r.name, r.onset, len(r.times)) for r in runs] == [("f", 6.0, 20)]
+
+
+def test_adapted_models_absorb_a_flights_regime_and_show_a_change_of_dynamics() -> None:
+    """An AR(1) process: the adapted model's innovations keep their own spread while the
+    dynamics hold, also in a flight whose trim differs from the fleet's, and are large
+    against it once the coefficient flips."""
+    rng = np.random.default_rng(11)
+
+    def flight(a1: float, trim: float, flip: int | None = None) -> Any:
+        x = np.zeros((3000, 2))
+        for k in range(1, 3000):
+            coefficient = -a1 if flip is not None and k >= flip else a1
+            x[k, 0] = coefficient * x[k - 1, 0] + rng.normal(0.0, 0.1)
+            x[k, 1] = 0.5 * x[k - 1, 1] + rng.normal(0.0, 0.1)
+        return x + trim
+
+    model = a.Adapted([flight(0.9, 0.0) for _ in range(3)], 1, 0.99)
+    steady = model.of(flight(0.9, 2.0))
+    assert steady.shape == (3000, 3)
+    assert np.abs(steady[200:, 0]).mean() < 1.2  # standard normal: about 0.8
+    changed = model.of(flight(0.9, 0.0, flip=2000))
+    assert np.abs(changed[2000:2040, 0]).mean() > 2.0 * np.abs(changed[1500:2000, 0]).mean()
+    assert changed[2000:2040, -1].mean() > 1.2 * changed[1500:2000, -1].mean()
+
+
+def test_boosted_trees_learn_a_mean_shift_that_a_spread_alone_does_not_mean() -> None:
+    """Statistic 0 faulty when high; statistic 1 spread high in good runs too: the trees
+    split on statistic 0."""
+    rng = np.random.default_rng(13)
+    times = np.arange(0.0, 100.0, 0.05)
+    runs = []
+    for k in range(4):
+        stats = rng.normal(size=(len(times), 2))
+        stats[:, 1] *= 1.0 + 4.0 * (times > 50.0)
+        onset = 60.0 if k % 2 else None
+        if onset is not None:
+            stats[times >= onset, 0] += 2.0
+        runs.append(detectors.Run(str(k), 0.0, onset, times, stats))
+    forest = a.boost(runs, 40, 2)
+    assert {tree.feature for tree in forest.trees[:10]} == {0}  # later ones fit the noise
+    scores = forest.scores(runs[1])
+    assert scores[times >= 60.0].mean() > 1.0 > -1.0 > scores[times < 60.0].mean()
+    fewer = a.Boosting(2)
+    detectors_penalties = detectors.PENALTIES
+    try:
+        detectors.PENALTIES = (-40.0, -10.0)  # type: ignore[assignment]
+        assert len(fewer(runs, -10.0).trees[: fewer(runs, -10.0).rounds]) == 10
+        assert len(fewer.fitted) == 1  # fitted once for the most trees
+    finally:
+        detectors.PENALTIES = detectors_penalties
+
+
+def test_relative_evidence_absorbs_a_standing_level() -> None:
+    times = np.arange(0.0, 60.0, 0.05)
+    scores = np.where(times < 30.0, 4.0, 9.0)
+    found = a.relative(5.0)(times, scores, 1.0, 0.0)
+    assert abs(found[int(20 / 0.05)]) < 1e-6  # a standing level is no evidence
+    assert found[int(30 / 0.05)] == np.float64(5.0)  # a step is, at once
+    assert abs(found[-1]) < 0.02  # and less as it lasts (5 e^-6)

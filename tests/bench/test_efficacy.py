@@ -486,8 +486,10 @@ def test_the_warnings_of_a_classification() -> None:
 
 def test_the_detectors_of_a_classification() -> None:
     report = {
-        "detectors": [{"point": "v"}],
+        "detectors": [{"point": "v", "held_out_nominal": 13}],
         "detectors_refused": [{"point": "b"}, {"point": "a"}],
     }
-    assert e.describe_detectors(report) == "detectors 1 learnt (v), 2 refused (a, b)"
+    assert e.describe_detectors(report) == (
+        "detectors 1 learnt (v: 13 held-out nominal runs), 2 refused (a, b)"
+    )
     assert e.describe_detectors({}) == "detectors 0 learnt (-), 0 refused (-)"
