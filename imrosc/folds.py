@@ -12,6 +12,7 @@ calibration (:mod:`imrosc.calibrate`) cuts at the widest gaps between the runs' 
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
@@ -30,7 +31,9 @@ def blocked(items: Sequence[T], order: Callable[[T], Any], folds: int) -> list[l
     return [ranked[part.start : part.stop] for part in _even(len(ranked), k) if len(part)]
 
 
-def at_gaps(starts: Sequence[float], folds: int) -> list[list[int]]:
+def at_gaps(
+    starts: Sequence[float], folds: int, ends: Sequence[float | None] | None = None
+) -> list[list[int]]:
     """The items (indexes) in the order of their ``starts``, cut into ``folds`` contiguous
     blocks (at least 2, at most one per item) at the widest gaps between consecutive
     starts: runs recorded in one session (minutes apart) stay in one block, and sessions of
@@ -38,10 +41,20 @@ def at_gaps(starts: Sequence[float], folds: int) -> list[list[int]]:
     the time segments of one run, runs recorded at a steady pace) are cut where
     :func:`blocked` cuts, so evenly spaced items give its near-equal blocks.
 
+    ``ends`` (where known): a gap counts only where every item before it had ended. Items
+    that overlap were recorded side by side (one session) or on clocks that restart with
+    every run (simulated time, from 0 in each bag), and then their starts, milliseconds
+    apart by the jitter of a first message, say nothing of sessions: the gap between them
+    is none, and runs that all overlap get near-equal blocks.
+
     >>> at_gaps([0, 1, 2, 100, 101, 500], 3)
     [[0, 1, 2], [3, 4], [5]]
     >>> at_gaps([30, 10, 20, 40, 50], 2), at_gaps([30, 10, 20, 40, 50], 3)
     ([[1, 2, 0], [3, 4]], [[1, 2], [0, 3], [4]])
+    >>> at_gaps([0.01, 0.01, 0.01, 0.01, 0.03, 0.07], 3)
+    [[0, 1, 2, 3], [4], [5]]
+    >>> at_gaps([0.01, 0.01, 0.01, 0.01, 0.03, 0.07], 3, ends=[22, 25, 40, 23, 30, 22])
+    [[0, 1], [2, 3], [4, 5]]
     """
     ranked = sorted(range(len(starts)), key=lambda k: (starts[k], k))
     k = max(2, min(folds, len(ranked)))
@@ -49,6 +62,13 @@ def at_gaps(starts: Sequence[float], folds: int) -> list[list[int]]:
         return [ranked] if ranked else []
     even = [part.stop for part in _even(len(ranked), k)][:-1]
     gaps = [float(starts[b]) - float(starts[a]) for a, b in itertools.pairwise(ranked)]
+    if ends is not None:
+        ended = -math.inf  # the latest end of the items before each gap
+        for at, item in enumerate(ranked[:-1]):
+            end = ends[item]
+            ended = max(ended, float(starts[item]) if end is None else float(end))
+            if float(starts[ranked[at + 1]]) < ended:
+                gaps[at] = 0.0  # overlapping items: no gap between their starts
     widest = max(gaps)
     scale = 1e-6 * widest if widest > 0 else 0.0
 

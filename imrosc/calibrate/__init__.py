@@ -101,7 +101,8 @@ class Calibration:
 def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
     """Blocked k-fold by session (:func:`imrosc.folds.at_gaps`): the units (indexes) in the
     order they were recorded, cut into ``folds`` contiguous blocks at the widest gaps
-    between their starts (evenly spaced units: near-equal blocks).
+    between their starts (evenly spaced units: near-equal blocks); units that overlap on
+    the bag clock (runs of simulated time, each from 0) have no gap between them.
 
     >>> from pathlib import Path
     >>> units = [Unit(Path(name), [], start=start) for name, start in
@@ -110,7 +111,7 @@ def blocks(units: Sequence[Unit], folds: int) -> list[list[int]]:
     ([[1, 2, 0], [3, 4]], [[1, 2], [0, 3], [4]])
     """
     order = sorted(range(len(units)), key=lambda k: (units[k].start, str(units[k].bag)))
-    cut = at_gaps([units[k].start for k in order], folds)
+    cut = at_gaps([units[k].start for k in order], folds, [units[k].end for k in order])
     return [[order[k] for k in group] for group in cut]
 
 

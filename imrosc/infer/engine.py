@@ -275,6 +275,9 @@ class Unit:
     span: tuple[float, float] | None = None
     start: float = 0.0
     """When its recording began (bag clock, s): calibration holds out neighbours together."""
+    end: float | None = None
+    """When its recording ended (bag clock, s; ``None``: unknown): runs that overlap on the
+    bag clock are not told apart by their starts (:func:`imrosc.folds.at_gaps`)."""
 
 
 MIN_RUNS = 4
@@ -352,7 +355,7 @@ class _Segments:
                 state.end_run()
                 invariants += finalize(state)
             span = (start + segment * width, start + (segment + 1) * width)
-            found.append(Unit(bag, invariants, span, span[0]))
+            found.append(Unit(bag, invariants, span, span[0], span[1]))
         return found
 
 
@@ -399,7 +402,7 @@ def run_bag(job: BagJob) -> BagResult:
         result.units = segments.units(job.bag, finalize)
     elif job.units == 1:
         alone = [i for s in copy.deepcopy(list(states.values())) for i in finalize(s)]
-        result.units = [Unit(job.bag, alone, start=translator.span[0])]
+        result.units = [Unit(job.bag, alone, start=translator.span[0], end=translator.span[1])]
     return result
 
 

@@ -27,13 +27,15 @@ def run(
     seconds: float = 20.0,
     fault_at: float | None = None,
     extra: Sequence[Msg] = (),
+    start: float = 100.0,
 ) -> Path:
-    """A noisy sine on ``/a/x`` at 20 Hz; from ``fault_at`` on, shifted by 3; and ``extra``."""
+    """A noisy sine on ``/a/x`` at 20 Hz from ``start``; from ``fault_at`` on, shifted by 3;
+    and ``extra``."""
     rng = np.random.default_rng(seed)
     phase = rng.uniform(0, 2 * math.pi)
     messages: list[Msg] = []
     for k in range(int(seconds * RATE)):
-        t = 100.0 + k / RATE
+        t = start + k / RATE
         value = math.sin(0.7 * k / RATE + phase) + rng.normal(0, 0.05)
         if fault_at is not None and k / RATE >= fault_at:
             value += 3.0
@@ -224,3 +226,43 @@ def test_calibration_holds_out_whole_sessions() -> None:
         Unit(Path("one.bag"), [], span=(10.0 * k, 10.0 * k + 10), start=10.0 * k) for k in range(6)
     ]
     assert blocks(even, 5) == [[0, 1], [2], [3], [4], [5]]
+
+
+def test_calibration_folds_runs_of_simulated_time_evenly() -> None:
+    """Runs recorded under simulated time all start near 0 on their bag clocks, a first
+    message's jitter apart (the case study's 15 landings: 13 at 0.01 s, one at 0.03 s, one
+    at 0.07 s): their starts say nothing of sessions. Cut at those jitters, the blocks were
+    3, 3, 7, 1 and 1 runs, and the fold of 7 learnt from 8 runs a frequency minimum that a
+    held-out landing's clock stall broke. Overlapping runs have no gap between them: near-
+    equal blocks. Runs that follow each other on one clock keep their session blocks."""
+    from imrosc.calibrate import blocks
+    from imrosc.infer.engine import Unit
+
+    starts = [0.01] * 13 + [0.03, 0.07]
+    lengths = [22, 25, 22, 23, 38, 40, 32, 23, 60, 22, 26, 21, 32, 30, 22]
+    units = [
+        Unit(Path(f"normal_{k}.bag"), [], start=s, end=s + n)
+        for k, (s, n) in enumerate(zip(starts, lengths, strict=True))
+    ]
+    assert [len(b) for b in blocks(units, 5)] == [3, 3, 3, 3, 3]
+    day = 86400.0
+    starts = [0.0, 120.0, 260.0, day, day + 200.0, 2 * day, 2 * day + 90.0, 2 * day + 300.0]
+    timed = [Unit(Path(f"run_{k}.bag"), [], start=s, end=s + 60.0) for k, s in enumerate(starts)]
+    assert blocks(timed, 3) == [[0, 1, 2], [3, 4], [5, 6, 7]]
+
+
+def test_runs_on_restarted_clocks_are_held_out_in_even_blocks(tmp_path: Path) -> None:
+    """End to end: each unit carries its bag's end, so runs whose clocks all start at 100 s
+    (their first messages 0 to 0.07 s apart) are held out in blocks of two, not cut at the
+    jitters of their starts (2, 2, 4, 1, 1)."""
+    jitter = [0.0] * 8 + [0.03, 0.07]
+    bags = [
+        run(tmp_path / f"r{k}.bag", k, seconds=4.0 + k % 3, start=100.0 + j)
+        for k, j in enumerate(jitter)
+    ]
+    result = run_detect(config(tmp_path, bags), workers=1)
+    assert result.calibration is not None
+    sizes: dict[int, int] = {}
+    for unit in result.calibration.held_out:
+        sizes[unit.fold] = sizes.get(unit.fold, 0) + 1
+    assert sorted(sizes.values()) == [2, 2, 2, 2, 2]
