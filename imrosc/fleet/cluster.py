@@ -674,6 +674,8 @@ class _Pass:
         self._root: Any = None
         """The future of the root of the joins."""
         self._template: Any = None
+        self._token = ""
+        """The keys' token of this try's tasks."""
         self._summaries: dict[Any, int] = {}
         if jobs:
             with fleet._lost():
@@ -681,7 +683,7 @@ class _Pass:
 
     def _submit(self) -> None:
         client, jobs = self.fleet.client, self.jobs
-        token = uuid.uuid4().hex[:12]
+        token = self._token = uuid.uuid4().hex[:12]
 
         def join(left: Any, right: Any) -> Any:
             key = f"imrosc-join-{uuid.uuid4().hex}"
@@ -693,7 +695,6 @@ class _Pass:
         # workers that held it die
         self._template = client.submit(_same, jobs[0], key=f"imrosc-job-{token}", pure=False)
         client.replicate([self._template])  # the bags' tasks then go to any worker
-        self._token = token
         # each worker reads a consecutive share of the bags, in order (any other worker takes
         # a bag if it is free or the worker is lost): the joins inside a share find both
         # answers on its worker, and only the shares' joins move states between workers

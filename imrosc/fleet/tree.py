@@ -92,14 +92,15 @@ class OrderedTree(Generic[T]):
         for size in sizes:
             spine = -1
             for start, stop in blocks(size):
-                block = self._balanced(first + start, first + stop)
+                block = self._joined(list(range(first + start, first + stop)))
                 spine = block if spine < 0 else self._node(spine, block)
             roots.append(spine)
             first += size
         self._joined(roots)
 
     def _joined(self, nodes: list[int]) -> int:
-        """The root of a balanced tree over ``nodes`` (consecutive, in order)."""
+        """The root of a balanced tree over ``nodes`` (consecutive, in order; the left half
+        the larger): a block's leaves, or the shares' roots."""
         if len(nodes) == 1:
             return nodes[0]
         middle = (len(nodes) + 1) // 2
@@ -111,12 +112,6 @@ class OrderedTree(Generic[T]):
         self.parent[left] = self.parent[right] = node
         self.children[node] = (left, right)
         return node
-
-    def _balanced(self, first: int, stop: int) -> int:
-        if stop - first == 1:
-            return first
-        middle = first + (stop - first + 1) // 2
-        return self._node(self._balanced(first, middle), self._balanced(middle, stop))
 
     def add(self, index: int, value: T) -> None:
         """The value at ``index`` (each index once)."""
