@@ -1,7 +1,7 @@
 """The slowed link (Table 5.1, s5) offline: what the monitor's responses can do for it, and
 what the controller would need. No ROS: ``landing_core`` as ``offline_trial`` runs it.
 
-    python bench/slowed_offline.py [--seeds 20] [--timeout 120]
+    python bench/slowed_offline.py [--seeds 20] [--timeout 300]
 
 ``/a/car_pose`` goes out at 0.5 Hz for 5 s in every 10 s (``car.py``: a pose, then the next
 2 s later). The monitor is idealised as the live one alarms on ``15 <= freq(/a/car_pose) <=
@@ -210,7 +210,9 @@ def trial(seed: int, mode: str, name: str, timeout: float) -> tuple[bool, float]
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=20)
-    parser.add_argument("--timeout", type=float, default=120.0)
+    parser.add_argument(
+        "--timeout", type=float, default=300.0, help="simulated s per trial (as bench/casestudy.py)"
+    )
     parser.add_argument("--controllers", default=",".join(CONTROLLERS), help="rows to run")
     args = parser.parse_args()
     names = [n for n in args.controllers.split(",") if n]
