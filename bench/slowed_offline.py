@@ -21,7 +21,13 @@ Its responses (columns):
 * ``frozen``: no frequency alarm; every landing called off once its platform pose is 0.5 s
   old (the waypoint frozen while landing, ``var(task_waypose.pose.position.x)`` at point
   ``b?1`` as a monitor learnt without ``freq(/a/car_pose)`` alarms live), the stale poses
-  relayed, a landed UAV left alone (the point is the landing's).
+  relayed, a landed UAV left alone (the point is the landing's);
+* ``landing``: the frequency alarm above learnt at the landing's point (``freq(/a/car_pose)``
+  at ``v?1``, condition 1: the controller is landing): every landing called off while the
+  alarm lasts, the stale poses relayed, a landed UAV left alone (the controller's shutdown
+  ends the landing, so no alarm there lifts it). Idealised: no warm-up (a conditional
+  point's windows restart with each landing and are defined 1 s into it) and a timer while
+  landing (a live monitor's conditional points have none: docs/checking.md).
 
 With a monitor a shutdown over anything but the platform is called off too (the live
 monitor's shutdown height, ``a?cmd_subject_ctrl_state.data==5``).
@@ -60,7 +66,7 @@ sys.path.insert(0, str(ROOT / "examples" / "landing_system" / "nodes"))
 
 import landing_core as core  # noqa: E402
 
-MODES = ("none", "once", "block+once", "block+hold", "frozen")
+MODES = ("none", "once", "block+once", "block+hold", "frozen", "landing")
 
 
 def alarmed(t: float) -> bool:
@@ -175,7 +181,7 @@ def trial(seed: int, mode: str, name: str, timeout: float) -> tuple[bool, float]
         if step % 5 == 0:
             platform = world.platform
             slow = world.t % 10.0 >= 5.0
-            alarm = mode not in ("none", "frozen") and alarmed(world.t)
+            alarm = mode not in ("none", "frozen", "landing") and alarmed(world.t)
             if not slow or world.t - sent >= 2.0 - 1e-9:
                 sent = world.t
                 if not (alarm and mode.startswith("block")):
@@ -190,7 +196,9 @@ def trial(seed: int, mode: str, name: str, timeout: float) -> tuple[bool, float]
             frozen = mode == "frozen" and state == core.LAND and last is not None
             if frozen and last is not None and world.t - last[0] >= 0.5:
                 told = core.TASK  # the landing's waypoint froze: the landing called off
-            elif (raised or held) and mode != "frozen":
+            elif mode == "landing" and state == core.LAND and alarmed(world.t):
+                told = core.TASK  # the alarm at the landing's point calls it off
+            elif raised or held:
                 told = core.TASK  # the monitor commands the task state
             elif mode != "none" and state == core.SHUTDOWN and uav.resting == "floor":
                 told = core.TASK  # a shutdown over the floor (the shutdown height)
