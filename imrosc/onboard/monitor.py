@@ -133,6 +133,7 @@ def alarm_document(
     alarms = dict(document.get("alarms") or {}, **overrides)
     if "persist" in overrides or "seconds" in overrides:
         alarms.pop("families", None)
+        alarms.pop("strength", None)
     merged["alarms"] = alarms
     return merged
 

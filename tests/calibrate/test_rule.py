@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from imrosc.calibrate.rule import Figures, alarms_under, covered, rule_for, rule_from
+from imrosc.calibrate.rule import Figures, alarms_under, covered, rule_for, rule_from, trace_of
 from imrosc.runtime.alarms import AlarmRule
 
 
@@ -131,3 +131,47 @@ def test_a_skewed_agreement_is_bounded_past_a_new_session() -> None:
     assert rule.distinct == 24
     assert not alarms_under(Figures(0, 0.0, 23, False), rule)
     assert alarms_under(Figures(0, 0.0, 24, False), rule)
+
+
+def test_a_window_family_s_summed_severity_gets_its_own_bound() -> None:
+    """Units whose window means left their envelopes by a few hundredths of a margin for
+    some samples: a mean out by half a margin for a second alarms, a polygon out for as
+    long does not (it has no margins), and the share of persistence shrinks."""
+    figures = [
+        Figures(40, 0.4, 1, False, {"mean": (40, 0.4)}, {"mean": 1.2}),
+        Figures(30, 0.3, 1, False, {"mean": (30, 0.3)}, {"mean": 0.8}),
+        Figures(90, 9.0, 1, False, {"polygon": (90, 9.0)}),
+        *[QUIET] * 3,
+    ]
+    rule, certified = rule_from(figures, 0.05)
+    assert not certified
+    ((name, summed),) = rule.strength
+    assert name == "mean" and 1.2 < summed < 100
+    assert alarms_under(Figures(100, 1.0, 0, False, {"mean": (100, 1.0)}, {"mean": 50.0}), rule)
+    assert not alarms_under(Figures(100, 1.0, 0, False, {"polygon": (100, 1.0)}), rule)
+    without, _ = rule_from([f._replace(strength={}) for f in figures], 0.05)
+    assert without.strength == () and without.persist < rule.persist
+
+
+def test_covered_keeps_each_window_family_s_largest_summed_severity() -> None:
+    trace = {
+        "a": dict(entry("p", "mean", 3, 0.2), strength=0.5),
+        "b": dict(entry("p", "mean", 7, 0.1), strength=2.0),
+        "c": dict(entry("p", "bounds", 90, 9.0), strength=80.0),
+    }
+    assert covered(trace, {"a", "b", "c"}).strength == {"mean": 2.0}
+    assert covered(trace, {"a"}).strength == {"mean": 0.5}
+
+
+def test_a_trace_sums_each_episode_s_severities_and_keeps_the_largest_sum() -> None:
+    fed = [
+        (0.0, "p", "m", 1, True, 0.0, "mean", 0.5),
+        (0.1, "p", "m", 2, True, 0.1, "mean", 0.5),
+        (0.2, "p", "m", 3, True, 0.2, "mean", 0.25),
+        (0.5, "p", "m", 1, True, 0.0, "mean", 0.75),  # a new episode: the sum starts again
+        (0.6, "p", "m", 2, True, 0.1, "mean", 0.5),
+        (0.7, "p", "q", 1, True, 0.0, "polygon", 0.0),
+    ]
+    trace = trace_of(fed, [], 1.0)
+    assert trace["m"]["strength"] == 1.25 and trace["m"]["severity"] == 0.75
+    assert "strength" not in trace["q"]
