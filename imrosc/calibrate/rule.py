@@ -36,18 +36,22 @@ from types import MappingProxyType
 from typing import Any, NamedTuple
 
 from imrosc.calibrate.envelope import FoldDocument
-from imrosc.calibrate.tolerance import conformal, skewed_bound, too_many
+from imrosc.calibrate.tolerance import conformal, exponential_bound, skewed_bound, too_many
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
 from imrosc.runtime import Engine
 from imrosc.runtime.alarms import AlarmRule, Fed
-from imrosc.runtime.families import STEP
+from imrosc.runtime.families import MEAN
 from imrosc.runtime.families import WINDOW as WINDOW_FAMILIES
 
 WINDOW = 1.0
 """Seconds of the agreement rule's window."""
 HELD_BACK = AlarmRule(persist=1 << 30, distinct=0, window=WINDOW)
 """The rule of the held-out replays: nothing alarms but events."""
+SUMMED = frozenset({MEAN})
+"""The families whose episodes' severities are summed (a CUSUM of a level shift): the window
+mean, the one family whose statistic estimates a level (a variance is a spread, a rate a
+slope, a step one sample; ``docs/calibration.md`` section 3)."""
 
 
 def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[str, Any]:
@@ -100,7 +104,7 @@ class HeldOut:
     families: dict[str, tuple[int, float]] = field(default_factory=dict, repr=False)
     """Per family, its longest episode (samples, seconds)."""
     strength: dict[str, float] = field(default_factory=dict, repr=False)
-    """Per window family, its largest summed severity of one episode."""
+    """Per family of :data:`SUMMED`, its largest summed severity of one episode."""
     event_alarms: int = 0
     absent: list[str] = field(default_factory=list, repr=False)
     """The file's invariants this unit says nothing about: its fold's document held them
@@ -148,7 +152,8 @@ class Figures(NamedTuple):
     event: bool
     families: Mapping[str, tuple[int, float]] = MappingProxyType({})
     strength: Mapping[str, float] = MappingProxyType({})
-    """Per window family, the largest summed severity of one episode of its invariants."""
+    """Per family of :data:`SUMMED`, the largest summed severity of one episode of its
+    invariants."""
 
 
 def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
@@ -179,7 +184,7 @@ families={'mean': (9, 0.4)}, strength={}))
             before = families.get(family, (0, 0.0))
             families[family] = (max(before[0], own[0]), max(before[1], own[1]))
             summed = float(entry.get("strength", 0.0))
-            if summed > 0 and family in WINDOW_FAMILIES and family != STEP:
+            if summed > 0 and family in SUMMED:
                 strength[family] = max(strength.get(family, 0.0), summed)
         event = event or bool(entry.get("event"))
         for start, end in entry.get("evidence", ()):
@@ -220,6 +225,25 @@ def threshold(values: Sequence[float], alpha: float, resolution: float) -> tuple
     return (ranked if bound is None else max(ranked, bound)), False
 
 
+def summed_threshold(values: Sequence[float], alpha: float) -> float:
+    """Just past one more unit's largest summed severity of ``values`` (held-out units'):
+    the conformal ``1 - alpha`` rank when the units certify it, else the larger of their
+    largest value and the exponential prediction bound (:func:`.tolerance.exponential_bound`:
+    an episode's sum is a sum of a geometric-like number of positive terms, whose law tends
+    to the exponential, and the maximum of a CUSUM has an exponential tail).
+
+    >>> round(summed_threshold([0.0, 0.0, 11.22, 0.0, 5.87, 5.41], 0.05 / 4 / 2), 1)
+    29.9
+    >>> summed_threshold(list(range(69)), 0.05 / 3)
+    68
+    """
+    ranked, sure = conformal(values, alpha)
+    if sure:
+        return ranked
+    bound = exponential_bound(values, alpha)
+    return ranked if bound is None else max(ranked, bound)
+
+
 def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tuple[AlarmRule, bool]:
     """The rule just past the conformal ``1 - budget/3`` rank of held-out units' longest
     episodes (samples, seconds) and largest agreements; whether they certify it. With
@@ -240,11 +264,11 @@ def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tupl
     pooled rule: the value families, a window family no unit broke, and every family
     while the units are too few, share the pooled persistence.
 
-    A window family (but steps) whose units summed severities over an episode
-    (:attr:`Figures.strength`, with margins) gets its own summed severity
-    (:attr:`~imrosc.runtime.alarms.AlarmRule.strength`), past the same threshold of the
-    units' largest sums; the persistence part of the budget is then shared among those
-    families and the pooled persistence.
+    When units summed the severities of an episode of a window mean (:attr:`Figures.strength`,
+    with margins; :data:`SUMMED`), the rule gets that family's summed severity
+    (:attr:`~imrosc.runtime.alarms.AlarmRule.strength`), past :func:`summed_threshold` of
+    the units' largest sums; the persistence part of the budget is then shared between it
+    and the pooled persistence.
 
     >>> few = [Figures(3, 0.2, 1, False, {"mean": (3, 0.2)}),
     ...        Figures(40, 2.0, 2, False, {"polygon": (40, 2.0)})]
@@ -260,7 +284,7 @@ def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tupl
     share = part / (1 + len(strong))
     strength = []
     for name in strong:
-        summed, _ = threshold([f.strength.get(name, 0.0) for f in figures], share, 0.0)
+        summed = summed_threshold([f.strength.get(name, 0.0) for f in figures], share)
         if math.isfinite(summed) and summed > 0:
             strength.append((name, summed))
     persist, sure_persist = threshold([f.persist + 1 for f in figures], share, 1.0)

@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
-from imrosc.calibrate.rule import Figures, alarms_under, covered, rule_for, rule_from, trace_of
+from imrosc.calibrate.rule import (
+    Figures,
+    alarms_under,
+    covered,
+    rule_for,
+    rule_from,
+    summed_threshold,
+    trace_of,
+)
+from imrosc.calibrate.tolerance import exponential_bound
 from imrosc.runtime.alarms import AlarmRule
 
 
@@ -153,14 +162,35 @@ def test_a_window_family_s_summed_severity_gets_its_own_bound() -> None:
     assert without.strength == () and without.persist < rule.persist
 
 
-def test_covered_keeps_each_window_family_s_largest_summed_severity() -> None:
+def test_covered_keeps_the_largest_summed_severity_of_the_window_means_only() -> None:
+    """A window mean estimates a level, whose shift the summed severity tests; a variance
+    (spread), a rate (slope), a step (one sample) or a range of values does not."""
     trace = {
         "a": dict(entry("p", "mean", 3, 0.2), strength=0.5),
         "b": dict(entry("p", "mean", 7, 0.1), strength=2.0),
         "c": dict(entry("p", "bounds", 90, 9.0), strength=80.0),
+        "d": dict(entry("p", "variance", 40, 4.0), strength=30.0),
+        "e": dict(entry("p", "rate", 40, 4.0), strength=30.0),
+        "f": dict(entry("p", "step", 1, 0.0), strength=3.0),
     }
-    assert covered(trace, {"a", "b", "c"}).strength == {"mean": 2.0}
+    assert covered(trace, set(trace)).strength == {"mean": 2.0}
     assert covered(trace, {"a"}).strength == {"mean": 0.5}
+    assert covered(trace, {"c", "d", "e", "f"}).strength == {}
+
+
+def test_the_summed_threshold_is_the_exponential_bound_of_one_more_unit_s_sum() -> None:
+    """Crazyflie's six segments (both flights): three summed nothing of a window mean, three
+    5 to 11 margins. The threshold lies within the exponential tail, not the log-normal
+    one's hundreds, and past every unit's sum."""
+    sums = [0.0, 0.0, 11.22, 0.0, 5.87, 5.41]
+    share = 0.05 / 4 / 2
+    found = summed_threshold(sums, share)
+    assert found == exponential_bound(sums, share)
+    assert 11.22 < found < 40
+    units = [Figures(0, 0.0, 0, False, {}, {"mean": s} if s else {}) for s in sums]
+    rule, _ = rule_from(units, 0.05, 4)
+    assert rule.strength == (("mean", found),)
+    assert summed_threshold([3.0, 0.0], 0.5) == 3.0  # never below the largest sum
 
 
 def test_a_trace_sums_each_episode_s_severities_and_keeps_the_largest_sum() -> None:
