@@ -115,9 +115,9 @@ def alarm_document(
     {'persist': 4, 'distinct': 0}
 
     A ``persist`` or ``seconds`` given holds for every family (the file's per-family
-    persistence goes):
+    persistence and summed severities go):
 
-    >>> rule = {"persist": 40, "families": {"mean": {"persist": 8}}}
+    >>> rule = {"persist": 40, "families": {"mean": {"persist": 8}}, "strength": {"mean": 30}}
     >>> alarm_document({"alarms": rule}, {"persist": 3})["alarms"]
     {'persist': 3}
 
