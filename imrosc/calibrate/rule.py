@@ -36,17 +36,22 @@ from types import MappingProxyType
 from typing import Any, NamedTuple
 
 from imrosc.calibrate.envelope import FoldDocument
-from imrosc.calibrate.tolerance import conformal, skewed_bound, too_many
+from imrosc.calibrate.tolerance import conformal, exponential_bound, skewed_bound, too_many
 from imrosc.infer.engine import Unit
 from imrosc.remote import bag_path
 from imrosc.runtime import Engine
 from imrosc.runtime.alarms import AlarmRule, Fed
+from imrosc.runtime.families import MEAN
 from imrosc.runtime.families import WINDOW as WINDOW_FAMILIES
 
 WINDOW = 1.0
 """Seconds of the agreement rule's window."""
 HELD_BACK = AlarmRule(persist=1 << 30, distinct=0, window=WINDOW)
 """The rule of the held-out replays: nothing alarms but events."""
+SUMMED = frozenset({MEAN})
+"""The families whose episodes' severities are summed (a CUSUM of a level shift): the window
+mean, the one family whose statistic estimates a level (a variance is a spread, a rate a
+slope, a step one sample; ``docs/calibration.md`` section 3)."""
 
 
 def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[str, Any]:
@@ -57,6 +62,7 @@ def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[s
     merged; and, for an invariant with margins, the largest severity of its violations
     (``severity``, absent when 0)."""
     found: dict[str, dict[str, Any]] = {}
+    summed: dict[str, float] = {}
     for time, point, ident, n, counted, lasted, family, severity in fed:
         entry = found.setdefault(
             ident,
@@ -66,6 +72,9 @@ def trace_of(fed: Sequence[Fed], events: Sequence[str], window: float) -> dict[s
         entry["lasting"] = max(entry["lasting"], lasted)
         if severity > entry.get("severity", 0.0):
             entry["severity"] = severity
+        summed[ident] = severity + (summed.get(ident, 0.0) if n > 1 else 0.0)
+        if summed[ident] > entry.get("strength", 0.0):
+            entry["strength"] = summed[ident]
         if counted:
             spans = entry["evidence"]
             if spans and time <= spans[-1][1]:
@@ -94,6 +103,8 @@ class HeldOut:
     distinct: int = 0
     families: dict[str, tuple[int, float]] = field(default_factory=dict, repr=False)
     """Per family, its longest episode (samples, seconds)."""
+    strength: dict[str, float] = field(default_factory=dict, repr=False)
+    """Per family of :data:`SUMMED`, its largest summed severity of one episode."""
     event_alarms: int = 0
     absent: list[str] = field(default_factory=list, repr=False)
     """The file's invariants this unit says nothing about: its fold's document held them
@@ -113,6 +124,7 @@ class HeldOut:
         figures = covered(self.trace, self.broken - dropped)
         self.persist, self.lasting, self.distinct = figures[:3]
         self.families = dict(figures.families)
+        self.strength = dict(figures.strength)
         self.event_alarms = sum(1 for ident in self.events if ident not in dropped)
 
     def as_json(self) -> dict[str, Any]:
@@ -139,6 +151,9 @@ class Figures(NamedTuple):
     distinct: int
     event: bool
     families: Mapping[str, tuple[int, float]] = MappingProxyType({})
+    strength: Mapping[str, float] = MappingProxyType({})
+    """Per family of :data:`SUMMED`, the largest summed severity of one episode of its
+    invariants."""
 
 
 def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
@@ -153,10 +168,11 @@ def covered(traces: Mapping[str, Mapping[str, Any]], kept: set[str]) -> Figures:
     ...                "event": True, "family": "mean"}}
     >>> covered(trace, {"a", "b"})[:4], covered(trace, {"a", "c"})
     ((3, 0.1, 2, False), Figures(persist=9, lasting=0.4, distinct=1, event=True, \
-families={'mean': (9, 0.4)}))
+families={'mean': (9, 0.4)}, strength={}))
     """
     persist, lasting, event = 0, 0.0, False
     families: dict[str, tuple[int, float]] = {}
+    strength: dict[str, float] = {}
     edges: dict[str, list[tuple[float, int]]] = {}
     for ident, entry in traces.items():
         if ident not in kept:
@@ -167,6 +183,9 @@ families={'mean': (9, 0.4)}))
         if family:
             before = families.get(family, (0, 0.0))
             families[family] = (max(before[0], own[0]), max(before[1], own[1]))
+            summed = float(entry.get("strength", 0.0))
+            if summed > 0 and family in SUMMED:
+                strength[family] = max(strength.get(family, 0.0), summed)
         event = event or bool(entry.get("event"))
         for start, end in entry.get("evidence", ()):
             edges.setdefault(str(entry.get("point", "")), []).extend(
@@ -178,7 +197,7 @@ families={'mean': (9, 0.4)}))
         for _, step in sorted(found, key=lambda e: (e[0], -e[1])):
             open_ += step
             distinct = max(distinct, open_)
-    return Figures(persist, lasting, distinct, event, families)
+    return Figures(persist, lasting, distinct, event, families, strength)
 
 
 def _seconds(lasting: float) -> float:
@@ -206,6 +225,25 @@ def threshold(values: Sequence[float], alpha: float, resolution: float) -> tuple
     return (ranked if bound is None else max(ranked, bound)), False
 
 
+def summed_threshold(values: Sequence[float], alpha: float) -> float:
+    """Just past one more unit's largest summed severity of ``values`` (held-out units'):
+    the conformal ``1 - alpha`` rank when the units certify it, else the larger of their
+    largest value and the exponential prediction bound (:func:`.tolerance.exponential_bound`:
+    an episode's sum is a sum of a geometric-like number of positive terms, whose law tends
+    to the exponential, and the maximum of a CUSUM has an exponential tail).
+
+    >>> round(summed_threshold([0.0, 0.0, 11.22, 0.0, 5.87, 5.41], 0.05 / 4 / 2), 1)
+    29.9
+    >>> summed_threshold(list(range(69)), 0.05 / 3)
+    68
+    """
+    ranked, sure = conformal(values, alpha)
+    if sure:
+        return ranked
+    bound = exponential_bound(values, alpha)
+    return ranked if bound is None else max(ranked, bound)
+
+
 def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tuple[AlarmRule, bool]:
     """The rule just past the conformal ``1 - budget/3`` rank of held-out units' longest
     episodes (samples, seconds) and largest agreements; whether they certify it. With
@@ -226,6 +264,12 @@ def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tupl
     pooled rule: the value families, a window family no unit broke, and every family
     while the units are too few, share the pooled persistence.
 
+    When units summed the severities of an episode of a window mean (:attr:`Figures.strength`,
+    with margins; :data:`SUMMED`), the rule gets that family's summed severity
+    (:attr:`~imrosc.runtime.alarms.AlarmRule.strength`), past :func:`summed_threshold` of
+    the units' largest sums; the persistence part of the budget is then shared between it
+    and the pooled persistence.
+
     >>> few = [Figures(3, 0.2, 1, False, {"mean": (3, 0.2)}),
     ...        Figures(40, 2.0, 2, False, {"polygon": (40, 2.0)})]
     >>> rule_from(few, 0.05)[0].families
@@ -236,11 +280,18 @@ def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tupl
     ((4, 0.201), (41, 2.001), True)
     """
     part = budget / parts
-    persist, sure_persist = threshold([f.persist + 1 for f in figures], part, 1.0)
-    lasting, sure_lasting = threshold([f.lasting for f in figures], part, 0.0)
+    strong = sorted({name for f in figures for name in f.strength})
+    share = part / (1 + len(strong))
+    strength = []
+    for name in strong:
+        summed = summed_threshold([f.strength.get(name, 0.0) for f in figures], share)
+        if math.isfinite(summed) and summed > 0:
+            strength.append((name, summed))
+    persist, sure_persist = threshold([f.persist + 1 for f in figures], share, 1.0)
+    lasting, sure_lasting = threshold([f.lasting for f in figures], share, 0.0)
     distinct, sure_distinct = threshold([f.distinct + 1 for f in figures], part, 1.0)
     names = sorted({name for f in figures for name in f.families if name in WINDOW_FAMILIES})
-    share = part / max(1, len(names))
+    share = share / max(1, len(names))
     families = []
     sure = sure_persist and sure_lasting and sure_distinct
     for name in names:
@@ -255,6 +306,7 @@ def rule_from(figures: Sequence[Figures], budget: float, parts: int = 3) -> tupl
         distinct=max(1, int(distinct)),
         window=WINDOW,
         families=tuple(families),
+        strength=tuple(strength),
     )
     return rule, sure
 
@@ -292,6 +344,9 @@ def alarms_under(figures: Figures, rule: AlarmRule) -> bool:
     True
     """
     if figures.event or (rule.distinct > 0 and figures.distinct >= rule.distinct):
+        return True
+    strength = dict(rule.strength)
+    if any(summed >= strength.get(name, math.inf) for name, summed in figures.strength.items()):
         return True
     if not (rule.families and figures.families):
         return figures.persist >= rule.persist or (
@@ -475,7 +530,10 @@ def calibrate_rule(
             if unit.fold == fold:
                 unit.settle(others)
     rule, certified = rule_from(
-        [Figures(h.persist, h.lasting, h.distinct, False, h.families) for h in held_out],
+        [
+            Figures(h.persist, h.lasting, h.distinct, False, h.families, h.strength)
+            for h in held_out
+        ],
         budget,
         parts,
     )

@@ -82,6 +82,23 @@ def skewed_bound(values: Sequence[float], alpha: float, resolution: float = 0.0)
     return bound if logged is None else max(bound, math.expm1(logged))
 
 
+def exponential_bound(values: Sequence[float], alpha: float) -> float | None:
+    """The ``1 - alpha`` prediction bound of one more of the non-negative ``values`` under an
+    exponential model whose scale is unknown: a new value over the mean of ``n`` is
+    F(2, 2n)-distributed, whose ``1 - alpha`` quantile is ``n (alpha^(-1/n) - 1)`` (``None``
+    without values). Exact for exponential values, whatever their scale.
+
+    >>> round(exponential_bound([1.0, 2.0, 3.0], 0.05), 3)
+    10.287
+    >>> exponential_bound([0.0, 0.0], 0.05), exponential_bound([], 0.05)
+    (0.0, None)
+    """
+    n = len(values)
+    if n == 0:
+        return None
+    return math.fsum(values) * (math.pow(alpha, -1.0 / n) - 1.0)
+
+
 def held_out_score(values: Sequence[float], logarithmic: bool = False) -> float | None:
     """How well a normal model of the values predicts each of them from the others: the sum,
     over the values, of the log density of the value under the prediction the others give

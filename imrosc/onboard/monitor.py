@@ -115,9 +115,9 @@ def alarm_document(
     {'persist': 4, 'distinct': 0}
 
     A ``persist`` or ``seconds`` given holds for every family (the file's per-family
-    persistence goes):
+    persistence and summed severities go):
 
-    >>> rule = {"persist": 40, "families": {"mean": {"persist": 8}}}
+    >>> rule = {"persist": 40, "families": {"mean": {"persist": 8}}, "strength": {"mean": 30}}
     >>> alarm_document({"alarms": rule}, {"persist": 3})["alarms"]
     {'persist': 3}
 
@@ -133,6 +133,7 @@ def alarm_document(
     alarms = dict(document.get("alarms") or {}, **overrides)
     if "persist" in overrides or "seconds" in overrides:
         alarms.pop("families", None)
+        alarms.pop("strength", None)
     merged["alarms"] = alarms
     return merged
 

@@ -167,6 +167,10 @@ class AlarmRule(NamedTuple):
     ``severe_families`` raises an alarm at once (0: off)."""
     severe_families: Tuple[str, ...] = ()
     """The families whose severe violations alarm at once."""
+    strength: Tuple[Tuple[str, float], ...] = ()
+    """Per family, ``(family, summed)``: an episode of one of its invariants raises an
+    alarm once the severities of its samples sum to ``summed`` (a moderate violation
+    that persists)."""
 
     def is_severe(self, family: str, value: float) -> bool:
         """Whether a violation of ``family`` of severity ``value`` alarms at once.
@@ -204,6 +208,8 @@ class AlarmRule(NamedTuple):
         if self.severe_families:
             found["severe"] = self.severe
             found["severe_families"] = list(self.severe_families)
+        if self.strength:
+            found["strength"] = {name: summed for name, summed in self.strength}
         return found
 
     @classmethod
@@ -212,7 +218,7 @@ class AlarmRule(NamedTuple):
 
         >>> AlarmRule.from_json({"persist": 9, "families": {"mean": {"persist": 3}}})[:5]
         (9, None, 0, 1.0, (('mean', 3, None),))
-        >>> AlarmRule.from_json({"severe": 2, "severe_families": ["rate"]})[5:]
+        >>> AlarmRule.from_json({"severe": 2, "severe_families": ["rate"]})[5:7]
         (2.0, ('rate',))
         """
         if not data:
@@ -236,6 +242,10 @@ class AlarmRule(NamedTuple):
             tuple(families),
             max(0.0, float(data.get("severe") or 0.0)),
             tuple(str(name) for name in data.get("severe_families") or ()),
+            tuple(
+                (str(name), float(summed))
+                for name, summed in sorted((data.get("strength") or {}).items())
+            ),
         )
 
     def overridden(self, **changes: Any) -> AlarmRule:
@@ -244,6 +254,7 @@ class AlarmRule(NamedTuple):
         given = {k: v for k, v in changes.items() if v is not None}
         if "persist" in given or "seconds" in given:
             given.setdefault("families", ())
+            given.setdefault("strength", ())
         return self._replace(**given)
 
 
@@ -304,12 +315,15 @@ class AlarmTracker:
         """Per invariant id, its margins (:func:`margins_of`)."""
         self.record = record
         """Keep, for calibration, every violating sample with its episode's length."""
+        self.strength = dict(rule.strength)
+        """Per family, the summed severity of an episode that alarms."""
         self.reset()
 
     def reset(self) -> None:
         """A new run: no episode is open."""
         self._episodes: Dict[str, Dict[str, List[float]]] = {}
-        """Point to invariant to ``[first time, samples, alarmed]`` of its open episode."""
+        """Point to invariant to ``[first time, samples, alarmed, summed severity]`` of its open
+        episode."""
         self._recent: Dict[str, Deque[Tuple[float, str]]] = {}
         self._counts: Dict[str, Dict[str, int]] = {}
         """Per point: how many of ``_recent``'s entries each invariant has."""
@@ -356,7 +370,7 @@ class AlarmTracker:
             for v in instant:
                 episode = episodes.get(v.invariant)
                 if episode is None:  # (or a variance that fell below its minimum first)
-                    episode = episodes[v.invariant] = [time, 0.0, 0.0]
+                    episode = episodes[v.invariant] = [time, 0.0, 0.0, 0.0]
                 episode[1] += 1
                 if not episode[2]:
                     episode[2] = 1.0
@@ -367,11 +381,15 @@ class AlarmTracker:
         counted = self.evidence(found) if found else found
         persistence = (rule.persist, rule.seconds)
         counted_ids = {id(v) for v in counted} if self.record else set()
+        strength = self.strength
         for v in found:
             episode = episodes.get(v.invariant)
             if episode is None:
-                episode = episodes[v.invariant] = [time, 0.0, 0.0]
+                episode = episodes[v.invariant] = [time, 0.0, 0.0, 0.0]
             episode[1] += 1
+            summed = strength.get(v.family)
+            if summed is not None:
+                episode[3] += self.severity(v)
             if self.record:
                 lasted = time - episode[0]
                 self.fed.append(
@@ -390,7 +408,8 @@ class AlarmTracker:
                 continue
             persist, seconds = rule.persistence(v.family) if rule.families else persistence
             lasting = seconds is not None and time - episode[0] >= seconds
-            if episode[1] >= persist or lasting:
+            strong = summed is not None and episode[3] >= summed
+            if episode[1] >= persist or lasting or strong:
                 episode[2] = 1.0
                 raised.append(Alarm(time, point, "persist", (v.invariant,), v))
         if rule.distinct > 0:

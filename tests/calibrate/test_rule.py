@@ -2,7 +2,16 @@
 
 from __future__ import annotations
 
-from imrosc.calibrate.rule import Figures, alarms_under, covered, rule_for, rule_from
+from imrosc.calibrate.rule import (
+    Figures,
+    alarms_under,
+    covered,
+    rule_for,
+    rule_from,
+    summed_threshold,
+    trace_of,
+)
+from imrosc.calibrate.tolerance import exponential_bound
 from imrosc.runtime.alarms import AlarmRule
 
 
@@ -131,3 +140,68 @@ def test_a_skewed_agreement_is_bounded_past_a_new_session() -> None:
     assert rule.distinct == 24
     assert not alarms_under(Figures(0, 0.0, 23, False), rule)
     assert alarms_under(Figures(0, 0.0, 24, False), rule)
+
+
+def test_a_window_family_s_summed_severity_gets_its_own_bound() -> None:
+    """Units whose window means left their envelopes by a few hundredths of a margin for
+    some samples: a mean out by half a margin for a second alarms, a polygon out for as
+    long does not (it has no margins), and the share of persistence shrinks."""
+    figures = [
+        Figures(40, 0.4, 1, False, {"mean": (40, 0.4)}, {"mean": 1.2}),
+        Figures(30, 0.3, 1, False, {"mean": (30, 0.3)}, {"mean": 0.8}),
+        Figures(90, 9.0, 1, False, {"polygon": (90, 9.0)}),
+        *[QUIET] * 3,
+    ]
+    rule, certified = rule_from(figures, 0.05)
+    assert not certified
+    ((name, summed),) = rule.strength
+    assert name == "mean" and 1.2 < summed < 100
+    assert alarms_under(Figures(100, 1.0, 0, False, {"mean": (100, 1.0)}, {"mean": 50.0}), rule)
+    assert not alarms_under(Figures(100, 1.0, 0, False, {"polygon": (100, 1.0)}), rule)
+    without, _ = rule_from([f._replace(strength={}) for f in figures], 0.05)
+    assert without.strength == () and without.persist < rule.persist
+
+
+def test_covered_keeps_the_largest_summed_severity_of_the_window_means_only() -> None:
+    """A window mean estimates a level, whose shift the summed severity tests; a variance
+    (spread), a rate (slope), a step (one sample) or a range of values does not."""
+    trace = {
+        "a": dict(entry("p", "mean", 3, 0.2), strength=0.5),
+        "b": dict(entry("p", "mean", 7, 0.1), strength=2.0),
+        "c": dict(entry("p", "bounds", 90, 9.0), strength=80.0),
+        "d": dict(entry("p", "variance", 40, 4.0), strength=30.0),
+        "e": dict(entry("p", "rate", 40, 4.0), strength=30.0),
+        "f": dict(entry("p", "step", 1, 0.0), strength=3.0),
+    }
+    assert covered(trace, set(trace)).strength == {"mean": 2.0}
+    assert covered(trace, {"a"}).strength == {"mean": 0.5}
+    assert covered(trace, {"c", "d", "e", "f"}).strength == {}
+
+
+def test_the_summed_threshold_is_the_exponential_bound_of_one_more_unit_s_sum() -> None:
+    """Crazyflie's six segments (both flights): three summed nothing of a window mean, three
+    5 to 11 margins. The threshold lies within the exponential tail, not the log-normal
+    one's hundreds, and past every unit's sum."""
+    sums = [0.0, 0.0, 11.22, 0.0, 5.87, 5.41]
+    share = 0.05 / 4 / 2
+    found = summed_threshold(sums, share)
+    assert found == exponential_bound(sums, share)
+    assert 11.22 < found < 40
+    units = [Figures(0, 0.0, 0, False, {}, {"mean": s} if s else {}) for s in sums]
+    rule, _ = rule_from(units, 0.05, 4)
+    assert rule.strength == (("mean", found),)
+    assert summed_threshold([3.0, 0.0], 0.5) == 3.0  # never below the largest sum
+
+
+def test_a_trace_sums_each_episode_s_severities_and_keeps_the_largest_sum() -> None:
+    fed = [
+        (0.0, "p", "m", 1, True, 0.0, "mean", 0.5),
+        (0.1, "p", "m", 2, True, 0.1, "mean", 0.5),
+        (0.2, "p", "m", 3, True, 0.2, "mean", 0.25),
+        (0.5, "p", "m", 1, True, 0.0, "mean", 0.75),  # a new episode: the sum starts again
+        (0.6, "p", "m", 2, True, 0.1, "mean", 0.5),
+        (0.7, "p", "q", 1, True, 0.0, "polygon", 0.0),
+    ]
+    trace = trace_of(fed, [], 1.0)
+    assert trace["m"]["strength"] == 1.25 and trace["m"]["severity"] == 0.75
+    assert "strength" not in trace["q"]

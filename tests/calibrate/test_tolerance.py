@@ -10,6 +10,7 @@ from scipy import stats
 
 from imrosc.calibrate.tolerance import (
     conformal,
+    exponential_bound,
     held_out_score,
     maxima_bound,
     prediction_bound,
@@ -127,6 +128,31 @@ def test_the_choice_of_model_does_not_depend_on_the_unit() -> None:
     scaled_gap = score(scaled_values) - score(scaled_values, logarithmic=True)
     assert gap == pytest.approx(scaled_gap, rel=1e-9)
     assert maxima(scaled_values, 1e-4) == pytest.approx(1000 * maxima(values, 1e-4))
+
+
+def test_the_exponential_bound_is_the_f_quantile_of_one_new_value_over_the_mean() -> None:
+    """For exponential draws, a new one over the mean of ``n`` is F(2, 2n)-distributed."""
+    values = [0.0, 0.0, 11.2, 0.0, 5.9, 5.4]
+    expected = float(np.mean(values)) * float(stats.f.ppf(1 - 0.00625, 2, 12))
+    assert exponential_bound(values, 0.00625) == pytest.approx(expected, rel=1e-9)
+    assert exponential_bound([2.0], 0.05) == pytest.approx(2.0 * stats.f.ppf(0.95, 2, 2))
+    assert exponential_bound([], 0.05) is None
+    assert exponential_bound([0.0, 0.0], 0.05) == 0.0
+
+
+def test_the_exponential_bound_covers_new_exponential_draws_at_its_level() -> None:
+    """Exact for exponential draws, whatever their scale; a normal bound of the same draws
+    is passed far more often than its level says."""
+    rng = np.random.default_rng(7)
+    trials, misses, normal_misses = 4000, 0, 0
+    for _ in range(trials):
+        draws = rng.exponential(rng.uniform(0.1, 50.0), size=7)
+        bound = exponential_bound(list(draws[:6]), 0.05)
+        assert bound is not None
+        misses += draws[6] > bound
+        normal_misses += draws[6] > (prediction_bound(list(draws[:6]), 0.01) or 0.0)
+    assert 0.04 < misses / trials < 0.06
+    assert normal_misses / trials > 0.02
 
 
 def test_maxima_bound_takes_the_model_that_predicts_held_out_units_better() -> None:

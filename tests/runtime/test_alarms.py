@@ -219,3 +219,27 @@ def test_the_rule_carries_its_severe_alarms_through_json() -> None:
     assert AlarmRule.from_json(rule.as_json()) == rule
     assert "severe" not in AlarmRule(persist=9).as_json()
     assert AlarmRule.from_json(rule.as_json()).overridden(severe=0.0).severe == 0.0
+
+
+def test_a_moderate_violation_alarms_once_its_severities_sum_to_the_familys_strength() -> None:
+    margins = margins_of([{"id": "m", "family": "mean", "params": {"margin": {"max": [1.0, 3.0]}}}])
+    rule = AlarmRule(persist=50, severe=1.0, severe_families=("mean",), strength=(("mean", 1.2),))
+    tracker = AlarmTracker(rule, margins=margins)
+    # 0.5 margins out each: 0.5, 1.0, then 1.5 >= 1.2 at the third sample
+    assert tracker.sample("p", 0.0, [ranged("m", 0.0, 2.0, "mean")]) == []
+    assert tracker.sample("p", 0.1, [ranged("m", 0.1, 2.0, "mean")]) == []
+    (alarm,) = tracker.sample("p", 0.2, [ranged("m", 0.2, 2.0, "mean")])
+    assert (alarm.rule, alarm.invariants) == ("persist", ("m",))
+    # a clean sample ends the episode: the sum starts again
+    assert tracker.sample("p", 0.3, []) == []
+    assert tracker.sample("p", 0.4, [ranged("m", 0.4, 2.0, "mean")]) == []
+    # a family without a strength of its own waits for the persistence
+    other = AlarmTracker(rule._replace(strength=(("rate", 0.1),)), margins=margins)
+    assert all(other.sample("p", t, [ranged("m", t, 2.9, "mean")]) == [] for t in (0.0, 0.1, 0.2))
+
+
+def test_the_rule_carries_its_strengths_through_json_and_an_override_drops_them() -> None:
+    rule = AlarmRule(persist=9, strength=(("mean", 1.5), ("rate", 2.0)))
+    assert AlarmRule.from_json(rule.as_json()) == rule
+    assert "strength" not in AlarmRule(persist=9).as_json()
+    assert AlarmRule.from_json(rule.as_json()).overridden(persist=3).strength == ()
