@@ -621,16 +621,22 @@ def refine(
 
 def describe_detectors(report: Mapping[str, Any]) -> str:
     """The learnt detectors a classification's report lists: kept and refused (chance
-    explains their held-out detections; docs/families/detector.md), with their points."""
+    explains their held-out detections; docs/families/detector.md), with their points;
+    and the monitor kept among the candidates, with each one's held-out worth."""
     kept = sorted(
         f"{d['point']}: {d['held_out_nominal']} held-out nominal runs"
         for d in report.get("detectors", ())
     )
     refused = sorted(d["point"] for d in report.get("detectors_refused", ()))
-    return (
+    found = (
         f"detectors {len(kept)} learnt ({', '.join(kept) or '-'}), "
         f"{len(refused)} refused ({', '.join(refused) or '-'})"
     )
+    cover = report.get("cover") or {}
+    if "monitor" in cover:
+        worth = ", ".join(f"{w['monitor']} {fmt(w['value'])}" for w in cover.get("held_out", ()))
+        found += f"; monitor kept: {cover['monitor']} (held-out worth: {worth})"
+    return found
 
 
 def describe_warnings(diagnostics: Sequence[Diagnostic]) -> str:

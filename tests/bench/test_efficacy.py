@@ -530,3 +530,13 @@ def test_the_detectors_of_a_classification() -> None:
         "detectors 1 learnt (v: 13 held-out nominal runs), 2 refused (a, b)"
     )
     assert e.describe_detectors({}) == "detectors 0 learnt (-), 0 refused (-)"
+    report["cover"] = {
+        "monitor": "detector",
+        "held_out": [
+            {"monitor": "cover", "value": 1.364},
+            {"monitor": "detector", "value": 11.0256},
+        ],
+    }
+    assert e.describe_detectors(report).endswith(
+        "; monitor kept: detector (held-out worth: cover 1.36, detector 11.03)"
+    )
