@@ -1,6 +1,6 @@
 """Detection efficacy: alarms on runs the invariants were not learnt from, with known faults.
 
-    python bench/efficacy.py [--only alfa,crazyflie,sim] [--folds 5] [-j N] [--keep DIR]
+    python bench/efficacy.py [--only alfa,crazyflie,sim] [--folds 5|session] [-j N] [--keep DIR]
     python bench/efficacy.py --alfa-test DIR [-j N]
 
 Every part learns with ``imrosc.detect.run_detect`` and replays with ``imrosc.replay.Replayer``
@@ -23,7 +23,8 @@ Parts:
 
 * **alfa**: the 21 labelled flights of ``../shared/data/real/alfa`` (``onsets.json``) in K
   folds by recording session (flights sharing the date-time stamp of their name stay in one
-  fold; sessions go, largest first, to the fold with the fewest flights). Each fold learns
+  fold; sessions go, largest first, to the fold with the fewest flights; ``--folds session``:
+  one fold per session, leave one session out). Each fold learns
   from the other folds, in two stages, then replays its own flights whole with both
   documents:
 
@@ -50,7 +51,8 @@ Parts:
      fold for what the held-out traces already say.
 
   Printed: per fold the invariants and alarm rule of both documents and the classification's
-  warnings; each flight under both (alarms, first alarm, delay, verdict); then per fault
+  warnings; each flight under both (alarms, first alarm, delay, verdict), and what raised
+  each false alarm's first alarm (point, rule, invariant); then per fault
   class and overall, under both, the runs, detected, recall, false-alarm runs, precision,
   mean and max delay. The target's verdict is the classified monitor's (the pipeline's
   product: infer, classify, monitor), the inferred figures beside it. Reference to beat: RLS
@@ -113,6 +115,7 @@ from imrosc.detect import run_detect  # noqa: E402
 from imrosc.diagnostics import Diagnostic, has_errors, render_text  # noqa: E402
 from imrosc.invariants import dumps  # noqa: E402
 from imrosc.replay import Replayer, RunResult  # noqa: E402
+from imrosc.runtime.alarms import Alarm  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "real"
 ALFA = DATA / "alfa"
@@ -355,6 +358,8 @@ class Outcome:
     violated: float | None = None
     """The first violation at or after the onset (any violation of a nominal run): where
     the alarm rule starts from (:func:`print_sources`)."""
+    cause: str | None = None
+    """What raised the run's first alarm (its point, rule and invariant), if any."""
 
     @property
     def first(self) -> float | None:
@@ -402,6 +407,7 @@ class Outcome:
 def outcome(name: str, group: str, onset: float | None, result: RunResult) -> Outcome:
     """The outcome of one replay (alarm times in bag-clock seconds)."""
     after = [v.time for v in result.violations if onset is None or v.time >= onset]
+    first = min(result.alarms, key=lambda a: a.time) if result.alarms else None
     return Outcome(
         name,
         group,
@@ -411,7 +417,14 @@ def outcome(name: str, group: str, onset: float | None, result: RunResult) -> Ou
         result.error,
         result.start,
         min(after) if after else None,
+        None if first is None else alarm_cause(first),
     )
+
+
+def alarm_cause(alarm: Alarm) -> str:
+    """What raised ``alarm``: its point, the rule, the invariant and its text."""
+    violation = alarm.violation
+    return f"{alarm.point}, {alarm.rule}: {violation.invariant} {violation.text}"
 
 
 @dataclass(frozen=True)
@@ -471,13 +484,19 @@ def session_of(name: str) -> str:
     return found.group(0) if found else Path(name).stem
 
 
+SESSIONS = 0
+"""``--folds session``: one fold per recording session (leave one session out)."""
+
+
 def session_folds(names: Iterable[str], folds: int) -> list[list[str]]:
-    """``folds`` folds of flights (fewer when there are fewer sessions), no session split:
-    sessions, largest first (then by stamp), each go to the fold with the fewest flights."""
+    """``folds`` folds of flights (fewer when there are fewer sessions; one per session with
+    :data:`SESSIONS`), no session split: sessions, largest first (then by stamp), each go to
+    the fold with the fewest flights."""
     sessions: dict[str, list[str]] = {}
     for name in sorted(names):
         sessions.setdefault(session_of(name), []).append(name)
-    out: list[list[str]] = [[] for _ in range(max(1, min(folds, len(sessions))))]
+    count = len(sessions) if folds == SESSIONS else min(folds, len(sessions))
+    out: list[list[str]] = [[] for _ in range(max(1, count))]
     for _, flights in sorted(sessions.items(), key=lambda s: (-len(s[1]), s[0])):
         smallest = min(range(len(out)), key=lambda i: (len(out[i]), i))
         out[smallest].extend(flights)
@@ -602,16 +621,22 @@ def refine(
 
 def describe_detectors(report: Mapping[str, Any]) -> str:
     """The learnt detectors a classification's report lists: kept and refused (chance
-    explains their held-out detections; docs/families/detector.md), with their points."""
+    explains their held-out detections; docs/families/detector.md), with their points;
+    and the monitor kept among the candidates, with each one's held-out worth."""
     kept = sorted(
         f"{d['point']}: {d['held_out_nominal']} held-out nominal runs"
         for d in report.get("detectors", ())
     )
     refused = sorted(d["point"] for d in report.get("detectors_refused", ()))
-    return (
+    found = (
         f"detectors {len(kept)} learnt ({', '.join(kept) or '-'}), "
         f"{len(refused)} refused ({', '.join(refused) or '-'})"
     )
+    cover = report.get("cover") or {}
+    if "monitor" in cover:
+        worth = ", ".join(f"{w['monitor']} {fmt(w['value'])}" for w in cover.get("held_out", ()))
+        found += f"; monitor kept: {cover['monitor']} (held-out worth: {worth})"
+    return found
 
 
 def describe_warnings(diagnostics: Sequence[Diagnostic]) -> str:
@@ -726,6 +751,20 @@ def print_side_by_side(monitors: Mapping[str, Sequence[Outcome]]) -> None:
             at = None if r.first is None else r.first - r.start
             line += f" | {len(r.alarms):>6} {fmt(at):>8} {fmt(r.delay):>8}  {verdict(r):<11}"
         print(line.rstrip())
+
+
+def print_false_alarms(monitors: Mapping[str, Sequence[Outcome]]) -> None:
+    """Per monitor, each run with an alarm before its onset (any alarm of a nominal run):
+    when its first alarm was (s from the run's start) and what raised it."""
+    print("false alarms (first alarm, s from the start, and what raised it):")
+    found = False
+    for monitor, runs in monitors.items():
+        for o in runs:
+            if o.false_alarm and o.first is not None:
+                found = True
+                print(f"  {monitor} {o.name}: {fmt(o.first - o.start)} s, {o.cause or '?'}")
+    if not found:
+        print("  none")
 
 
 def print_scores(table: Mapping[str, Mapping[str, Score]]) -> None:
@@ -923,6 +962,7 @@ def report_alfa(outcomes: Mapping[str, list[Outcome]]) -> dict[str, dict[str, Sc
     }
     print("\nflights (times in s from the bag's start):")
     print_side_by_side(named)
+    print_false_alarms(named)
     print("\nper class (precision: detected / flights with any alarm):")
     table = side_by_side(outcomes)
     print_scores(table)
@@ -946,7 +986,8 @@ def alfa_verdict(verdicts: Verdicts, index: int, table: Mapping[str, Mapping[str
 def alfa_part(work: Path, folds: int, workers: int | None, verdicts: Verdicts) -> None:
     flights = read_flights(ALFA)
     split = session_folds(flights.onsets, folds)
-    print(f"\n== ALFA: {len(flights.onsets)} flights, {len(split)}-fold by recording session ==")
+    scheme = "leave one session out" if folds == SESSIONS else "by recording session"
+    print(f"\n== ALFA: {len(flights.onsets)} flights, {len(split)}-fold {scheme} ==")
     print(f"reference to beat: {REFERENCE}")
     training = pre_onset_copies(work / "pre_onset", flights)
     print(
@@ -1138,10 +1179,28 @@ def sim_part(work: Path, workers: int | None, verdicts: Verdicts) -> None:
     )
 
 
+def folds_of(text: str) -> int:
+    """``--folds``: a number of folds, at least 2, or ``session`` (:data:`SESSIONS`)."""
+    if text == "session":
+        return SESSIONS
+    try:
+        folds = int(text)
+    except ValueError:
+        folds = 0
+    if folds < 2:
+        raise argparse.ArgumentTypeError(f'{text!r}: at least 2, or "session"')
+    return folds
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", default=",".join(PARTS), help="comma list of " + ", ".join(PARTS))
-    parser.add_argument("--folds", type=int, default=5, help="ALFA folds (default 5)")
+    parser.add_argument(
+        "--folds",
+        type=folds_of,
+        default=5,
+        help='ALFA folds, at least 2 (default 5), or "session": one per recording session',
+    )
     parser.add_argument("-j", "--workers", type=int, default=None, help="inference workers")
     parser.add_argument("--keep", type=Path, default=None, help="keep the written bags here")
     parser.add_argument(
@@ -1182,8 +1241,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     STEP_TAIL[0] = args.step_tail
     parts = [p.strip() for p in args.only.split(",") if p.strip()]
     unknown = sorted(set(parts) - set(PARTS))
-    if unknown or args.folds < 2:
-        parser.error(f"unknown part {unknown}" if unknown else "--folds must be at least 2")
+    if unknown:
+        parser.error(f"unknown part {unknown}")
     if args.keep is not None and args.keep.exists() and any(args.keep.iterdir()):
         parser.error(f"--keep {args.keep}: not empty")
     test = read_flights(args.alfa_test) if args.alfa_test is not None else None

@@ -71,8 +71,9 @@ from imrosc.selection import (
     Worth,
     cover,
     detected_by,
-    held_out_cover,
+    held_out_outcomes,
     union_false_alarm,
+    within_noise,
 )
 
 if TYPE_CHECKING:
@@ -591,10 +592,14 @@ def monitor_choice(
     alarm rule), or of that and the detectors: whichever held-out failed runs show worth the
     most (failed runs detected, less those alarmed on before their onset, less the false
     alarms expected on ``runs`` new nominal runs). The cover is chosen without each fold of
-    failed runs in turn and judged on it (:func:`imrosc.selection.held_out_cover`); the
+    failed runs in turn and judged on it (:func:`imrosc.selection.held_out_outcomes`); the
     detectors' detections are cross-fitted already, their thresholds above every held-out
-    nominal run; nothing of the whole monitor was chosen on the failed runs. Ties keep the
-    cover, then the detectors alone, then both."""
+    nominal run; nothing of the whole monitor was chosen on the failed runs. Of those whose
+    worth lies within a standard error of the best's (of the paired difference of their
+    held-out outcomes over the failed runs, :func:`imrosc.selection.within_noise`), the one
+    with the fewest invariants is kept (the one-standard-error rule: a difference chance
+    explains is no reason for more invariants, each of which can alarm on a new run); ties
+    keep the cover, then the detectors alone, then both."""
     invariants = {i: n for i, n in nominal.items() if i not in detectors}
     plain = {run: ids - detectors for run, ids in fail.items()}
     found = cover(invariants, plain, before, runs, order=order)
@@ -603,58 +608,75 @@ def monitor_choice(
     p_detector = union_false_alarm(nominal, sorted(detectors))
     p_both = 1.0 - (1.0 - p_cover) * (1.0 - p_detector)
     named = tuple(sorted(detectors))
-    # per candidate: its held-out worth, its invariants, and what it detects of the failed
-    # runs and its false-alarm probability as the report gives them
-    candidates: list[tuple[Worth, tuple[str, ...], int, float]] = []
-    covered, spoiled = held_out_cover(invariants, plain, before, runs, folds, order)
+    # per candidate: its held-out worth, its invariants, what it detects of the failed runs
+    # and its false-alarm probability as the report gives them, and per failed run its
+    # held-out outcome (1 detected, -1 alarmed on before the onset, 0 neither)
+    candidates: list[tuple[Worth, tuple[str, ...], int, float, dict[Path, int]]] = []
+    held = held_out_outcomes(invariants, plain, before, runs, folds, order)
+    covered, spoiled = sum(v > 0 for v in held.values()), sum(v < 0 for v in held.values())
     candidates.append(
         (
             Worth("cover", covered, spoiled, runs * p_cover),
             found.chosen,
             detected_by(set(found.chosen), fail, before),
             p_cover,
+            held,
         )
     )
     if detectors:
-        both, both_spoiled = held_out_cover(
-            invariants, plain, before, runs, folds, order, by_detector
-        )
+        joined = held_out_outcomes(invariants, plain, before, runs, folds, order, by_detector)
+        both = sum(v > 0 for v in joined.values())
+        both_spoiled = sum(v < 0 for v in joined.values())
         alone = sum(by_detector.values())
         candidates += [
-            (Worth("detector", alone, 0, runs * p_detector), named, alone, p_detector),
+            (
+                Worth("detector", alone, 0, runs * p_detector),
+                named,
+                alone,
+                p_detector,
+                {run: int(hit) for run, hit in by_detector.items()},
+            ),
             (
                 Worth("both", both, both_spoiled, runs * p_both),
                 found.chosen + named,
                 detected_by(set(found.chosen) | detectors, fail, before),
                 p_both,
+                joined,
             ),
         ]
     if whole is not None:
         inferred = len(whole.detected)
+        outcomes = {run: -1 if run in whole.early else int(run in whole.detected) for run in fail}
         candidates.append(
             (
                 Worth("inferred", inferred, len(whole.early), runs * whole.false_alarm),
                 whole.chosen,
                 inferred,
                 whole.false_alarm,
+                outcomes,
             )
         )
         if detectors:
-            joint = sum(
-                1
+            joint = {
+                run: -1 if run in whole.early else int(run in whole.detected or by_detector[run])
                 for run in fail
-                if run not in whole.early and (run in whole.detected or by_detector[run])
-            )
+            }
             p_joint = 1.0 - (1.0 - whole.false_alarm) * (1.0 - p_detector)
+            count = sum(v > 0 for v in joint.values())
             candidates.append(
                 (
-                    Worth("inferred+detector", joint, len(whole.early), runs * p_joint),
+                    Worth("inferred+detector", count, len(whole.early), runs * p_joint),
                     whole.chosen + named,
-                    joint,
+                    count,
                     p_joint,
+                    joint,
                 )
             )
-    worth, chosen, detected, p_chosen = max(candidates, key=lambda c: c[0].value)  # first of equals
+    best = max(candidates, key=lambda c: c[0].value)  # first of equals
+    # the smallest monitor whose worth is within a standard error of the best's (the
+    # one-standard-error rule): a difference chance explains buys no more invariants
+    near = [c for c in candidates if c[0].value >= best[0].value - within_noise(best[4], c[4])]
+    worth, chosen, detected, p_chosen, _ = min(near, key=lambda c: len(c[1]))  # first of equals
     return Cover(
         chosen,
         detected,

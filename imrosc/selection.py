@@ -27,7 +27,8 @@ its invariants' detections, and so are its false alarms. Two selections:
   The cover is one candidate monitor among others (:func:`imrosc.classify.monitor_choice`):
   the inferred monitor as calibrated (:class:`Whole`: every invariant under the file's own
   alarm rule) is another, and learnt detectors make more; the one worth the most on failed
-  runs the choice did not see is kept.
+  runs the choice did not see sets the bar, and of those within a standard error of it
+  (:func:`within_noise`) the one of fewest invariants is kept.
 
 * ``fscore``: the thesis' filter (section 4.2): each invariant is scored alone as a
   classifier of failed runs and kept when its F-beta score reaches ``threshold``. It keeps
@@ -37,6 +38,7 @@ its invariants' detections, and so are its false alarms. Two selections:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -214,7 +216,22 @@ def held_out_cover(
     >>> held_out_cover(nominal, {1: {"a"}, 2: {"a"}, 3: {"b"}}, {}, 3, [[1], [2], [3]])
     (2, 0)
     """
-    detected = early_alarms = 0
+    found = held_out_outcomes(nominal, detects, early, runs, folds, order, extra)
+    return sum(v > 0 for v in found.values()), sum(v < 0 for v in found.values())
+
+
+def held_out_outcomes(
+    nominal: Mapping[str, Nominal],
+    detects: Mapping[Run, set[str]],
+    early: Mapping[Run, set[str]],
+    runs: int,
+    folds: Sequence[Sequence[Run]],
+    order: Sequence[str] = (),
+    extra: Mapping[Run, bool] | None = None,
+) -> dict[Run, int]:
+    """Per held-out failed run, what :func:`held_out_cover` counts of it: 1 detected, -1
+    alarmed on before its onset, 0 neither."""
+    found: dict[Run, int] = {}
     for fold in folds:
         held = set(fold)
         chosen = set(
@@ -228,10 +245,28 @@ def held_out_cover(
         )
         for run in fold:
             spoiled = bool(early.get(run, set()) & chosen)
-            early_alarms += spoiled
-            found = bool(detects.get(run, set()) & chosen) or bool((extra or {}).get(run))
-            detected += found and not spoiled
-    return detected, early_alarms
+            hit = bool(detects.get(run, set()) & chosen) or bool((extra or {}).get(run))
+            found[run] = -1 if spoiled else int(hit)
+    return found
+
+
+def within_noise(best: Mapping[Any, int], other: Mapping[Any, int]) -> float:
+    """The standard error of the difference between two candidates' held-out counts over
+    the same failed runs (paired: per run, one's outcome less the other's, -2 to 2; runs
+    missing from one count 0 there): ``sqrt(n) * sd``, 0 with fewer than two runs.
+
+    >>> within_noise({1: 1, 2: 1, 3: 0, 4: 0}, {1: 0, 2: 1, 3: 0, 4: 0})
+    1.0
+    >>> within_noise({1: 1, 2: 1}, {1: 1, 2: 1})
+    0.0
+    """
+    runs = set(best) | set(other)
+    n = len(runs)
+    if n < 2:
+        return 0.0
+    d = [best.get(r, 0) - other.get(r, 0) for r in runs]
+    mean = sum(d) / n
+    return math.sqrt(n * sum((x - mean) ** 2 for x in d) / (n - 1))
 
 
 def union_false_alarm(nominal: Mapping[str, Nominal], chosen: Sequence[str]) -> float:

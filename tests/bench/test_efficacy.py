@@ -4,6 +4,7 @@ monitor or two side by side). The bench itself is not run."""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 import math
@@ -22,6 +23,8 @@ from bench import efficacy as e
 from imrosc.classify import load_project
 from imrosc.diagnostics import Diagnostic, make
 from imrosc.ir import Project
+from imrosc.runtime.alarms import Alarm
+from imrosc.runtime.violation import Violation
 
 SECOND = 1_000_000_000
 START = 1_553_088_600 * SECOND
@@ -250,6 +253,22 @@ def test_five_folds_of_alfa() -> None:
     assert sorted(len(fold) for fold in split) == [4, 4, 4, 4, 5]
 
 
+def test_one_fold_per_session() -> None:
+    """``--folds session``: leave one recording session out, whatever their number."""
+    split = e.session_folds(ALFA_FLIGHTS, e.SESSIONS)
+    assert len(split) == 14
+    assert all(len({e.session_of(n) for n in fold}) == 1 for fold in split)
+    assert sorted(len(fold) for fold in split) == [1] * 9 + [2] * 3 + [3] * 2
+    assert len(e.session_folds(ALFA_FLIGHTS[2:4], e.SESSIONS)) == 1  # one session
+
+
+def test_the_folds_option() -> None:
+    assert e.folds_of("session") == e.SESSIONS and e.folds_of("3") == 3
+    for wrong in ("1", "0", "-2", "sessions", "2.5"):
+        with pytest.raises(argparse.ArgumentTypeError, match="at least 2"):
+            e.folds_of(wrong)
+
+
 def test_test_flights_are_read_from_their_onsets(tmp_path: Path) -> None:
     (tmp_path / "engine").mkdir()
     (tmp_path / "engine" / "a.bag").write_bytes(b"")
@@ -475,6 +494,24 @@ def test_an_outcome_keeps_its_first_violation_at_or_after_the_onset() -> None:
     assert e.outcome("r", "engine", 10.0, result).violated is None
 
 
+def test_a_false_alarm_names_what_raised_it(capsys: pytest.CaptureFixture[str]) -> None:
+    """The first alarm's point, rule and invariant; printed for runs alarmed before their
+    onset (any alarm of a nominal run), not for detections."""
+    violation = Violation(12.5, "m", "d1", "detector", "logistic", "detector score <= 2", 3.1, "")
+    result = type("R", (), {})()
+    result.error, result.start, result.violations = None, 2.0, [violation]
+    result.alarms = [Alarm(12.5, "m", "violation", ("d1",), violation)]
+    early = e.outcome("early", "engine", 20.0, result)
+    assert early.cause == "m, violation: d1 detector score <= 2" and early.false_alarm
+    caught = e.outcome("caught", "engine", 10.0, result)
+    quiet = _named("quiet", "nominal", None)
+    e.print_false_alarms({"classified": [early, caught, quiet]})
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1:] == ["  classified early: 10.50 s, m, violation: d1 detector score <= 2"]
+    e.print_false_alarms({"classified": [caught, quiet]})
+    assert capsys.readouterr().out.splitlines()[1:] == ["  none"]
+
+
 def test_the_warnings_of_a_classification() -> None:
     def diagnostic(code: str) -> Diagnostic:
         return make("c.xml", 1, 1, code, "...")
@@ -493,3 +530,13 @@ def test_the_detectors_of_a_classification() -> None:
         "detectors 1 learnt (v: 13 held-out nominal runs), 2 refused (a, b)"
     )
     assert e.describe_detectors({}) == "detectors 0 learnt (-), 0 refused (-)"
+    report["cover"] = {
+        "monitor": "detector",
+        "held_out": [
+            {"monitor": "cover", "value": 1.364},
+            {"monitor": "detector", "value": 11.0256},
+        ],
+    }
+    assert e.describe_detectors(report).endswith(
+        "; monitor kept: detector (held-out worth: cover 1.36, detector 11.03)"
+    )

@@ -89,18 +89,39 @@ def test_the_greedy_value_is_the_sets_value_and_each_step_adds_worth(seed: int) 
 
 
 def test_the_calibrated_inferred_monitor_wins_when_the_cover_costs_more_than_it_detects() -> None:
-    """Three invariants each unbroken on 6 nominal runs (1/8 each) detect one fault each; the
-    whole monitor, whose alarm rule held on the same 6 runs, detects two of them at 1/8."""
+    """Eight invariants each unbroken on 6 nominal runs (1/8 each) detect one fault each; the
+    whole monitor, whose alarm rule held on the same 6 runs, detects seven of them at 1/8:
+    worth 7 - 14/8, beyond a standard error (1) of the empty cover's 0."""
+    names = "abcdefgh"
+    nominal = {name: Nominal(6, 0) for name in names}
+    fail = {Path(f"f{k}"): {name} for k, name in enumerate(names)}
+    whole = Whole((*names, "z"), frozenset(Path(f"f{k}") for k in range(7)), frozenset(), 6, 0)
+    folds = [[run] for run in fail]
+    chosen = monitor_choice(nominal, fail, {}, 14, folds, (), set(), whole)
+    assert chosen.worth is not None and chosen.worth.name == "inferred"
+    assert chosen.chosen == (*names, "z")
+    assert chosen.detected == 7 and chosen.false_alarm == pytest.approx(1 / 8)
+    assert chosen.value == pytest.approx(7 - 14 / 8)
+    assert [w.name for w in chosen.candidates] == ["cover", "inferred"]
+
+
+def test_a_lead_chance_explains_keeps_the_smaller_monitor() -> None:
+    """The whole monitor detects two of three faults, worth 2 - 9/8 against the empty
+    cover's 0: a lead of 0.875 where the paired outcomes' standard error is 1 (the
+    one-standard-error rule), so the monitor of fewer invariants is kept."""
     nominal = {name: Nominal(6, 0) for name in "abc"}
     fail = {Path(f"f{k}"): {name} for k, name in enumerate("abc")}
     whole = Whole(("a", "b", "c", "d"), frozenset({Path("f0"), Path("f1")}), frozenset(), 6, 0)
-    folds = [[run] for run in fail]
-    chosen = monitor_choice(nominal, fail, {}, 9, folds, (), set(), whole)
-    assert chosen.worth is not None and chosen.worth.name == "inferred"
-    assert chosen.chosen == ("a", "b", "c", "d")
-    assert chosen.detected == 2 and chosen.false_alarm == pytest.approx(1 / 8)
-    assert chosen.value == pytest.approx(2 - 9 / 8)
-    assert [w.name for w in chosen.candidates] == ["cover", "inferred"]
+    chosen = monitor_choice(nominal, fail, {}, 9, [[run] for run in fail], (), set(), whole)
+    assert chosen.worth is not None and chosen.worth.name == "cover" and chosen.chosen == ()
+    inferred = next(w for w in chosen.candidates if w.name == "inferred")
+    assert inferred.value == pytest.approx(2 - 9 / 8)  # the best worth, not kept
+    # a detector that detects as many: the smaller monitor again, now beyond noise of none
+    detector = {**nominal, "d1": Nominal(30, 0, ceiling=0.01)}
+    caught = {run: ids | {"d1"} for run, ids in fail.items() if run != Path("f2")}
+    caught[Path("f2")] = fail[Path("f2")]
+    kept = monitor_choice(detector, caught, {}, 9, [[r] for r in fail], (), {"d1"}, whole)
+    assert kept.worth is not None and kept.worth.name == "detector" and kept.chosen == ("d1",)
 
 
 def test_an_alarm_before_the_onset_spoils_the_whole_monitor_too() -> None:
