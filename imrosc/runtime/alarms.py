@@ -262,8 +262,8 @@ EVERY_VIOLATION = AlarmRule()
 
 
 class Alarm(NamedTuple):
-    """An alarm: the violation that raised it, the rule (``persist``, ``agree``, ``event``,
-    ``severe``) and the invariants that took part."""
+    """An alarm: the violation that raised it, the rule (``persist``, ``summed``, ``agree``,
+    ``event``, ``severe``) and the invariants that took part."""
 
     time: float
     point: str
@@ -287,6 +287,8 @@ class Alarm(NamedTuple):
             why = f"{len(self.invariants)} invariants broken together"
         elif self.rule == "persist":
             why = "a violation that persists"
+        elif self.rule == "summed":
+            why = "a lasting shift (its severities summed)"
         elif self.rule == "severe":
             why = "a severe violation"
         elif v.family == VARIANCE:
@@ -411,7 +413,8 @@ class AlarmTracker:
             strong = summed is not None and episode[3] >= summed
             if episode[1] >= persist or lasting or strong:
                 episode[2] = 1.0
-                raised.append(Alarm(time, point, "persist", (v.invariant,), v))
+                why = "persist" if episode[1] >= persist or lasting else "summed"
+                raised.append(Alarm(time, point, why, (v.invariant,), v))
         if rule.distinct > 0:
             raised += self._agree(point, time, counted)
         self.raised += raised

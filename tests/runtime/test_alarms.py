@@ -229,7 +229,8 @@ def test_a_moderate_violation_alarms_once_its_severities_sum_to_the_familys_stre
     assert tracker.sample("p", 0.0, [ranged("m", 0.0, 2.0, "mean")]) == []
     assert tracker.sample("p", 0.1, [ranged("m", 0.1, 2.0, "mean")]) == []
     (alarm,) = tracker.sample("p", 0.2, [ranged("m", 0.2, 2.0, "mean")])
-    assert (alarm.rule, alarm.invariants) == ("persist", ("m",))
+    assert (alarm.rule, alarm.invariants) == ("summed", ("m",))
+    assert "a lasting shift" in alarm.describe()
     # a clean sample ends the episode: the sum starts again
     assert tracker.sample("p", 0.3, []) == []
     assert tracker.sample("p", 0.4, [ranged("m", 0.4, 2.0, "mean")]) == []
