@@ -197,29 +197,6 @@ class Worth:
         return self.detected - self.early - self.expected
 
 
-def held_out_cover(
-    nominal: Mapping[str, Nominal],
-    detects: Mapping[Run, set[str]],
-    early: Mapping[Run, set[str]],
-    runs: int,
-    folds: Sequence[Sequence[Run]],
-    order: Sequence[str] = (),
-    extra: Mapping[Run, bool] | None = None,
-) -> tuple[int, int]:
-    """The failed runs that ``cover``'s choice detects and alarms on before their onset when
-    each fold of failed runs is held out of the choice (the choice is made on the others):
-    the worth of the selection itself, which the set's own counts overstate (the set was
-    picked because it detects those very runs). ``extra``: per failed run, whether another
-    part of the monitor (a detector, cross-fitted) detects it.
-
-    >>> nominal = {"a": Nominal(10, 0), "b": Nominal(10, 0)}
-    >>> held_out_cover(nominal, {1: {"a"}, 2: {"a"}, 3: {"b"}}, {}, 3, [[1], [2], [3]])
-    (2, 0)
-    """
-    found = held_out_outcomes(nominal, detects, early, runs, folds, order, extra)
-    return sum(v > 0 for v in found.values()), sum(v < 0 for v in found.values())
-
-
 def held_out_outcomes(
     nominal: Mapping[str, Nominal],
     detects: Mapping[Run, set[str]],
@@ -229,8 +206,17 @@ def held_out_outcomes(
     order: Sequence[str] = (),
     extra: Mapping[Run, bool] | None = None,
 ) -> dict[Run, int]:
-    """Per held-out failed run, what :func:`held_out_cover` counts of it: 1 detected, -1
-    alarmed on before its onset, 0 neither."""
+    """Per failed run, what ``cover``'s choice does with it when each fold of failed runs is
+    held out of the choice (the choice is made on the others): 1 detected, -1 alarmed on
+    before its onset, 0 neither. The worth of the selection itself, which the set's own
+    counts overstate (the set was picked because it detects those very runs). ``extra``:
+    per failed run, whether another part of the monitor (a detector, cross-fitted) detects
+    it.
+
+    >>> nominal = {"a": Nominal(10, 0), "b": Nominal(10, 0)}
+    >>> held_out_outcomes(nominal, {1: {"a"}, 2: {"a"}, 3: {"b"}}, {}, 3, [[1], [2], [3]])
+    {1: 1, 2: 1, 3: 0}
+    """
     found: dict[Run, int] = {}
     for fold in folds:
         held = set(fold)
