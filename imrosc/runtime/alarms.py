@@ -390,8 +390,9 @@ class AlarmTracker:
                 episode = episodes[v.invariant] = [time, 0.0, 0.0, 0.0]
             episode[1] += 1
             summed = strength.get(v.family)
+            level = self.severity(v) if summed is not None or self.record else 0.0
             if summed is not None:
-                episode[3] += self.severity(v)
+                episode[3] += level
             if self.record:
                 lasted = time - episode[0]
                 self.fed.append(
@@ -403,7 +404,7 @@ class AlarmTracker:
                         id(v) in counted_ids,
                         lasted,
                         v.family,
-                        self.severity(v),
+                        level,
                     )
                 )
             if episode[2]:
