@@ -613,10 +613,9 @@ def monitor_choice(
     # held-out outcome (1 detected, -1 alarmed on before the onset, 0 neither)
     candidates: list[tuple[Worth, tuple[str, ...], int, float, dict[Path, int]]] = []
     held = held_out_outcomes(invariants, plain, before, runs, folds, order)
-    covered, spoiled = sum(v > 0 for v in held.values()), sum(v < 0 for v in held.values())
     candidates.append(
         (
-            Worth("cover", covered, spoiled, runs * p_cover),
+            Worth.of("cover", held, runs * p_cover),
             found.chosen,
             detected_by(set(found.chosen), fail, before),
             p_cover,
@@ -625,19 +624,17 @@ def monitor_choice(
     )
     if detectors:
         joined = held_out_outcomes(invariants, plain, before, runs, folds, order, by_detector)
-        both = sum(v > 0 for v in joined.values())
-        both_spoiled = sum(v < 0 for v in joined.values())
-        alone = sum(by_detector.values())
+        alone = {run: int(hit) for run, hit in by_detector.items()}
         candidates += [
             (
-                Worth("detector", alone, 0, runs * p_detector),
+                Worth.of("detector", alone, runs * p_detector),
                 named,
-                alone,
+                sum(alone.values()),
                 p_detector,
-                {run: int(hit) for run, hit in by_detector.items()},
+                alone,
             ),
             (
-                Worth("both", both, both_spoiled, runs * p_both),
+                Worth.of("both", joined, runs * p_both),
                 found.chosen + named,
                 detected_by(set(found.chosen) | detectors, fail, before),
                 p_both,
@@ -645,13 +642,12 @@ def monitor_choice(
             ),
         ]
     if whole is not None:
-        inferred = len(whole.detected)
         outcomes = {run: -1 if run in whole.early else int(run in whole.detected) for run in fail}
         candidates.append(
             (
-                Worth("inferred", inferred, len(whole.early), runs * whole.false_alarm),
+                Worth.of("inferred", outcomes, runs * whole.false_alarm),
                 whole.chosen,
-                inferred,
+                len(whole.detected),
                 whole.false_alarm,
                 outcomes,
             )
@@ -662,12 +658,12 @@ def monitor_choice(
                 for run in fail
             }
             p_joint = 1.0 - (1.0 - whole.false_alarm) * (1.0 - p_detector)
-            count = sum(v > 0 for v in joint.values())
+            worth = Worth.of("inferred+detector", joint, runs * p_joint)
             candidates.append(
                 (
-                    Worth("inferred+detector", count, len(whole.early), runs * p_joint),
+                    worth,
                     whole.chosen + named,
-                    count,
+                    worth.detected,
                     p_joint,
                     joint,
                 )

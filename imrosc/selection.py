@@ -196,6 +196,17 @@ class Worth:
     def value(self) -> float:
         return self.detected - self.early - self.expected
 
+    @classmethod
+    def of(cls, name: str, outcomes: Mapping[Any, int], expected: float) -> Worth:
+        """The worth of per-run held-out outcomes (1 detected, -1 alarmed on before the
+        onset, 0 neither; :func:`held_out_outcomes`).
+
+        >>> Worth.of("cover", {1: 1, 2: -1, 3: 0, 4: 1}, 0.5).value
+        0.5
+        """
+        found = list(outcomes.values())
+        return cls(name, sum(v > 0 for v in found), sum(v < 0 for v in found), expected)
+
 
 def held_out_outcomes(
     nominal: Mapping[str, Nominal],
