@@ -28,6 +28,16 @@ import pytest
 
 RCLPY_IMPORTS = "import rclpy, numpy, std_srvs.srv, rcl_interfaces.srv, service_msgs.msg"
 LAUNCH_IMPORTS = "import launch_ros, ros2launch, colcon_core"
+GRACE = 20
+"""Seconds ``ros2 launch`` gives its processes between its SIGINT and a SIGTERM (launch's
+``sigterm_timeout``, 5 by default). On a loaded machine a node's shutdown took longer than
+5 s, and the SIGTERM then crashed rclpy's signal handler (exit code -11): the tests check
+that Ctrl-C stops every node cleanly, not how fast."""
+LAUNCH_GRACE = f"sigterm_timeout:={GRACE}"
+"""The ``ros2 launch`` argument that gives its processes :data:`GRACE` seconds."""
+STOP_TIMEOUT = GRACE + 30
+"""Seconds a test waits for ``ros2 launch`` to end after its Ctrl-C before killing it: the
+grace, launch's SIGKILL timeout (5 s) and a margin."""
 
 
 def required() -> bool:

@@ -39,7 +39,13 @@ from click.testing import CliRunner
 
 from imrosc.cli import main
 from tests.backends.example_ros2_support import CONFIG, GRAPH, PACKAGE
-from tests.backends.ros2_support import Reader, require_launch, ros2_environment
+from tests.backends.ros2_support import (
+    LAUNCH_GRACE,
+    STOP_TIMEOUT,
+    Reader,
+    require_launch,
+    ros2_environment,
+)
 
 pytestmark = pytest.mark.live
 
@@ -152,21 +158,33 @@ elif name == "/a/pid_ctrl":
 else:  # the listeners of the state
     node.create_subscription(UInt8, "/a/subject_ctrl_state", lambda m: None, 10)
 say(f"STANDIN {name} up")
+
+
+def spin():
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception:  # rclpy may raise from a take or publish the SIGINT shutdown interrupted
+        # (on a loaded machine it failed a moment before the context said it was shut down:
+        # give the shutdown a few seconds to show before calling the error the stand-in's)
+        deadline = time.monotonic() + 5.0
+        while rclpy.ok() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if rclpy.ok():
+            raise
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
 try:
-    rclpy.spin(node)
-except (KeyboardInterrupt, ExternalShutdownException):
+    spin()
+except KeyboardInterrupt:
+    # rclpy's handler shuts the context down from its own thread and passes the SIGINT on to
+    # Python's: the KeyboardInterrupt may come after spin() ended on the shutdown, while the
+    # stand-in tells a failed take from it or destroys the node; it is the same Ctrl-C
     pass
-except Exception:  # rclpy may raise from a take the SIGINT shutdown interrupted
-    # (on a loaded machine the take failed a moment before the context said it was shut
-    # down: give the shutdown a second to show before calling the error the stand-in's)
-    deadline = time.monotonic() + 1.0
-    while rclpy.ok() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    if rclpy.ok():
-        raise
-finally:
-    node.destroy_node()
-    rclpy.try_shutdown()
 '''
 
 DRIVER = r"""
@@ -358,7 +376,9 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
     example: Example, tmp_path: Path
 ) -> None:
     environment = example.environment(tmp_path)
-    launch = example.start(f"ros2 launch {PACKAGE} system_monitored.launch.xml", environment)
+    launch = example.start(
+        f"ros2 launch {PACKAGE} system_monitored.launch.xml {LAUNCH_GRACE}", environment
+    )
     try:
         launch.wait_for(f"[{PACKAGE}]: imrosc monitor /{PACKAGE}: checking", 90)
         for node in ("/vicon", "/a/car_ctrl", "/a/ctrl_state_machine", "/a/pid_ctrl"):
@@ -375,14 +395,24 @@ def test_the_example_runs_on_ros2_launch_with_the_blocked_topics_through_the_mon
         launch.wait_for("STANDIN /a/car_ctrl heard /m/a/car_pose", 10)
         # the waypoints go straight to the position loop (not blocked)
         launch.wait_for("STANDIN /a/pid_ctrl heard /a/task_waypose", 10)
-        code = launch.stop(signal.SIGINT, timeout=30)  # Ctrl-C: ros2 launch stops its nodes
+        code = launch.stop(
+            signal.SIGINT, timeout=STOP_TIMEOUT
+        )  # Ctrl-C: ros2 launch stops its nodes
         left = launch.alive_in_group()
     finally:
         launch.kill()
     out = json.loads(driver.stdout.strip().splitlines()[-1])
     warnings = [json.loads(text) for text in out["warnings"]]
-    summary = "relayed: {}; reports (time, alarm, rule): {}".format(
-        out["relayed"], [(w["time"], w["alarm"], w.get("rule")) for w in warnings]
+    # how each process ended, and any traceback: the middle of a long context may be cut
+    endings = [
+        line
+        for line in launch.output.splitlines()
+        if "process has" in line or "Traceback" in line or "Error" in line
+    ]
+    summary = "relayed: {}; reports (time, alarm, rule): {}\n{}".format(
+        out["relayed"],
+        [(w["time"], w["alarm"], w.get("rule")) for w in warnings],
+        "\n".join(endings),
     )
     context = f"{summary}\n{json.dumps(out)}\n{launch.output}\n{summary}"
     assert out["relaying"] and out["recovered"], context  # good commands and positions relayed

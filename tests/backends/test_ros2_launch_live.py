@@ -36,7 +36,13 @@ from imrosc import records
 from imrosc.cli import main
 from tests.backends.monitor_support import config_text, write_case
 from tests.backends.ros2_live_support import DRIVER, MONITOR, SCOPE, assert_monitored, demo_document
-from tests.backends.ros2_support import Reader, require_launch, ros2_environment
+from tests.backends.ros2_support import (
+    LAUNCH_GRACE,
+    STOP_TIMEOUT,
+    Reader,
+    require_launch,
+    ros2_environment,
+)
 
 pytestmark = pytest.mark.live
 
@@ -141,7 +147,7 @@ def test_the_package_built_with_colcon_runs_under_ros2_launch_and_stops_on_sigin
     venv_bin = workspace.venv_bin
     environment = workspace.environment(tmp_path)
     launch = workspace.start(
-        f"ros2 launch {PACKAGE} {PACKAGE}.launch.xml fail_open:=true", environment
+        f"ros2 launch {PACKAGE} {PACKAGE}.launch.xml fail_open:=true {LAUNCH_GRACE}", environment
     )
     try:
         launch.wait_for(f"[{PACKAGE}]: imrosc monitor /{PACKAGE}: checking", 60)
@@ -175,7 +181,9 @@ def test_the_package_built_with_colcon_runs_under_ros2_launch_and_stops_on_sigin
         assert out["relaying"] and 9 in out["relayed"], context  # relayed unchecked
         assert out["answer"] is True and out["served"] == [True], context
 
-        code = launch.stop(signal.SIGINT, timeout=30)  # Ctrl-C: ros2 launch stops its nodes
+        code = launch.stop(
+            signal.SIGINT, timeout=STOP_TIMEOUT
+        )  # Ctrl-C: ros2 launch stops its nodes
         left = launch.alive_in_group()
     finally:
         launch.kill()
