@@ -72,7 +72,17 @@ replay runs the alarm engine). The variants, each a question about the score:
   statistics (:func:`boost`: logistic loss, Newton leaves, 32 quantile thresholds per
   statistic, shrinkage 0.1), the number of trees from ``--trees`` chosen by the
   cross-fitting in place of the penalty: comparisons, so that a large spread alone can be
-  nominal while a shifted mean is a fault.
+  nominal while a shifted mean is a fault;
+* ``--features energy[:NAMES]``: fields of the total energy balance (what a fixed-wing
+  autopilot's throttle controls) derived from the recorded ones beside them
+  (:func:`energy_fields`: the energy the autopilot lacks, the specific power along the body
+  axis, the kinetic energy, the inertial rate of the total energy), or those ``NAMES`` only;
+  ``--features scan:NAME[:WINDOW[:BASELINE]]``: ``--scan``'s signal as one more field;
+* ``--scan NAME[:WINDOW[:BASELINE]]``: no detector, one signal (:func:`signal`: the trailing
+  ``WINDOW``-second mean of an energy rate, less its mean over the ``BASELINE`` seconds before)
+  against the largest value the fold's training flights reached while nominal
+  (:func:`scan`): does it separate a fault's first seconds from every good stretch of the
+  other sessions.
 """
 
 from __future__ import annotations
@@ -494,6 +504,156 @@ class Boosting:
         return Forest(full.trees, int(-strength), full.bias)
 
 
+G = 9.80665
+"""Standard gravity (m/s^2)."""
+MERGED = [
+    "orientation_x",
+    "orientation_y",
+    "orientation_z",
+    "angular_velocity_x",
+    "angular_velocity_y",
+    "angular_velocity_z",
+    "linear_acceleration_x",
+    "linear_acceleration_y",
+    "linear_acceleration_z",
+    "twist_linear_x",
+    "twist_linear_y",
+    "twist_linear_z",
+    "twist_angular_x",
+    "twist_angular_y",
+    "twist_angular_z",
+    "alt_error",
+    "aspd_error",
+    "xtrack_error",
+    "delta_yaw",
+    "delta_pitch",
+    "delta_roll",
+    "delta_x",
+    "delta_y",
+    "delta_z",
+    "delta_roll_airspeed",
+]
+"""The fields of ``/alfa/merged``, in the order :func:`alfa_reference.read` gives them."""
+ENERGY = ("energy_error", "power", "speed_energy", "inertial_power")
+"""The derived fields of ``--features energy`` (:func:`energy_fields`)."""
+
+
+def energy_fields(values: Any, names: Sequence[str]) -> Any:
+    """Derived fields of the total energy balance, per sample (m, m/s): ``speed`` the
+    ground speed ``V`` (``twist_linear_*``: the local velocity, z up); ``energy_error`` the
+    specific energy the autopilot lacks, ``alt_error + V * aspd_error / (100 g)``
+    (``aspd_error`` in cm/s, target less measured: its change over a window is the rate the
+    demand outruns the energy); ``power`` the specific power the accelerometer measures,
+    ``V * linear_acceleration_x / g`` (thrust less drag along the body axis, times ``V /
+    (m g)``: the rate of the total energy ``h + V^2 / (2 g)``); ``speed_energy`` the kinetic
+    part ``V^2 / (2 g)`` (its change plus the height's is the energy's change);
+    ``inertial_power`` the rate of the total energy from the kinematics alone, ``v . f / g``
+    with ``f`` the specific force the accelerometer measures turned into the local frame
+    (``a = f + g_vec``, so ``d(h + V^2 / (2 g))/dt = v . a / g + v_z = v . f / g``: lift does
+    no work on the air-relative path, and a turn's or a pull-up's accelerations drop out)."""
+    x = filled(values)
+    at = {k: x[:, MERGED.index(k)] for k in MERGED}
+    speed = np.sqrt(sum(at[f"twist_linear_{a}"] ** 2 for a in "xyz"))
+    found = {
+        "speed": speed,
+        "energy_error": at["alt_error"] + speed * at["aspd_error"] / (100.0 * G),
+        "power": speed * at["linear_acceleration_x"] / G,
+        "speed_energy": speed * speed / (2.0 * G),
+    }
+    if "inertial_power" in names:
+        velocity = np.column_stack([at[f"twist_linear_{a}"] for a in "xyz"])
+        force = np.column_stack([at[f"linear_acceleration_{a}"] for a in "xyz"])
+        found["inertial_power"] = np.einsum("ki,ki->k", velocity, to_local(at, velocity, force)) / G
+    return np.column_stack([found[n] for n in names])
+
+
+SCANNED = {"inertial_power": -1.0, "power": -1.0, "climb": -1.0, "energy_error": 1.0}
+"""The signals ``--scan`` knows, each with the sign that makes a lost engine raise it: the
+energy's rates fall, the energy the autopilot lacks grows."""
+
+
+def signal(times: Any, values: Any, name: str, window: float, baseline: float) -> Any:
+    """``--scan``'s signal of a flight: the mean over the trailing ``window`` seconds of
+    ``name`` (:data:`SCANNED`; ``climb`` is ``twist_linear_z``, ``energy_error`` its rate: the
+    least-squares slope over the window), signed so that a lost engine raises it; with a
+    ``baseline`` less its mean over the ``baseline`` seconds before that window (a flight's
+    own trim and sensor bias taken out). NaN until the samples span both."""
+    if name == "climb":
+        raw = filled(values)[:, MERGED.index("twist_linear_z")]
+    else:
+        raw = energy_fields(values, [name])[:, 0]
+    stats = window_stats(times, raw[:, None], window, slope=name == "energy_error")
+    found = SCANNED[name] * (stats[:, 3] if name == "energy_error" else stats[:, 0])
+    span = window + baseline
+    if baseline > 0:
+        ends = np.searchsorted(times, times - window, side="right")
+        starts = np.searchsorted(times, times - span, side="right")
+        total = np.concatenate(([0.0], np.cumsum(found)))
+        found = found - (total[ends] - total[starts]) / np.maximum(ends - starts, 1)
+    found[times - times[0] < span] = math.nan
+    return found
+
+
+def scan(
+    flights: Mapping[str, Flight], signals: Mapping[str, Any], folds: Sequence[Sequence[str]]
+) -> list[Outcome]:
+    """Each fold's flights against the largest value their training flights' signal reached
+    while nominal (a no-failure flight whole, a fault flight before its onset): an alarm
+    where a held-out flight's signal first passes it."""
+    outcomes = []
+    for held in folds:
+        nominal = [
+            signals[n][(times < (info["onset_ns"] or math.inf) / 1e9)]
+            for n, (info, times, _) in flights.items()
+            if n not in held
+        ]
+        threshold = max(float(np.nanmax(s)) for s in nominal if np.isfinite(s).any())
+        for name in held:
+            info, times, _ = flights[name]
+            over = np.flatnonzero(signals[name] > threshold)
+            onset = None if info["onset_ns"] is None else info["onset_ns"] / 1e9
+            group = info["class"] if onset is not None else "no_failure"
+            alarms = (float(times[over[0]]),) if len(over) else ()
+            outcomes.append(Outcome(name, group, onset, alarms, start=info["start_ns"] / 1e9))
+    return outcomes
+
+
+def rotations(qx: Any, qy: Any, qz: Any) -> Any:
+    """Per sample the rotation matrix (body to local) of the unit quaternion ``(qx, qy, qz,
+    w)`` with ``w >= 0``."""
+    qw = np.sqrt(np.clip(1.0 - qx * qx - qy * qy - qz * qz, 0.0, 1.0))
+    r = np.empty((len(qx), 3, 3))
+    r[:, 0, 0] = 1 - 2 * (qy * qy + qz * qz)
+    r[:, 0, 1] = 2 * (qx * qy - qz * qw)
+    r[:, 0, 2] = 2 * (qx * qz + qy * qw)
+    r[:, 1, 0] = 2 * (qx * qy + qz * qw)
+    r[:, 1, 1] = 1 - 2 * (qx * qx + qz * qz)
+    r[:, 1, 2] = 2 * (qy * qz - qx * qw)
+    r[:, 2, 0] = 2 * (qx * qz - qy * qw)
+    r[:, 2, 1] = 2 * (qy * qz + qx * qw)
+    r[:, 2, 2] = 1 - 2 * (qx * qx + qy * qy)
+    return r
+
+
+def to_local(at: Mapping[str, Any], velocity: Any, force: Any) -> Any:
+    """The body-frame ``force`` in the local frame. ``/alfa/merged`` keeps the orientation's
+    x, y, z and drops w, so ``w``'s sign is lost: of the two rotations it leaves, the one
+    under which the aircraft's velocity points forward (body x) is taken."""
+    q = [at[f"orientation_{a}"] for a in "xyz"]
+    best_force, best_forward = None, None
+    for sign in (1.0, -1.0):
+        r = rotations(*(sign * c for c in q))
+        forward = np.einsum("kj,kj->k", r[:, :, 0], velocity)
+        local = np.einsum("kij,kj->ki", r, force)
+        if best_force is None or best_forward is None:
+            best_force, best_forward = local, forward
+        else:
+            pick = forward > best_forward
+            best_force[pick] = local[pick]
+            best_forward = np.maximum(forward, best_forward)
+    return best_force
+
+
 Flight = tuple[Mapping[str, Any], Any, Any]
 """A flight's entry in ``onsets.json``, its sample times (s) and values."""
 
@@ -569,6 +729,26 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
             return np.hstack([features(t, v, 1.0), innovations])
 
         return with_innovations, 1.0
+    if kind.startswith("energy"):
+        # energy[:NAMES]: derived fields of the total energy balance beside the recorded ones
+        # (:func:`energy_fields`), their statistics as the base statistics'
+        names = kind.split(":", 1)[1].split(",") if ":" in kind else list(ENERGY)
+
+        def with_energy(t: Any, v: Any) -> Any:
+            return features(t, np.hstack([v, energy_fields(v, names)]), 1.0)
+
+        return with_energy, 1.0
+    if kind.startswith("scan:"):
+        # scan:NAME[:WINDOW[:BASELINE]]: --scan's signal as one more field
+        name, *rest = kind.split(":")[1:]
+        window = float(rest[0]) if rest else 1.0
+        baseline = float(rest[1]) if len(rest) > 1 else 0.0
+
+        def with_signal(t: Any, v: Any) -> Any:
+            extra = signal(t, v, name, window, baseline)[:, None]
+            return features(t, np.hstack([v, extra]), 1.0)
+
+        return with_signal, 1.0
     if kind == "residual":
         model = Residuals([filled(nominal_part(f)[1]) for f in training])
 
@@ -635,6 +815,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--nominal-copies", choices=("twice", "once"), default="twice")
     parser.add_argument("--model", choices=("logistic", "gbm1", "gbm2"), default="logistic")
     parser.add_argument("--trees", default="30,100,300", help="--model gbm: tree counts")
+    parser.add_argument(
+        "--scan", default="", help="NAME[:WINDOW[:BASELINE]]: one signal against held-out maxima"
+    )
     args = parser.parse_args(argv)
     offsets = [float(d) for d in args.offsets.split(",") if d.strip()]
     detectors.FIT_SAMPLES = args.fit_samples
@@ -643,6 +826,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     started = time.monotonic()
     flights: dict[str, Flight] = {n: (i, *read(ALFA / n)) for n, i in sorted(onsets.items())}
     print(f"read {len(flights)} flights in {time.monotonic() - started:.1f} s; {REFERENCE}")
+    if args.scan:
+        name, *rest = args.scan.split(":")
+        window = float(rest[0]) if rest else 1.0
+        baseline = float(rest[1]) if len(rest) > 1 else 0.0
+        signals = {n: signal(f[1], f[2], name, window, baseline) for n, f in flights.items()}
+        print_outcomes(scan(flights, signals, session_folds(onsets, args.folds)))
+        return 0
     weighs: dict[str, Callable[[Any, Any, float, float], Any]] = {
         "mean": evidence,
         "cusum": cusum,

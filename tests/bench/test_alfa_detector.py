@@ -198,3 +198,70 @@ def test_relative_evidence_absorbs_a_standing_level() -> None:
     assert abs(found[int(20 / 0.05)]) < 1e-6  # a standing level is no evidence
     assert found[int(30 / 0.05)] == np.float64(5.0)  # a step is, at once
     assert abs(found[-1]) < 0.02  # and less as it lasts (5 e^-6)
+
+
+def merged_row(**fields: float) -> Any:
+    """One ``/alfa/merged`` sample with ``fields`` set, the others 0."""
+    return np.array([[fields.get(k, 0.0) for k in a.MERGED]])
+
+
+def test_inertial_power_is_the_rate_of_the_total_energy_whatever_the_attitude() -> None:
+    # a yaw of 240 degrees (the quaternion's w < 0: /alfa/merged drops it, its sign with
+    # it) pitched up 10 degrees, flying along its nose at 15 m/s while accelerating
+    rng = np.random.default_rng(11)
+    for yaw, pitch in ((4.19, 0.17), (1.0, -0.1), (-2.5, 0.3)):
+        cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+        cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+        # a unit quaternion (yaw about z, pitch about y), its rotation body (FLU) to local (ENU)
+        q = np.array([-sy * sp, cy * sp, sy * cp, cy * cp])  # x, y, z, w
+        r = a.rotations(*(q[:3, None] * np.sign(q[3])))[0]
+        velocity = r @ np.array([15.0, 0.0, 0.0])
+        accel = rng.normal(size=3)
+        force = r.T @ (accel + np.array([0.0, 0.0, a.G]))
+        row = merged_row(
+            orientation_x=q[0], orientation_y=q[1], orientation_z=q[2],
+            twist_linear_x=velocity[0], twist_linear_y=velocity[1], twist_linear_z=velocity[2],
+            linear_acceleration_x=force[0], linear_acceleration_y=force[1],
+            linear_acceleration_z=force[2],
+        )  # fmt: skip
+        found = a.energy_fields(row, ["inertial_power", "speed_energy"])[0]
+        # d(h + V^2 / 2g)/dt = v_z + v . a / g
+        assert math.isclose(found[0], velocity[2] + velocity @ accel / a.G, abs_tol=1e-9)
+        assert math.isclose(found[1], 15.0**2 / (2 * a.G))
+
+
+def test_energy_error_adds_the_speed_deficit_as_height() -> None:
+    row = merged_row(
+        twist_linear_x=20.0, alt_error=3.0, aspd_error=-150.0, linear_acceleration_x=-1.0
+    )
+    error, power = a.energy_fields(row, ["energy_error", "power"])[0]
+    assert math.isclose(error, 3.0 + 20.0 * -1.5 / a.G)
+    assert math.isclose(power, -20.0 / a.G)
+
+
+def test_a_signal_less_its_baseline_is_its_change_and_nan_until_it_spans_both() -> None:
+    times = np.arange(0.0, 25.0, 0.05)
+    climb = np.where(times < 15.0, 2.0, -1.0)
+    values = np.vstack([merged_row(twist_linear_z=c)[0] for c in climb])
+    found = a.signal(times, values, "climb", 1.0, 5.0)
+    assert np.isnan(found[times < 6.0]).all()
+    assert np.allclose(found[(times > 6.0) & (times < 15.0)], 0.0)  # a steady climb: no change
+    # signed, a sink raises it: by 3 once the window has left the climb, until the baseline
+    # (the mean of the windows' means over the 5 s before) has too
+    assert np.isclose(np.nanmax(found), 3.0)
+    assert np.isclose(found[np.searchsorted(times, 16.0)], 3.0, atol=0.01)
+    assert np.allclose(found[times > 22.1], 0.0)
+    assert np.allclose(a.signal(times, values, "climb", 1.0, 0.0)[times > 16.0], 1.0)
+
+
+def test_a_scan_alarms_where_a_held_out_flight_passes_the_training_flights_nominal_maximum() -> (
+    None
+):
+    times = np.arange(100.0, 110.0, 0.5)
+    good: dict[str, Any] = {"start_ns": 100e9, "onset_ns": None, "class": "no_failure"}
+    bad: dict[str, Any] = {"start_ns": 100e9, "onset_ns": 105e9, "class": "engine"}
+    flights: dict[str, Any] = {"g": (good, times, None), "f": (bad, times, None)}
+    signals = {"g": np.where(times > 108.0, 2.0, 1.0), "f": np.where(times >= 106.0, 3.0, 0.0)}
+    found = {o.name: o for o in a.scan(flights, signals, [["f"], ["g"]])}
+    assert found["f"].delay == 1.0  # above the good flight's 2
+    assert found["g"].false_alarm  # above the fault flight's 0 before its onset
