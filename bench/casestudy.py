@@ -34,7 +34,8 @@ gives the figures).
 4. per scenario, ``--trials`` trials (seeds ``--first-seed``, 0 by default, and on)
    through the system's launch file (without the monitor) and through the
    ``system_monitored.launch`` the build rewrote (with it: blocking, and commanding the
-   task state when an invariant breaks).
+   task state when an invariant breaks), the trials likely to last longest first
+   (:func:`start_order`); a line per trial as it ends, the table in the trials' order.
 
 Printed: Table 5.2's layout per scenario (success %, average time to land of the successes,
 landings re-initiated, and the invariants whose alarms the monitor raised most often over
