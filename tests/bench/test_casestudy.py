@@ -100,3 +100,19 @@ def test_the_trials_start_at_the_first_seed() -> None:
         ("wind", True, 11),
     ]
     assert [seed for _, _, seed in c.trial_tasks(["normal"], 3)] == [0, 1, 2] * 2
+
+
+def test_the_trials_that_stay_up_start_first_then_those_with_the_monitor() -> None:
+    tasks = c.trial_tasks(["normal", "occupied", "false_airport"], 2)
+    order = c.start_order(tasks)
+    assert sorted(order) == list(range(len(tasks)))  # every trial, once
+    started = [tasks[k] for k in order]
+    assert started[:4] == [
+        ("occupied", True, 0),
+        ("occupied", True, 1),
+        ("false_airport", True, 0),
+        ("false_airport", True, 1),
+    ]
+    assert started[4:6] == [("normal", True, 0), ("normal", True, 1)]
+    assert all(not monitor for _, monitor, _ in started[6:])
+    assert [seed for _, _, seed in started[6:]] == [0, 1] * 3  # the tasks' order otherwise

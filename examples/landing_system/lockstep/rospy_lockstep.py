@@ -1120,13 +1120,15 @@ class Coordinator:
         deadline = time.monotonic() + timeout
         while True:
             with self.state.cond:
-                why = self.unsettled(now, released)
-                if not why or self.state.rospy.is_shutdown():
+                # settled() is unsettled()'s answer without its reasons, which only the
+                # warning needs
+                if self.settled(now, released) or self.state.rospy.is_shutdown():
                     return True
                 wake = self.due_now(now) - sent if released else set()
                 if not wake:
                     left = deadline - time.monotonic()
                     if left <= 0:
+                        why = self.unsettled(now, released)
                         self.stalls += 1
                         self.forget_the_dead()
                         self.state.rospy.logwarn(
