@@ -473,10 +473,10 @@ def run_trials(
         )
 
     started = on_lanes(lanes, [tasks[k] for k in order], run, done)
-    outcomes: list[Outcome] = [started[order.index(k)] for k in range(len(tasks))]
+    outcomes: dict[int, Outcome] = dict(zip(order, started, strict=True))  # by task
     rows: dict[tuple[str, bool], Row] = {}
-    for (scenario, monitor, _), outcome in zip(tasks, outcomes, strict=True):
-        rows.setdefault((scenario, monitor), Row([])).outcomes.append(outcome)
+    for k, (scenario, monitor, _) in enumerate(tasks):
+        rows.setdefault((scenario, monitor), Row([])).outcomes.append(outcomes[k])
     return rows
 
 
