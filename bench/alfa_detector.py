@@ -78,7 +78,7 @@ replay runs the alarm engine). The variants, each a question about the score:
   (:func:`energy_fields`: the energy the autopilot lacks, the specific power along the body
   axis, the kinetic energy, the inertial rate of the total energy), or those ``NAMES`` only;
   ``--features scan:NAME[:WINDOW[:BASELINE]]``: ``--scan``'s signal as one more field;
-* ``--scan NAME[:WINDOW[:BASELINE]]``: no detector, one signal (:func:`signal`: the trailing
+* ``--scan NAME[:WINDOW[:BASELINE]]``: no detector, one signal (:func:`scan_signal`: the trailing
   ``WINDOW``-second mean of an energy rate, less its mean over the ``BASELINE`` seconds before)
   against the largest value the fold's training flights reached while nominal
   (:func:`scan`): does it separate a fault's first seconds from every good stretch of the
@@ -572,7 +572,7 @@ SCANNED = {"inertial_power": -1.0, "power": -1.0, "climb": -1.0, "energy_error":
 energy's rates fall, the energy the autopilot lacks grows."""
 
 
-def signal(times: Any, values: Any, name: str, window: float, baseline: float) -> Any:
+def scan_signal(times: Any, values: Any, name: str, window: float, baseline: float) -> Any:
     """``--scan``'s signal of a flight: the mean over the trailing ``window`` seconds of
     ``name`` (:data:`SCANNED`; ``climb`` is ``twist_linear_z``, ``energy_error`` its rate: the
     least-squares slope over the window), signed so that a lost engine raises it; with a
@@ -745,7 +745,7 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
         baseline = float(rest[1]) if len(rest) > 1 else 0.0
 
         def with_signal(t: Any, v: Any) -> Any:
-            extra = signal(t, v, name, window, baseline)[:, None]
+            extra = scan_signal(t, v, name, window, baseline)[:, None]
             return features(t, np.hstack([v, extra]), 1.0)
 
         return with_signal, 1.0
@@ -830,7 +830,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         name, *rest = args.scan.split(":")
         window = float(rest[0]) if rest else 1.0
         baseline = float(rest[1]) if len(rest) > 1 else 0.0
-        signals = {n: signal(f[1], f[2], name, window, baseline) for n, f in flights.items()}
+        signals = {n: scan_signal(f[1], f[2], name, window, baseline) for n, f in flights.items()}
         print_outcomes(scan(flights, signals, session_folds(onsets, args.folds)))
         return 0
     weighs: dict[str, Callable[[Any, Any, float, float], Any]] = {

@@ -243,7 +243,7 @@ def test_a_signal_less_its_baseline_is_its_change_and_nan_until_it_spans_both() 
     times = np.arange(0.0, 25.0, 0.05)
     climb = np.where(times < 15.0, 2.0, -1.0)
     values = np.vstack([merged_row(twist_linear_z=c)[0] for c in climb])
-    found = a.signal(times, values, "climb", 1.0, 5.0)
+    found = a.scan_signal(times, values, "climb", 1.0, 5.0)
     assert np.isnan(found[times < 6.0]).all()
     assert np.allclose(found[(times > 6.0) & (times < 15.0)], 0.0)  # a steady climb: no change
     # signed, a sink raises it: by 3 once the window has left the climb, until the baseline
@@ -251,7 +251,7 @@ def test_a_signal_less_its_baseline_is_its_change_and_nan_until_it_spans_both() 
     assert np.isclose(np.nanmax(found), 3.0)
     assert np.isclose(found[np.searchsorted(times, 16.0)], 3.0, atol=0.01)
     assert np.allclose(found[times > 22.1], 0.0)
-    assert np.allclose(a.signal(times, values, "climb", 1.0, 0.0)[times > 16.0], 1.0)
+    assert np.allclose(a.scan_signal(times, values, "climb", 1.0, 0.0)[times > 16.0], 1.0)
 
 
 def test_a_scan_alarms_where_a_held_out_flight_passes_the_training_flights_nominal_maximum() -> (
