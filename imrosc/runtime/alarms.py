@@ -410,11 +410,12 @@ class AlarmTracker:
             if episode[2]:
                 continue
             persist, seconds = rule.persistence(v.family) if rule.families else persistence
-            lasting = seconds is not None and time - episode[0] >= seconds
-            strong = summed is not None and episode[3] >= summed
-            if episode[1] >= persist or lasting or strong:
+            persisted = episode[1] >= persist or (
+                seconds is not None and time - episode[0] >= seconds
+            )
+            if persisted or (summed is not None and episode[3] >= summed):
                 episode[2] = 1.0
-                why = "persist" if episode[1] >= persist or lasting else "summed"
+                why = "persist" if persisted else "summed"
                 raised.append(Alarm(time, point, why, (v.invariant,), v))
         if rule.distinct > 0:
             raised += self._agree(point, time, counted)
