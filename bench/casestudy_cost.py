@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import sys
 import tempfile
 from pathlib import Path
@@ -28,14 +27,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from bench.casestudy import children_cpu  # noqa: E402
 from tests.live.harness import Ros, ros_missing  # noqa: E402
 from tests.live.landing_system import LAUNCH, Outcome, prepare, trial  # noqa: E402
-
-
-def children_cpu() -> float:
-    """CPU seconds (user and system) of the processes this one started and reaped so far."""
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
 
 
 def measured(
