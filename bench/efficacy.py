@@ -1224,7 +1224,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         choices=("larger", "select"),
         default=None,
         help="<detect step_tail>: how steps' margins model the units' largest steps (default: "
-        "imrosc's, larger; docs/calibration.md section 4)",
+        "imrosc's, select; docs/calibration.md section 4)",
     )
     parser.add_argument(
         "--alfa-test",

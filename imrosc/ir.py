@@ -38,7 +38,7 @@ class Tunables:
     discrete: int = 10
     budget: float = 0.05
     """Per-run false-alarm budget of calibration (``docs/calibration.md``); 0 turns it off."""
-    step_tail: Literal["larger", "select"] = "larger"
+    step_tail: Literal["larger", "select"] = "select"
     """The model of the units' largest steps behind a step's margin (``docs/calibration.md``,
     section 4): ``larger``, the larger of the normal and log-normal bounds; ``select``, the
     bound of the model that predicts the units held out in turn the better."""

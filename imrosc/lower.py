@@ -159,7 +159,7 @@ def _detect(config: LoadedConfig, element: etree._Element) -> ir.Detect:
         hull_chunk=_count(element, "hull_chunk", defaults.hull_chunk),
         discrete=_count(element, "discrete", defaults.discrete),
         budget=_number(element, "budget", defaults.budget),
-        step_tail="select" if element.get("step_tail") == "select" else "larger",
+        step_tail="larger" if element.get("step_tail") == "larger" else "select",
     )
     return ir.Detect(
         element.get("inv", ""), _texts(element, "bag"), _span(config, element), tunables

@@ -142,7 +142,7 @@ def calibrate(
     folds: int = 5,
     workers: int = 1,
     replays: Replays | None = None,
-    step_tail: str = "larger",
+    step_tail: str = "select",
 ) -> Calibration:
     """Calibrate ``document`` (an invariants document, changed in place) on ``units``; the
     held-out replays run in ``workers`` processes, or with ``replays`` (a cluster);

@@ -156,7 +156,7 @@ class Envelopes:
         budget: float,
         *,
         margins: bool = False,
-        step_tail: str = "larger",
+        step_tail: str = "select",
     ) -> None:
         self.source = document
         self.margins = margins
@@ -304,13 +304,13 @@ class Envelopes:
         step either way (a jump has no preferred direction). A run's largest step is a
         positive maximum whose spread is multiplicative where jumps are part of normal
         operation (a waypoint switch moves a track error by whatever the geometry gives)
-        and additive where steps are sensor noise. Its limit is the larger of the normal
-        bound and the same bound taken in the logarithm (a log-normal model), which
-        reaches as far as such a tail does (:attr:`step_tail` ``larger``, the default); or,
-        with ``select``, the bound of the model that predicts the units' largest steps held
-        out in turn the better (:func:`.tolerance.maxima_bound`): as narrow as the normal
-        bound where the units' steps are alike, but a new session whose jumps go beyond
-        every unit's is then beyond the margin too."""
+        and additive where steps are sensor noise. Its limit is the bound of the model,
+        normal or log-normal, that predicts the units' largest steps held out in turn the
+        better (:attr:`step_tail` ``select``, the default; :func:`.tolerance.maxima_bound`):
+        as narrow as the normal bound where the units' steps are alike, but a new session
+        whose jumps go beyond every unit's is then beyond the margin too; or, with
+        ``larger``, the larger of the two bounds, which reaches as far as a log-normal
+        tail does."""
         found: dict[str, list[float]] = {}
         level = self.severe_level
         supports, known = limits.supports[:, chosen], limits.known[:, chosen]

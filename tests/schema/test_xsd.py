@@ -193,7 +193,7 @@ def test_defaults_of_tunables(schema: xmlschema.XMLSchema10) -> None:
     assert float(detect["@drop_ratio"]) == 0.9
     assert detect["@hull_chunk"] == 20
     assert detect["@discrete"] == 10
-    assert detect["@step_tail"] == "larger"
+    assert detect["@step_tail"] == "select"
     assert float(temporal["@max_interval"]) == 2.0
     assert temporal["@max_events"] == 10
     assert float(check["@threshold"]) == 0.5
