@@ -307,10 +307,11 @@ class Envelopes:
         and additive where steps are sensor noise. Its limit is the larger of the normal
         bound and the same bound taken in the logarithm (a log-normal model), which
         reaches as far as such a tail does (:attr:`step_tail` ``larger``, the default); or,
-        with ``select``, the bound of the model that predicts the units' largest steps held
-        out in turn the better (:func:`.tolerance.maxima_bound`): as narrow as the normal
-        bound where the units' steps are alike, but a new session whose jumps go beyond
-        every unit's is then beyond the margin too."""
+        with ``select``, the bound of the model, Gumbel (the law of a maximum of noise,
+        :mod:`.extremes`) or log-normal, that predicts the units' largest steps held out in
+        turn the better (:func:`.tolerance.maxima_bound`): far narrower than the log-normal
+        bound where the units' steps are alike, yet with the exponential tail of a
+        maximum, beyond the normal bound."""
         found: dict[str, list[float]] = {}
         level = self.severe_level
         supports, known = limits.supports[:, chosen], limits.known[:, chosen]
@@ -324,9 +325,10 @@ class Envelopes:
             if len(held) < 2 or not all(map(math.isfinite, held)):
                 continue
             centre = math.fsum(held) / len(held)
-            bound = prediction_bound(held, level)
-            if shared and bound is not None and min(held) > 0:
+            if shared:
                 bound = maxima_bound(held, level, select=self.step_tail == "select")
+            else:
+                bound = prediction_bound(held, level)
             if bound is None or not bound > centre or not math.isfinite(bound):
                 continue
             try:
