@@ -305,12 +305,12 @@ class Envelopes:
         positive maximum whose spread is multiplicative where jumps are part of normal
         operation (a waypoint switch moves a track error by whatever the geometry gives)
         and additive where steps are sensor noise. Its limit is the bound of the model,
-        normal or log-normal, that predicts the units' largest steps held out in turn the
-        better (:attr:`step_tail` ``select``, the default; :func:`.tolerance.maxima_bound`):
-        as narrow as the normal bound where the units' steps are alike, but a new session
-        whose jumps go beyond every unit's is then beyond the margin too; or, with
-        ``larger``, the larger of the two bounds, which reaches as far as a log-normal
-        tail does."""
+        Gumbel (the law of a maximum of noise, :mod:`.extremes`) or log-normal, that
+        predicts the units' largest steps held out in turn the better (:attr:`step_tail`
+        ``select``, the default; :func:`.tolerance.maxima_bound`): far narrower than the
+        log-normal bound where the units' steps are alike, yet with the exponential tail of
+        a maximum, beyond the normal bound; or, with ``larger``, the larger of the normal
+        and the log-normal bounds, which reaches as far as a log-normal tail does."""
         found: dict[str, list[float]] = {}
         level = self.severe_level
         supports, known = limits.supports[:, chosen], limits.known[:, chosen]
@@ -324,9 +324,10 @@ class Envelopes:
             if len(held) < 2 or not all(map(math.isfinite, held)):
                 continue
             centre = math.fsum(held) / len(held)
-            bound = prediction_bound(held, level)
-            if shared and bound is not None and min(held) > 0:
+            if shared:
                 bound = maxima_bound(held, level, select=self.step_tail == "select")
+            else:
+                bound = prediction_bound(held, level)
             if bound is None or not bound > centre or not math.isfinite(bound):
                 continue
             try:

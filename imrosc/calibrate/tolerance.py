@@ -33,6 +33,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import stats
 
+from imrosc.calibrate.extremes import gumbel_bound, gumbel_score
+
 
 def prediction_bound(
     values: Sequence[float], alpha: float, resolution: float = 0.0
@@ -159,37 +161,49 @@ def lognormal_bound(values: Sequence[float], alpha: float) -> float:
 
 
 def maxima_bound(values: Sequence[float], alpha: float, select: bool = True) -> float | None:
-    """The ``1 - alpha`` prediction bound of one more of the positive ``values`` (units'
-    largest steps) under the model, normal or log-normal, that predicts the values held
-    out in turn the better (:func:`held_out_score`); the larger of the two bounds when the
-    scores cannot tell (fewer than three values, or values alike) or without ``select``,
-    ``None`` with fewer than two values.
+    """The ``1 - alpha`` prediction bound of one more of the ``values`` (units' largest
+    steps), ``None`` with fewer than two values.
 
-    The largest step of a run is a positive maximum: where steps are sensor noise, the runs'
-    largest steps are alike and a normal model predicts them; where jumps are part of normal
-    operation (a waypoint switch moves a track error by whatever the geometry gives), their
-    spread is multiplicative and only the logarithm's tail reaches as far as the next run
-    goes. Taking the larger bound always keeps the log-normal tail even where the units say
-    their steps are alike: with six units its bound at the margins' level lies orders of
-    magnitude beyond every step seen.
+    ``select``: the bound of the model, Gumbel (:func:`.extremes.gumbel_bound`) or
+    log-normal, that predicts the values held out in turn the better (:func:`held_out_score`,
+    :func:`.extremes.gumbel_score`); the larger of the two bounds when the scores cannot tell
+    (fewer than three values, or values alike); the Gumbel bound when some value is not
+    positive (no logarithm). Without ``select``: the larger of the normal and the
+    log-normal bounds (the normal one alone when some value is not positive).
+
+    The largest step of a run is a maximum of many steps. Where steps are sensor noise, the
+    runs' largest steps are alike and their law is the extreme-value limit of such maxima,
+    the Gumbel law, whose exponential tail lies beyond the normal model's: far in the tail,
+    where the margins' levels are, the normal bound of a dozen runs' largest steps is passed
+    by a run of a new day. Where jumps are part of normal operation (a waypoint switch moves
+    a track error by whatever the geometry gives), their spread is multiplicative and only
+    the logarithm's tail reaches as far as the next run goes. Taking the larger bound always
+    keeps the log-normal tail even where the units say their steps are alike: with six
+    units its bound at the margins' level lies orders of magnitude beyond every step seen.
 
     >>> alike = [0.0253, 0.0455, 0.0298, 0.0073, 0.024, 0.0332]
-    >>> maxima_bound(alike, 1e-4) == prediction_bound(alike, 1e-4)
+    >>> maxima_bound(alike, 1e-4) == gumbel_bound(alike, 1e-4)
     True
+    >>> round(maxima_bound(alike, 1e-4), 3), round(maxima_bound(alike, 1e-4, select=False), 1)
+    (0.275, 17.4)
     >>> tail = [0.5, 0.7, 1.0, 2.0, 6.0, 40.0]
-    >>> maxima_bound(tail, 1e-4) > prediction_bound(tail, 1e-4)
+    >>> maxima_bound(tail, 1e-4) == lognormal_bound(tail, 1e-4)
     True
     """
     normal = prediction_bound(values, alpha)
-    if normal is None or min(values) <= 0:
-        return normal
-    lognormal = lognormal_bound(values, alpha)
+    if normal is None:
+        return None
+    positive = min(values) > 0
     if not select:
-        return max(normal, lognormal)
-    plain, skewed = held_out_score(values), held_out_score(values, logarithmic=True)
-    if plain is None or skewed is None:
-        return max(normal, lognormal)
-    return lognormal if skewed > plain else normal
+        return max(normal, lognormal_bound(values, alpha)) if positive else normal
+    gumbel = gumbel_bound(values, alpha)
+    if gumbel is None or not positive:
+        return gumbel
+    lognormal = lognormal_bound(values, alpha)
+    light, heavy = gumbel_score(values), held_out_score(values, logarithmic=True)
+    if light is None or heavy is None:
+        return max(gumbel, lognormal)
+    return lognormal if heavy > light else gumbel
 
 
 @functools.lru_cache(maxsize=4096)

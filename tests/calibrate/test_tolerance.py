@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from imrosc.calibrate.extremes import gumbel_bound
 from imrosc.calibrate.tolerance import (
     conformal,
     exponential_bound,
@@ -99,6 +100,12 @@ def bound(values: list[float], level: float, logarithmic: bool = False) -> float
     return math.exp(found) if logarithmic else found
 
 
+def gumbel(values: list[float], level: float) -> float:
+    found = gumbel_bound(values, level)
+    assert found is not None
+    return found
+
+
 def maxima(values: list[float], level: float) -> float:
     found = maxima_bound(values, level)
     assert found is not None
@@ -156,25 +163,38 @@ def test_the_exponential_bound_covers_new_exponential_draws_at_its_level() -> No
 
 
 def test_maxima_bound_takes_the_model_that_predicts_held_out_units_better() -> None:
-    """Sixteen units' maxima drawn normal (a coefficient of variation of 0.25, where the two
-    models differ) or log-normal: each model is chosen for its own draws far more often
-    than not."""
+    """Sixteen units' positive maxima drawn Gumbel (alike from run to run: the maxima of
+    sensor noise, as spread as they are far from 0) or log-normal: each model is chosen for
+    its own draws far more often than not. (Gumbel draws far from 0 against their spread
+    look log-normal as well, and the log-normal bound, the further one, is then taken.)"""
     rng = np.random.default_rng(5)
     level = 1e-4
-    normal_picked = lognormal_picked = 0
-    for _ in range(100):
-        alike = list(rng.normal(4.0, 1.0, size=16))
+    gumbel_picked = lognormal_picked = drawn = 0
+    while drawn < 100:
+        alike = list(rng.gumbel(1.0, 1.0, size=16))
+        if min(alike) <= 0:
+            continue  # no logarithm: the Gumbel model alone (the next test)
+        drawn += 1
         spread = list(rng.lognormal(0.0, 1.5, size=16))
-        normal_picked += maxima(alike, level) == bound(alike, level)
+        gumbel_picked += maxima(alike, level) == gumbel_bound(alike, level)
         lognormal_picked += maxima(spread, level) == pytest.approx(bound(spread, level, True))
-    assert normal_picked > 60 and lognormal_picked > 90
+    assert gumbel_picked > 60 and lognormal_picked > 90
 
 
 def test_maxima_bound_keeps_the_larger_bound_when_the_units_cannot_tell() -> None:
     few = [0.02, 0.03]  # too few to hold one out and predict it from the rest
-    larger = max(bound(few, 0.01), bound(few, 0.01, True))
+    larger = max(gumbel(few, 0.01), bound(few, 0.01, True))
     assert maxima(few, 0.01) == pytest.approx(larger)
     alike = [0.02, 0.02, 0.03]  # held out, the 0.03's others are all alike
     assert maxima(alike, 0.01) == pytest.approx(bound(alike, 0.01, True))
-    assert maxima([0.0, 0.1, 0.2], 0.01) == bound([0.0, 0.1, 0.2], 0.01)
+    # a unit whose largest step is 0 has no logarithm: the Gumbel model alone
+    assert maxima([0.0, 0.1, 0.2], 0.01) == gumbel([0.0, 0.1, 0.2], 0.01)
     assert maxima_bound([0.1], 0.01) is None
+
+
+def test_the_larger_bound_is_the_normal_or_log_normal_one() -> None:
+    """Without ``select`` (``step_tail="larger"``): the larger of the normal and log-normal
+    bounds, the normal one alone where some value is not positive."""
+    values = [0.0253, 0.0455, 0.0298, 0.0073, 0.024, 0.0332]
+    assert maxima_bound(values, 1e-4, select=False) == pytest.approx(bound(values, 1e-4, True))
+    assert maxima_bound([0.0, 0.1, 0.2], 0.01, select=False) == bound([0.0, 0.1, 0.2], 0.01)
