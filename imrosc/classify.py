@@ -36,7 +36,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from imrosc.bags import BagError, MessageError, discover_bags, open_bag
-from imrosc.calibrate.rule import HeldOutRun, alarms_under, covered, held_out_runs
+from imrosc.calibrate.rule import (
+    HeldOutRun,
+    alarms_under,
+    covered,
+    held_out_runs,
+    unseen_alarms,
+)
 from imrosc.detectors import (
     FOLDS,
     Choice,
@@ -696,13 +702,21 @@ def whole_monitor(
     """The inferred monitor as a candidate (:class:`imrosc.selection.Whole`): its failed
     runs' alarms, and its false alarms over calibration's held-out units (with ``units``)
     and the ``nominal`` runs that did not train it (``None``: the file is not calibrated and
-    no such run saw it, so nothing says what it costs)."""
+    no such run saw it, so nothing says what it costs). A held-out unit alarms as it would
+    under the rule and margins the other folds' units set
+    (:func:`imrosc.calibrate.rule.unseen_alarms`): the file's own were set past every
+    unit's figures, its own included; a file that does not say which fold held each unit
+    out is judged under its own rule."""
     rule = AlarmRule.from_json(document.get("alarms"))
     ids = tuple(inv["id"] for inv in document["invariants"])
     kept = set(ids)
     held = [u for u in (document.get("calibration") or {}).get("held_out", ()) if "trace" in u]
     held = held if units else []
-    alarmed = sum(alarms_under(covered(u["trace"], kept), rule) for u in held)
+    unseen = unseen_alarms(document, kept) if held else None
+    if unseen is not None:
+        alarmed = sum(unseen)
+    else:
+        alarmed = sum(alarms_under(covered(u["trace"], kept), rule) for u in held)
     alarmed += sum(bool(o.alarms) for o in nominal)
     tested = len(held) + len(nominal)
     if not tested:

@@ -96,7 +96,9 @@ class Whole:
 
     Its false alarms are estimated as an invariant's are, by the rule of succession over the
     nominal runs that saw the whole monitor: calibration's held-out units (each replayed
-    against invariants learnt without it) and successful runs that did not train it; ``k``
+    against invariants learnt without it, and judged under the alarm rule and margins its
+    fold did not set: :func:`imrosc.calibrate.rule.unseen_alarms`) and successful runs that
+    did not train it; ``k``
     of ``n`` alarming, a new nominal run alarms with probability ``(k + 1) / (n + 2)``. The
     failed runs' detections need no holding out: nothing about the monitor was chosen on
     them.

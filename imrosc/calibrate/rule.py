@@ -113,6 +113,9 @@ class HeldOut:
     set_breaks: list[str] = field(default_factory=list, repr=False)
     """The file's sets (one-of values, nodes) it breaks when they are learnt from its
     fold's training units alone (its replay cannot: the fold's document keeps every value)."""
+    severe: list[str] = field(default_factory=list, repr=False)
+    """The families in which it reached severity 1 against margins the *other* folds' units
+    alone widened (:func:`.severe.check_severe`, step 2)."""
 
     @property
     def broken(self) -> set[str]:
@@ -139,6 +142,8 @@ class HeldOut:
             "trace": self.trace,
             "absent": self.absent,
             "set_breaks": self.set_breaks,
+            "fold": self.fold,
+            "severe": self.severe,
         }
 
 
@@ -327,6 +332,48 @@ def rule_for(document: Mapping[str, Any], kept: set[str]) -> AlarmRule | None:
         own = AlarmRule.from_json(document.get("alarms"))
         rule = rule._replace(severe=own.severe, severe_families=own.severe_families)
     return rule
+
+
+def unseen_alarms(document: Mapping[str, Any], kept: set[str]) -> list[bool] | None:
+    """Per held-out unit of a calibrated file (those with a trace), whether it raises an
+    alarm under the rule and the severe alarms its fold's units did not set: the rule
+    :func:`rule_from` gives the *other* folds' units' traces with only ``kept``, and a
+    severe violation of a family the file alarms at once on, against margins the other
+    folds' units alone widened (``severe``). The file's own rule was set just past every
+    unit's figures, itself included, so under it a unit alarms only by chance of the
+    bound; under the others' rule, as a run of a new session would (``None``: the file
+    does not say which fold held each unit out).
+
+    >>> trace = {"a": {"point": "p", "persist": 40, "lasting": 2.0, "evidence": [[0.0, 1.0]]}}
+    >>> units = [{"trace": {}, "fold": 0}, {"trace": {}, "fold": 1}, {"trace": trace, "fold": 2},
+    ...          {"trace": {}, "fold": 0, "severe": ["bounds"]}]
+    >>> doc = {"alarms": {"persist": 41, "severe": 1.0, "severe_families": ["bounds"]},
+    ...        "calibration": {"budget": 0.05, "held_out": units, "severe": {}}}
+    >>> unseen_alarms(doc, {"a"})
+    [False, False, True, True]
+    >>> unseen_alarms({"calibration": {"held_out": [{"trace": {}}]}}, set()) is None
+    True
+    """
+    calibration = document.get("calibration") or {}
+    units = [u for u in calibration.get("held_out", ()) if "trace" in u]
+    if any("fold" not in u for u in units):
+        return None
+    budget = float(calibration.get("budget", 0.05))
+    parts = 3 if calibration.get("severe") is None else 4
+    own = AlarmRule.from_json(document.get("alarms"))
+    severe = set(own.severe_families) if own.severe > 0 else set()
+    figures = [covered(u["trace"], kept) for u in units]
+    rules: dict[Any, AlarmRule | None] = {}
+    found = []
+    for unit, seen in zip(units, figures, strict=True):
+        fold = unit["fold"]
+        if fold not in rules:
+            others = [f for f, u in zip(figures, units, strict=True) if u["fold"] != fold]
+            rules[fold] = rule_from(others, budget, parts)[0] if others else None
+        rule = rules[fold]
+        far = bool(severe & set(unit.get("severe", ())))
+        found.append(far or (rule is not None and alarms_under(seen, rule)))
+    return found
 
 
 def alarms_under(figures: Figures, rule: AlarmRule) -> bool:

@@ -124,6 +124,8 @@ def check_severe(
             for k, (s, unit) in enumerate(zip(severities, held_out, strict=True)):
                 if unit.fold == fold and s / by >= SEVERE:
                     reached[family].add(k)
+                    if family not in unit.severe:
+                        unit.severe.append(family)
     share = budget / 4 / len(reached)
     families = []
     for family, units in sorted(reached.items()):

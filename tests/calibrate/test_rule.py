@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from imrosc.calibrate.rule import (
     Figures,
     alarms_under,
@@ -10,6 +12,7 @@ from imrosc.calibrate.rule import (
     rule_from,
     summed_threshold,
     trace_of,
+    unseen_alarms,
 )
 from imrosc.calibrate.tolerance import exponential_bound
 from imrosc.runtime.alarms import AlarmRule
@@ -205,3 +208,33 @@ def test_a_trace_sums_each_episode_s_severities_and_keeps_the_largest_sum() -> N
     trace = trace_of(fed, [], 1.0)
     assert trace["m"]["strength"] == 1.25 and trace["m"]["severity"] == 0.75
     assert "strength" not in trace["q"]
+
+
+def test_a_unit_alarms_under_the_rule_its_fold_did_not_set() -> None:
+    """Ten folds of alike units and one unit whose episode is ten times longer: the file's
+    rule, set from every unit, lies past it, so it does not alarm there; the rule of the
+    other folds' units does not, and a run like it, new, would alarm."""
+    lengths = [3, 4, 5, 4, 3, 5, 4, 3, 4, 50]
+    traces = [{"a": entry("p", "bounds", n, n / 10)} for n in lengths]
+    units: list[dict[str, Any]] = [{"trace": t, "fold": k} for k, t in enumerate(traces)]
+    own, _ = rule_from([covered(t, {"a"}) for t in traces], 0.05)
+    document = {"alarms": own.as_json(), "calibration": {"budget": 0.05, "held_out": units}}
+    assert not any(alarms_under(covered(t, {"a"}), own) for t in traces)
+    assert unseen_alarms(document, {"a"}) == [False] * 9 + [True]
+    # kept without the invariant, nothing alarms; without folds, nothing says which
+    assert unseen_alarms(document, set()) == [False] * 10
+    for unit in units:
+        del unit["fold"]
+    assert unseen_alarms(document, {"a"}) is None
+
+
+def test_a_severe_violation_alarms_only_in_a_family_the_file_alarms_at_once_on() -> None:
+    units = [{"trace": {}, "fold": k, "severe": ["step"] if k == 0 else []} for k in range(6)]
+    calibration = {"budget": 0.05, "held_out": units, "severe": {"families": ["bounds"]}}
+    document = {
+        "alarms": {"severe": 1.0, "severe_families": ["bounds"]},
+        "calibration": calibration,
+    }
+    assert unseen_alarms(document, set()) == [False] * 6
+    document["alarms"] = {"severe": 1.0, "severe_families": ["bounds", "step"]}
+    assert unseen_alarms(document, set()) == [True] + [False] * 5

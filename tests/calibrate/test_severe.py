@@ -94,6 +94,17 @@ def test_one_unit_far_out_is_explained_by_the_other_folds_widening_only() -> Non
     found = check_severe(invariants, units, 0.05, 0.001)
     assert found.reached == {"bounds": 1} and found.widened == 1
     assert factor([0.0] * 11, 0.001) == 1.0
+    assert [u.severe for u in units] == [["bounds"]] + [[]] * 11
+    assert units[0].as_json()["severe"] == ["bounds"] and units[0].as_json()["fold"] == 0
+
+
+def test_a_unit_within_the_margins_its_fold_did_not_set_reached_no_family() -> None:
+    """Two units far out in two folds: each fold's margin is widened by the other's, so
+    neither reaches 1 against the margins it did not set."""
+    invariants = [bounds("a")]
+    units = [held_out(k % 2, {"a": 2.0} if k < 2 else {"a": 0.1}) for k in range(12)]
+    found = check_severe(invariants, units, 0.05, 0.001)
+    assert found.reached == {} and all(u.severe == [] for u in units)
 
 
 def test_severity_and_scaled_margins_agree() -> None:

@@ -174,6 +174,26 @@ def test_the_whole_monitor_counts_alarms_of_held_out_units_and_untrained_runs() 
     assert whole_monitor({"invariants": []}, fail, []) is None
 
 
+def test_held_out_units_alarm_under_the_rule_their_folds_did_not_set() -> None:
+    """The file's rule lies past every unit's episode (the longest one's included); each
+    unit judged under the rule the other folds' units give, the long one alarms."""
+    lengths = [3, 4, 5, 4, 3, 5, 4, 3, 4, 50]
+    units = [
+        {"trace": {"i1": {"point": "p", "persist": n, "evidence": []}}, "fold": k}
+        for k, n in enumerate(lengths)
+    ]
+    document = {
+        "invariants": [{"id": "i1"}],
+        "alarms": {"persist": 400},
+        "calibration": {"budget": 0.05, "held_out": units},
+    }
+    whole = whole_monitor(document, {}, [])
+    assert whole is not None and (whole.tested, whole.alarmed) == (10, 1)
+    for unit in units:
+        del unit["fold"]  # a file that does not say: its own rule
+    assert whole_monitor(document, {}, []).alarmed == 0  # type: ignore[union-attr]
+
+
 def test_cross_validated_runs_are_not_counted_twice_with_calibration_s_units() -> None:
     document = {
         "invariants": [{"id": "i1"}],
