@@ -190,12 +190,12 @@ def maxima_bound(values: Sequence[float], alpha: float, select: bool = True) -> 
     >>> maxima_bound(tail, 1e-4) == lognormal_bound(tail, 1e-4)
     True
     """
-    normal = prediction_bound(values, alpha)
-    if normal is None:
-        return None
-    positive = min(values) > 0
+    positive = bool(values) and min(values) > 0
     if not select:
-        return max(normal, lognormal_bound(values, alpha)) if positive else normal
+        normal = prediction_bound(values, alpha)
+        if normal is None or not positive:
+            return normal
+        return max(normal, lognormal_bound(values, alpha))
     gumbel = gumbel_bound(values, alpha)
     if gumbel is None or not positive:
         return gumbel
