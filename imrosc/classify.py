@@ -605,7 +605,10 @@ def monitor_choice(
     held-out outcomes over the failed runs, :func:`imrosc.selection.within_noise`), the one
     with the fewest invariants is kept (the one-standard-error rule: a difference chance
     explains is no reason for more invariants, each of which can alarm on a new run); ties
-    keep the cover, then the detectors alone, then both."""
+    keep the cover, then the detectors alone, then both. When no candidate is worth more
+    than 0, no monitor is kept (:data:`NONE`: it detects nothing and raises no false alarm;
+    a monitor expected to raise as many false alarms as it detects faults is worth no more),
+    and a cover of no invariant kept is named so."""
     invariants = {i: n for i, n in nominal.items() if i not in detectors}
     plain = {run: ids - detectors for run, ids in fail.items()}
     found = cover(invariants, plain, before, runs, order=order)
@@ -679,6 +682,12 @@ def monitor_choice(
     # one-standard-error rule): a difference chance explains buys no more invariants
     near = [c for c in candidates if c[0].value >= best[0].value - within_noise(best[4], c[4])]
     worth, chosen, detected, p_chosen, _ = min(near, key=lambda c: len(c[1]))  # first of equals
+    # no monitor at all detects nothing and raises no false alarm: worth 0, kept when no
+    # candidate is worth more (and named so when the cover kept holds no invariant)
+    nothing = Worth(NONE, 0, 0, 0.0)
+    candidates.append((nothing, (), 0, 0.0, {}))
+    if best[0].value <= 0.0 or not chosen:
+        worth, chosen, detected, p_chosen = nothing, (), 0, 0.0
     return Cover(
         chosen,
         detected,
@@ -691,6 +700,9 @@ def monitor_choice(
 
 WHOLE = ("inferred", "inferred+detector")
 """The candidate monitors that keep every inferred invariant (:func:`monitor_choice`)."""
+
+NONE = "none"
+"""The candidate monitor of no invariants (:func:`monitor_choice`)."""
 
 
 def whole_monitor(
@@ -834,6 +846,16 @@ def group_counts(document: Mapping[str, Any]) -> dict[str, int]:
         group = group_of(inv["family"])
         found[group] = found.get(group, 0) + 1
     return found
+
+
+def _none_kept(chosen: Cover) -> str:
+    """The ``no-monitor-kept`` warning: what every candidate was worth."""
+    worths = ", ".join(f"{w.name} {w.value:.2f}" for w in chosen.candidates if w.name != NONE)
+    return (
+        f"no candidate monitor is worth more than none on the held-out failed runs "
+        f"({worths}; none 0): the refined file keeps no invariants; record more normal and "
+        f"failed runs, or monitor with the invariants file itself"
+    )
 
 
 def _diagnostic(config_path: Path, span: Any, code: str, message: str) -> Diagnostic:
@@ -1149,6 +1171,10 @@ def run_check(
                     }
                     for w in chosen.candidates
                 ]
+            if chosen.worth is not None and chosen.worth.name == NONE:
+                out.diagnostics.append(
+                    _diagnostic(config_path, check.span, "no-monitor-kept", _none_kept(chosen))
+                )
         out.refined = refined(document, scores, report)
         whole_kept = chosen is not None and chosen.worth is not None and chosen.worth.name in WHOLE
         if "alarms" in document and runs["success"] and not whole_kept:

@@ -202,6 +202,14 @@ CODES: tuple[Code, ...] = (
         "A <success> bag is also a <detect> bag: it cannot violate what was learnt from it, so "
         "false positives are 0 by construction.",
     ),
+    Code(
+        "no-monitor-kept",
+        _W,
+        "classify",
+        "No candidate monitor is worth more than none on the held-out failed runs (each is "
+        "expected to raise about as many false alarms as it detects faults); the refined "
+        "file keeps no invariants.",
+    ),
     # Lowering (imrosc build).
     Code(
         "relative-without-graph",

@@ -102,18 +102,19 @@ def test_the_calibrated_inferred_monitor_wins_when_the_cover_costs_more_than_it_
     assert chosen.chosen == (*names, "z")
     assert chosen.detected == 7 and chosen.false_alarm == pytest.approx(1 / 8)
     assert chosen.value == pytest.approx(7 - 14 / 8)
-    assert [w.name for w in chosen.candidates] == ["cover", "inferred"]
+    assert [w.name for w in chosen.candidates] == ["cover", "inferred", "none"]
 
 
 def test_a_lead_chance_explains_keeps_the_smaller_monitor() -> None:
     """The whole monitor detects two of three faults, worth 2 - 9/8 against the empty
     cover's 0: a lead of 0.875 where the paired outcomes' standard error is 1 (the
-    one-standard-error rule), so the monitor of fewer invariants is kept."""
+    one-standard-error rule), so the monitor of fewer invariants is kept: the empty cover,
+    which is no monitor (named so)."""
     nominal = {name: Nominal(6, 0) for name in "abc"}
     fail = {Path(f"f{k}"): {name} for k, name in enumerate("abc")}
     whole = Whole(("a", "b", "c", "d"), frozenset({Path("f0"), Path("f1")}), frozenset(), 6, 0)
     chosen = monitor_choice(nominal, fail, {}, 9, [[run] for run in fail], (), set(), whole)
-    assert chosen.worth is not None and chosen.worth.name == "cover" and chosen.chosen == ()
+    assert chosen.worth is not None and chosen.worth.name == "none" and chosen.chosen == ()
     inferred = next(w for w in chosen.candidates if w.name == "inferred")
     assert inferred.value == pytest.approx(2 - 9 / 8)  # the best worth, not kept
     # a detector that detects as many: the smaller monitor again, now beyond noise of none
@@ -203,3 +204,21 @@ def test_cross_validated_runs_are_not_counted_twice_with_calibration_s_units() -
     replayed = [RunOutcome(Path("cv"), None, 0.0, 10.0)]
     assert whole_monitor(document, {}, replayed).tested == 3  # type: ignore[union-attr]
     assert whole_monitor(document, {}, replayed, units=False).tested == 1  # type: ignore[union-attr]
+
+
+def test_no_monitor_is_kept_when_every_candidate_is_worth_less_than_none() -> None:
+    """The whole monitor alarms before the onsets of two of three faults and detects one
+    (worth below 0), and every invariant that detects a fault breaks before the onset of
+    another, so the cover, chosen without each fault and judged on it, is worth no more
+    than 0: what no monitor is worth (it detects nothing and raises no false alarm). None
+    is kept."""
+    nominal = {"a": Nominal(6, 0), "b": Nominal(6, 0)}
+    fail = {Path("f0"): {"a"}, Path("f1"): {"a", "b"}, Path("f2"): {"b"}}
+    early = {Path("f1"): {"a"}, Path("f2"): {"a", "b"}}
+    whole = Whole(("a", "b", "c"), frozenset({Path("f0")}), frozenset(fail) - {Path("f0")}, 6, 0)
+    chosen = monitor_choice(nominal, fail, early, 9, [[run] for run in fail], (), set(), whole)
+    worths = {w.name: w.value for w in chosen.candidates}
+    assert worths["inferred"] == pytest.approx(1 - 2 - 9 / 8)
+    assert worths["cover"] <= 0.0 and worths["none"] == 0.0
+    assert chosen.worth is not None and chosen.worth.name == "none"
+    assert chosen.chosen == () and chosen.detected == 0 and chosen.false_alarm == 0.0
