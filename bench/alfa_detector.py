@@ -65,6 +65,18 @@ replay runs the alarm engine). The variants, each a question about the score:
   fields, started from the fold's nominal fit; the 1 s mean and standard deviation of each
   field's innovation over its own running spread, and of the parameters' change, beside
   the base statistics (or ``alone``);
+* ``--features keipour:LAGS,FORGET[,alone]``: Keipour et al.'s model of the commanded
+  response (:class:`Commanded`): per flight, the measured roll, pitch (from the orientation,
+  :func:`tracked`) and ground speed each as an ARX model of its own and its command's
+  values at its ``LAGS`` previous updates (the command is the measured value plus
+  ``delta_roll``, ``delta_pitch`` or ``aspd_error``: :func:`commanded_signals`), tracked by
+  recursive least squares with the forgetting ``FORGET`` per 20 Hz sample, started from the
+  fold's nominal fit; the 1 s mean and standard deviation of each innovation over its running
+  spread, and of its parameters' change, beside the base statistics (or ``alone``);
+* ``--responses LAGS,FORGET[,AFTER]``: no detector, a diagnosis: per fault flight, the largest
+  1 s mean square of each of those innovations (models fitted without the flight's fold) in
+  the ``AFTER`` seconds (3) from its onset, against its own largest before it and the largest
+  any other session's flight reached while nominal (:func:`diagnose`);
 * ``--evidence relative:S``: each score less the flight's own exponential running mean of
   its earlier scores over ``S`` seconds, then smoothed as the product smooths (a flight's
   standing regime absorbed, a rise shorter than ``S`` not);
@@ -885,6 +897,7 @@ def diagnose(flights: Mapping[str, Flight], signals: Mapping[str, Any], after: f
     )
     print(f"  {'flight':<52} " + " ".join(f"{c:>20}" for c in columns))
     passed = np.zeros(len(columns), dtype=int)
+    above_own = np.zeros(len(columns), dtype=int)
     faults = 0
     for name, (info, times, _) in sorted(flights.items()):
         if info["onset_ns"] is None:
@@ -898,14 +911,14 @@ def diagnose(flights: Mapping[str, Flight], signals: Mapping[str, Any], after: f
         )
         own = nominal[name]
         passed += (high > own) & (high > others)
+        above_own += high > own
         shown = " ".join(
             f"{high[j]:6.1f}/{own[j]:6.1f}/{others[j]:6.1f}" for j in range(len(columns))
         )
         print(f"  {Path(name).stem[:52]:<52} {shown}")
-    print(
-        "  above both: "
-        + ", ".join(f"{c} {k} of {faults}" for c, k in zip(columns, passed, strict=True))
-    )
+    for label, counts in (("its own before", above_own), ("both", passed)):
+        shown = ", ".join(f"{c} {k}" for c, k in zip(columns, counts, strict=True))
+        print(f"  above {label}: {shown} (of {faults})")
 
 
 def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]:
