@@ -65,6 +65,18 @@ replay runs the alarm engine). The variants, each a question about the score:
   fields, started from the fold's nominal fit; the 1 s mean and standard deviation of each
   field's innovation over its own running spread, and of the parameters' change, beside
   the base statistics (or ``alone``);
+* ``--features keipour:LAGS,FORGET[,alone]``: Keipour et al.'s model of the commanded
+  response (:class:`Commanded`): per flight, the measured roll, pitch (from the orientation,
+  :func:`tracked`) and ground speed each as an ARX model of its own and its command's
+  values at its ``LAGS`` previous updates (the command is the measured value plus
+  ``delta_roll``, ``delta_pitch`` or ``aspd_error``: :func:`commanded_signals`), tracked by
+  recursive least squares with the forgetting ``FORGET`` per 20 Hz sample, started from the
+  fold's nominal fit; the 1 s mean and standard deviation of each innovation over its running
+  spread, and of its parameters' change, beside the base statistics (or ``alone``);
+* ``--responses LAGS,FORGET[,AFTER]``: no detector, a diagnosis: per fault flight, the largest
+  1 s mean square of each of those innovations (models fitted without the flight's fold) in
+  the ``AFTER`` seconds (3) from its onset, against its own largest before it and the largest
+  any other session's flight reached while nominal (:func:`diagnose`);
 * ``--evidence relative:S``: each score less the flight's own exponential running mean of
   its earlier scores over ``S`` seconds, then smoothed as the product smooths (a flight's
   standing regime absorbed, a rise shorter than ``S`` not);
@@ -114,6 +126,7 @@ from efficacy import (  # type: ignore[import-not-found]
     print_scores,
     score,
     session_folds,
+    session_of,
 )
 
 from imrosc import detectors
@@ -383,6 +396,140 @@ class Adapted:
         return found
 
 
+class Commanded:
+    """Keipour et al.'s model of how a measured response follows its command, per flight: for
+    each output (its values standardised by the fold's nominal samples), an ARX model of its
+    value at each of its updates on its own values and its command's at the ``lags``
+    previous updates, tracked by recursive least squares with forgetting. ``forget`` is per
+    ``step`` seconds (a 20 Hz sample of ``/alfa/merged``), so that an update ``dt`` after the
+    previous one forgets ``forget ** (dt / step)``: the memory is ``step / (1 - forget)``
+    seconds whatever the output's update rate. A flight starts from the fleet's model (a
+    ridge regression on the fold's nominal samples) with the information of one memory of
+    them, as :class:`Adapted`. Per sample, each output's latest innovation (its a-priori
+    one-step error) over its running spread (the same forgetting), then the size of its
+    parameters' latest change, both held between the output's updates."""
+
+    def __init__(
+        self, nominal: Sequence[tuple[Any, Any, Any, Any]], lags: int, forget: float
+    ) -> None:
+        """``nominal``: per flight its sample times, outputs and commands (a column per
+        output) and where each output updates (booleans, the same shape)."""
+        self.lags, self.forget = lags, forget
+        self.step = float(np.median(np.concatenate([np.diff(t) for t, *_ in nominal])))
+        self.center, self.scale = spread(np.vstack([y for _, y, _, _ in nominal]))
+        self.command_center, self.command_scale = spread(np.vstack([u for _, _, u, _ in nominal]))
+        width = nominal[0][1].shape[1]
+        self.theta: list[Any] = []
+        self.p0: list[Any] = []
+        self.variance: list[float] = []
+        for j in range(width):
+            pairs = [self.pairs(t, y, u, w, j) for t, y, u, w in nominal]
+            phi = np.vstack([f for f, *_ in pairs])
+            y = np.concatenate([o for _, o, *_ in pairs])
+            count = len(phi)
+            gram = phi.T @ phi / count + RIDGE * np.eye(phi.shape[1])
+            theta = np.linalg.solve(gram, phi.T @ y / count)
+            # one memory of the nominal updates: its seconds times their rate
+            seconds = sum(float(t[-1] - t[0]) for t, *_ in nominal)
+            memory = count / max(seconds, self.step) * self.step / (1.0 - forget)
+            self.theta.append(theta)
+            self.p0.append(np.linalg.inv(gram) / max(memory, 1.0))
+            self.variance.append(max(float(((y - phi @ theta) ** 2).mean()), 1e-6))
+
+    def pairs(self, times: Any, outputs: Any, commands: Any, updates: Any, j: int) -> Any:
+        """Output ``j``'s regressors (its ``lags`` previous updates' values, then its
+        command's at them, then 1), outputs and the gaps since the previous updates (s),
+        one row per update after the first ``lags``."""
+        at = np.flatnonzero(updates[:, j])
+        y = (outputs[at, j] - self.center[j]) / self.scale[j]
+        u = (commands[at, j] - self.command_center[j]) / self.command_scale[j]
+        n = len(at) - self.lags
+        if n <= 0:
+            return np.zeros((0, 2 * self.lags + 1)), np.zeros(0), np.zeros(0), at[:0]
+        lagged = [y[self.lags - k : self.lags - k + n] for k in range(1, self.lags + 1)]
+        commanded = [u[self.lags - k : self.lags - k + n] for k in range(1, self.lags + 1)]
+        phi = np.column_stack([*lagged, *commanded, np.ones(n)])
+        gaps = times[at[self.lags :]] - times[at[self.lags - 1 : -1]]
+        return phi, y[self.lags :], gaps, at[self.lags :]
+
+    def response(self, j: int) -> tuple[Any, Any]:
+        """Output ``j``'s fleet model in the signals' own units: the coefficients of its
+        previous values, then of its command's."""
+        theta = self.theta[j]
+        own = theta[: self.lags]
+        gain = self.scale[j] / self.command_scale[j]
+        return own, theta[self.lags : 2 * self.lags] * gain
+
+    def of(self, times: Any, outputs: Any, commands: Any, updates: Any) -> Any:
+        width = outputs.shape[1]
+        found = np.zeros((len(times), 2 * width))
+        for j in range(width):
+            phi, y, gaps, at = self.pairs(times, outputs, commands, updates, j)
+            theta, p = self.theta[j].copy(), self.p0[j].copy()
+            variance = self.variance[j]
+            bound = float(np.trace(p))
+            rows = np.zeros((len(y), 2))
+            for k in range(len(y)):
+                lam = self.forget ** (max(float(gaps[k]), 0.0) / self.step)
+                f = phi[k]
+                pf = p @ f
+                gain = pf / (lam + f @ pf)
+                error = float(y[k] - f @ theta)
+                rows[k, 0] = error / math.sqrt(variance)
+                step = gain * error
+                rows[k, 1] = math.sqrt(float(step @ step))
+                theta += step
+                p = (p - np.outer(gain, pf)) / lam
+                trace = float(np.trace(p))
+                if trace > bound:  # no wind-up while a flight does not excite every direction
+                    p *= bound / trace
+                variance = lam * variance + (1.0 - lam) * error * error
+            # held from each update to the next
+            latest = np.searchsorted(at, np.arange(len(times)), side="right") - 1
+            seen = latest >= 0
+            found[seen, j] = rows[latest[seen], 0]
+            found[seen, width + j] = rows[latest[seen], 1]
+        return found
+
+
+COMMANDED = (
+    (("orientation_x", "orientation_y", "orientation_z"), "delta_roll"),
+    (("orientation_x", "orientation_y", "orientation_z"), "delta_pitch"),
+    (("twist_linear_x", "twist_linear_y", "twist_linear_z"), "aspd_error"),
+)
+"""The responses ``--features keipour`` models: the fields a measured value is computed
+from (an update is a sample where one of them changed) and the field that gives its
+command less it."""
+
+
+def commanded_signals(values: Any) -> tuple[Any, Any, Any]:
+    """Per sample the measured roll and pitch (degrees, right wing down and nose up
+    positive, from the orientation of :func:`tracked`) and speed (m/s, the ground speed of
+    ``twist_linear_*``: the message holds no airspeed), their commands (the measured value
+    plus ``delta_roll``, ``delta_pitch`` in degrees and ``aspd_error`` in cm/s: each is the
+    command less the measured value, the signs and units under which the measured value
+    follows its command with a stable response of gain near 1 on the ALFA flights), and
+    where each measured value updates."""
+    x = filled(values)
+    at = {k: x[:, MERGED.index(k)] for k in MERGED}
+    velocity = np.column_stack([at[f"twist_linear_{a}"] for a in "xyz"])
+    r = tracked(at, velocity)
+    roll = np.degrees(np.arctan2(r[:, 2, 1], r[:, 2, 2]))
+    pitch = np.degrees(np.arcsin(np.clip(r[:, 2, 0], -1.0, 1.0)))
+    speed = np.sqrt((velocity * velocity).sum(axis=1))
+    outputs = np.column_stack([roll, pitch, speed])
+    commands = outputs + np.column_stack(
+        [at["delta_roll"], at["delta_pitch"], at["aspd_error"] / 100.0]
+    )
+    updates = np.zeros(outputs.shape, dtype=bool)
+    for j, (sources, _) in enumerate(COMMANDED):
+        changed = np.zeros(len(x), dtype=bool)
+        for name in sources:
+            changed[1:] |= np.diff(at[name]) != 0
+        updates[:, j] = changed
+    return outputs, commands, updates
+
+
 BINS = 32
 """Candidate thresholds per statistic of a tree's split (its nominal-and-faulty quantiles)."""
 SHRINK = 0.1
@@ -635,23 +782,70 @@ def rotations(qx: Any, qy: Any, qz: Any) -> Any:
     return r
 
 
-def to_local(at: Mapping[str, Any], velocity: Any, force: Any) -> Any:
-    """The body-frame ``force`` in the local frame. ``/alfa/merged`` keeps the orientation's
-    x, y, z and drops w, so ``w``'s sign is lost: of the two rotations it leaves, the one
-    under which the aircraft's velocity points forward (body x) is taken."""
+def oriented(at: Mapping[str, Any], velocity: Any) -> Any:
+    """Per sample the rotation matrix (body to local) of the orientation. ``/alfa/merged``
+    keeps the quaternion's x, y, z and drops w, so ``w``'s sign is lost: of the two
+    rotations it leaves, the one under which the aircraft's velocity points forward (body x)
+    is taken."""
     q = [at[f"orientation_{a}"] for a in "xyz"]
-    best_force, best_forward = None, None
+    best, best_forward = None, None
     for sign in (1.0, -1.0):
         r = rotations(*(sign * c for c in q))
         forward = np.einsum("kj,kj->k", r[:, :, 0], velocity)
-        local = np.einsum("kij,kj->ki", r, force)
-        if best_force is None or best_forward is None:
-            best_force, best_forward = local, forward
+        if best is None or best_forward is None:
+            best, best_forward = r, forward
         else:
             pick = forward > best_forward
-            best_force[pick] = local[pick]
+            best[pick] = r[pick]
             best_forward = np.maximum(forward, best_forward)
-    return best_force
+    return best
+
+
+def tracked(at: Mapping[str, Any], velocity: Any) -> Any:
+    """Per sample the rotation matrix (body to local) of the orientation, ``w``'s lost sign
+    chosen along the flight as a whole: :func:`oriented`'s choice sample by sample fails
+    where the two candidates' noses point alike (heading near east, the inverse rotation's
+    roll and pitch of the opposite sign). The choice minimises, over the flight, each
+    sample's ``1 - cos`` of the angle between the nose and the velocity plus the angle (rad)
+    the rotation turns by from one sample to the next (a true orientation is continuous;
+    the two candidates meet only where the rotation is a half turn or none): the cheapest
+    sequence of signs, by dynamic programming over the two."""
+    q = np.column_stack([at[f"orientation_{a}"] for a in "xyz"])
+    w = np.sqrt(np.clip(1.0 - (q * q).sum(axis=1), 0.0, 1.0))
+    signs = (1.0, -1.0)
+    candidates = [np.column_stack([s * q, w]) for s in signs]
+    speed = np.maximum(np.sqrt((velocity * velocity).sum(axis=1)), 1e-6)
+    emit = np.column_stack(
+        [
+            1.0 - np.einsum("kj,kj->k", rotations(*(s * q.T))[:, :, 0], velocity) / speed
+            for s in signs
+        ]
+    )
+    n = len(q)
+    # turn[k, s, p]: the angle from candidate p at k - 1 to candidate s at k
+    turn = np.empty((max(n - 1, 0), 2, 2))
+    for i in range(2):
+        for j in range(2):
+            dot = np.abs(np.einsum("kj,kj->k", candidates[i][1:], candidates[j][:-1]))
+            turn[:, i, j] = 2.0 * np.arccos(np.minimum(dot, 1.0))
+    cost = emit[0].copy() if n else np.zeros(2)
+    back = np.zeros((n, 2), dtype=np.int64)
+    for k in range(1, n):
+        steps = cost[None, :] + turn[k - 1]
+        back[k] = np.argmin(steps, axis=1)
+        cost = steps[[0, 1], back[k]] + emit[k]
+    path = np.zeros(n, dtype=np.int64)
+    if n:
+        path[-1] = int(np.argmin(cost))
+    for k in range(n - 1, 0, -1):
+        path[k - 1] = back[k, path[k]]
+    sign = np.where(path == 0, 1.0, -1.0)[:, None]
+    return rotations(*(sign * q).T)
+
+
+def to_local(at: Mapping[str, Any], velocity: Any, force: Any) -> Any:
+    """The body-frame ``force`` in the local frame (the rotation of :func:`oriented`)."""
+    return np.einsum("kij,kj->ki", oriented(at, velocity), force)
 
 
 Flight = tuple[Mapping[str, Any], Any, Any]
@@ -665,6 +859,66 @@ def nominal_part(flight: Flight) -> tuple[Any, Any]:
         return times, values
     keep = times < info["onset_ns"] / 1e9
     return times[keep], values[keep]
+
+
+def responses(
+    flights: Mapping[str, Flight], folds: Sequence[Sequence[str]], lags: int, forget: float
+) -> dict[str, Any]:
+    """Per flight, the models of :class:`Commanded` fitted on the other folds' nominal parts:
+    the trailing 1 s mean of each output's squared innovation (in units of its running
+    spread) and of their sum, one column each (NaN in the flight's first second)."""
+    found = {}
+    for held in folds:
+        parts = [nominal_part(f) for n, f in flights.items() if n not in held]
+        model = Commanded([(t, *commanded_signals(v)) for t, v in parts], lags, forget)
+        for name in held:
+            _, times, values = flights[name]
+            width = len(COMMANDED)
+            squared = model.of(times, *commanded_signals(values))[:, :width] ** 2
+            squared = np.hstack([squared, squared.sum(axis=1, keepdims=True)])
+            mean = window_stats(times, squared, 1.0)[:, : width + 1]
+            mean[times - times[0] < 1.0] = math.nan
+            found[name] = mean
+    return found
+
+
+def diagnose(flights: Mapping[str, Flight], signals: Mapping[str, Any], after: float) -> None:
+    """Per fault flight, each signal's largest value in the ``after`` seconds from its
+    onset against its own largest before it and the largest any other session's flight
+    reached while nominal (every flight's signal from models fitted without its session)."""
+    nominal = {}
+    for name, (info, times, _) in flights.items():
+        before = signals[name][times < (info["onset_ns"] or math.inf) / 1e9]
+        nominal[name] = np.nanmax(before, axis=0)
+    columns = ["roll", "pitch", "speed", "all"]
+    print(
+        f"\nlargest 1 s mean square innovation: {after:g} s after the onset / before it / "
+        "other sessions' nominal"
+    )
+    print(f"  {'flight':<52} " + " ".join(f"{c:>20}" for c in columns))
+    passed = np.zeros(len(columns), dtype=int)
+    above_own = np.zeros(len(columns), dtype=int)
+    faults = 0
+    for name, (info, times, _) in sorted(flights.items()):
+        if info["onset_ns"] is None:
+            continue
+        faults += 1
+        onset = info["onset_ns"] / 1e9
+        window = (times >= onset) & (times < onset + after)
+        high = np.nanmax(signals[name][window], axis=0)
+        others = np.max(
+            [v for n, v in nominal.items() if session_of(n) != session_of(name)], axis=0
+        )
+        own = nominal[name]
+        passed += (high > own) & (high > others)
+        above_own += high > own
+        shown = " ".join(
+            f"{high[j]:6.1f}/{own[j]:6.1f}/{others[j]:6.1f}" for j in range(len(columns))
+        )
+        print(f"  {Path(name).stem[:52]:<52} {shown}")
+    for label, counts in (("its own before", above_own), ("both", passed)):
+        shown = ", ".join(f"{c} {k}" for c, k in zip(columns, counts, strict=True))
+        print(f"  above {label}: {shown} (of {faults})")
 
 
 def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]:
@@ -729,6 +983,24 @@ def features_of(kind: str, training: Sequence[Flight]) -> tuple[Features, float]
             return np.hstack([features(t, v, 1.0), innovations])
 
         return with_innovations, 1.0
+    if kind.startswith("keipour:"):
+        # keipour:LAGS,FORGET[,alone]: the commanded-response models' innovations (their 1 s
+        # mean and standard deviation, and the parameters' change) beside the base
+        # statistics, or alone
+        spec = kind.split(":", 1)[1].split(",")
+        parts = [nominal_part(f) for f in training]
+        signals = [(t, *commanded_signals(v)) for t, v in parts]
+        responding = Commanded(signals, int(spec[0]), float(spec[1]))
+        only = spec[2:] == ["alone"]
+
+        def with_responses(t: Any, v: Any) -> Any:
+            found = window_stats(t, responding.of(t, *commanded_signals(v)), 1.0)
+            responses = found[:, : 2 * found.shape[1] // 3]
+            if only:
+                return responses
+            return np.hstack([features(t, v, 1.0), responses])
+
+        return with_responses, 1.0
     if kind.startswith("energy"):
         # energy[:NAMES]: derived fields of the total energy balance beside the recorded ones
         # (:func:`energy_fields`), their statistics as the base statistics'
@@ -818,6 +1090,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--scan", default="", help="NAME[:WINDOW[:BASELINE]]: one signal against held-out maxima"
     )
+    parser.add_argument(
+        "--responses",
+        default="",
+        help="LAGS,FORGET[,AFTER]: no detector, the commanded-response innovations after "
+        "each onset against the nominal ones",
+    )
     args = parser.parse_args(argv)
     offsets = [float(d) for d in args.offsets.split(",") if d.strip()]
     detectors.FIT_SAMPLES = args.fit_samples
@@ -832,6 +1110,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         baseline = float(rest[1]) if len(rest) > 1 else 0.0
         signals = {n: scan_signal(f[1], f[2], name, window, baseline) for n, f in flights.items()}
         print_outcomes(scan(flights, signals, session_folds(onsets, args.folds)))
+        return 0
+    if args.responses:
+        spec = args.responses.split(",")
+        folds = session_folds(onsets, args.folds)
+        innovations = responses(flights, folds, int(spec[0]), float(spec[1]))
+        diagnose(flights, innovations, float(spec[2]) if len(spec) > 2 else 3.0)
         return 0
     weighs: dict[str, Callable[[Any, Any, float, float], Any]] = {
         "mean": evidence,

@@ -265,3 +265,63 @@ def test_a_scan_alarms_where_a_held_out_flight_passes_the_training_flights_nomin
     found = {o.name: o for o in a.scan(flights, signals, [["f"], ["g"]])}
     assert found["f"].delay == 1.0  # above the good flight's 2
     assert found["g"].false_alarm  # above the fault flight's 0 before its onset
+
+
+def arx_flight(
+    rng: Any, n: int, own: float, gain: float, change: int | None = None
+) -> tuple[Any, Any, Any, Any]:
+    """A flight whose output answers its command as ``y = own y[-1] + gain u[-1] + noise``
+    (from sample ``change`` on with a tenth of the gain), every sample an update."""
+    times = np.arange(n) * 0.05
+    u = np.repeat(rng.normal(scale=5.0, size=n // 10 + 1), 10)[:n]  # held commands
+    y = np.zeros(n)
+    for k in range(1, n):
+        b = gain if change is None or k < change else 0.1 * gain
+        y[k] = own * y[k - 1] + b * u[k - 1] + rng.normal(scale=0.1)
+    return times, y[:, None], u[:, None], np.ones((n, 1), dtype=bool)
+
+
+def test_the_commanded_response_is_recovered_and_its_change_shows() -> None:
+    rng = np.random.default_rng(17)
+    model = a.Commanded([arx_flight(rng, 3000, 0.8, 0.3) for _ in range(3)], 1, 0.99)
+    own, commanded = model.response(0)
+    assert math.isclose(own[0], 0.8, abs_tol=0.02)
+    assert math.isclose(commanded[0], 0.3, abs_tol=0.02)
+    flight = arx_flight(rng, 1000, 0.8, 0.3, change=600)
+    found = model.of(*flight)
+    assert found.shape == (1000, 2)
+    before, after = np.abs(found[100:600, 0]), np.abs(found[600:610, 0])
+    assert before.mean() < 1.2  # innovations in units of their nominal spread
+    assert after.mean() > 4.0 * before.mean()  # the response changed: surprise
+    assert found[600:610, 1].mean() > 4.0 * found[100:600, 1].mean()  # the parameters move
+    assert np.abs(found[900:, 0]).mean() < 0.5 * after.mean()  # then follow
+
+
+def test_commanded_values_hold_between_updates() -> None:
+    rng = np.random.default_rng(19)
+    model = a.Commanded([arx_flight(rng, 2000, 0.5, 1.0)], 2, 0.995)
+    times, y, u, _ = arx_flight(rng, 200, 0.5, 1.0)
+    updates = np.zeros((200, 1), dtype=bool)
+    updates[::4] = True
+    found = model.of(times, y, u, updates)
+    assert np.all(found[:8] == 0.0)  # before the lags' updates: nothing to predict from
+    assert np.all(found[8:12] == found[8]) and found[8, 0] != 0.0
+
+
+def test_commanded_signals_read_roll_pitch_speed_and_their_commands() -> None:
+    # nose up 10 degrees, no roll, heading east at 15 m/s; the commands 5 degrees of roll
+    # and 2 of pitch more, and 1.5 m/s faster (aspd_error in cm/s)
+    pitch = math.radians(10.0)
+    q = (0.0, -math.sin(pitch / 2))  # about y (left): nose up is negative
+    fields = {
+        "orientation_y": q[1],
+        "twist_linear_x": 15.0 * math.cos(pitch),
+        "twist_linear_z": 15.0 * math.sin(pitch),
+        "delta_roll": 5.0,
+        "delta_pitch": 2.0,
+    }
+    rows = np.vstack([merged_row(**fields, aspd_error=150.0 + k) for k in range(2)])
+    outputs, commands, updates = a.commanded_signals(rows)
+    assert np.allclose(outputs[0], [0.0, 10.0, 15.0])
+    assert np.allclose(commands[0], [5.0, 12.0, 16.5])
+    assert updates.tolist() == [[False] * 3, [False, False, False]]
