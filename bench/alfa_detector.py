@@ -380,20 +380,31 @@ class Adapted:
         lam = self.forget
         found = np.empty((len(y), y.shape[1] + 1))
         for k in range(len(y)):
-            f = phi[k]
-            pf = p @ f
-            gain = pf / (lam + f @ pf)
-            error = y[k] - f @ theta
+            error, step, p = rls_update(theta, p, phi[k], y[k], lam, bound)
             found[k, :-1] = error / np.sqrt(variance)
-            step = np.outer(gain, error)
             found[k, -1] = math.sqrt(float((step * step).sum()))
-            theta += step
-            p = (p - np.outer(gain, pf)) / lam
-            trace = float(np.trace(p))
-            if trace > bound:  # no wind-up while a flight does not excite every direction
-                p *= bound / trace
             variance = lam * variance + (1.0 - lam) * error * error
         return found
+
+
+def rls_update(
+    theta: Any, p: Any, f: Any, y: Any, lam: float, bound: float
+) -> tuple[Any, Any, Any]:
+    """One step of recursive least squares with forgetting ``lam``: ``theta`` (parameters,
+    one column per output, or a vector for one output) moves in place towards explaining
+    ``y`` from the regressors ``f``; ``p`` is the inverse information, its trace held
+    within ``bound`` (no wind-up while a flight does not excite every direction). Returns
+    the prediction error, the parameters' step and the new ``p``."""
+    pf = p @ f
+    gain = pf / (lam + f @ pf)
+    error = y - f @ theta
+    step = np.multiply.outer(gain, error)
+    theta += step
+    p = (p - np.outer(gain, pf)) / lam
+    trace = float(np.trace(p))
+    if trace > bound:
+        p *= bound / trace
+    return error, step, p
 
 
 class Commanded:
@@ -471,18 +482,9 @@ class Commanded:
             rows = np.zeros((len(y), 2))
             for k in range(len(y)):
                 lam = self.forget ** (max(float(gaps[k]), 0.0) / self.step)
-                f = phi[k]
-                pf = p @ f
-                gain = pf / (lam + f @ pf)
-                error = float(y[k] - f @ theta)
+                error, step, p = rls_update(theta, p, phi[k], y[k], lam, bound)
                 rows[k, 0] = error / math.sqrt(variance)
-                step = gain * error
                 rows[k, 1] = math.sqrt(float(step @ step))
-                theta += step
-                p = (p - np.outer(gain, pf)) / lam
-                trace = float(np.trace(p))
-                if trace > bound:  # no wind-up while a flight does not excite every direction
-                    p *= bound / trace
                 variance = lam * variance + (1.0 - lam) * error * error
             # held from each update to the next
             latest = np.searchsorted(at, np.arange(len(times)), side="right") - 1
