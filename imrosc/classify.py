@@ -848,11 +848,14 @@ def group_counts(document: Mapping[str, Any]) -> dict[str, int]:
     return found
 
 
-def _none_kept(chosen: Cover) -> str:
-    """The ``no-monitor-kept`` warning: what every candidate was worth."""
-    worths = ", ".join(f"{w.name} {w.value:.2f}" for w in chosen.candidates if w.name != NONE)
+def none_kept_message(chosen: Cover) -> str:
+    """The ``no-monitor-kept`` warning: what every candidate was worth, and whether none
+    was kept for being worth the most or for a lead within a standard error."""
+    others = [w for w in chosen.candidates if w.name != NONE]
+    worths = ", ".join(f"{w.name} {w.value:.2f}" for w in others)
+    lead = "" if max(w.value for w in others) <= 0.0 else " by more than a standard error"
     return (
-        f"no candidate monitor is worth more than none on the held-out failed runs "
+        f"no candidate monitor is worth more than none{lead} on the held-out failed runs "
         f"({worths}; none 0): the refined file keeps no invariants; record more normal and "
         f"failed runs, or monitor with the invariants file itself"
     )
@@ -1172,8 +1175,9 @@ def run_check(
                     for w in chosen.candidates
                 ]
             if chosen.worth is not None and chosen.worth.name == NONE:
+                message = none_kept_message(chosen)
                 out.diagnostics.append(
-                    _diagnostic(config_path, check.span, "no-monitor-kept", _none_kept(chosen))
+                    _diagnostic(config_path, check.span, "no-monitor-kept", message)
                 )
         out.refined = refined(document, scores, report)
         whole_kept = chosen is not None and chosen.worth is not None and chosen.worth.name in WHOLE

@@ -206,9 +206,8 @@ CODES: tuple[Code, ...] = (
         "no-monitor-kept",
         _W,
         "classify",
-        "No candidate monitor is worth more than none on the held-out failed runs (each is "
-        "expected to raise about as many false alarms as it detects faults); the refined "
-        "file keeps no invariants.",
+        "No candidate monitor is worth more than none on the held-out failed runs (or none "
+        "by more than a standard error); the refined file keeps no invariants.",
     ),
     # Lowering (imrosc build).
     Code(

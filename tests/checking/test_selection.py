@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from imrosc.classify import RunOutcome, monitor_choice, whole_monitor
+from imrosc.classify import RunOutcome, monitor_choice, none_kept_message, whole_monitor
 from imrosc.selection import Cover, Nominal, Whole, cover, detected_by
 
 
@@ -117,6 +117,8 @@ def test_a_lead_chance_explains_keeps_the_smaller_monitor() -> None:
     assert chosen.worth is not None and chosen.worth.name == "none" and chosen.chosen == ()
     inferred = next(w for w in chosen.candidates if w.name == "inferred")
     assert inferred.value == pytest.approx(2 - 9 / 8)  # the best worth, not kept
+    assert "worth more than none by more than a standard error" in none_kept_message(chosen)
+    assert "inferred 0.88" in none_kept_message(chosen)
     # a detector that detects as many: the smaller monitor again, now beyond noise of none
     detector = {**nominal, "d1": Nominal(30, 0, ceiling=0.01)}
     caught = {run: ids | {"d1"} for run, ids in fail.items() if run != Path("f2")}
@@ -222,3 +224,5 @@ def test_no_monitor_is_kept_when_every_candidate_is_worth_less_than_none() -> No
     assert worths["cover"] <= 0.0 and worths["none"] == 0.0
     assert chosen.worth is not None and chosen.worth.name == "none"
     assert chosen.chosen == () and chosen.detected == 0 and chosen.false_alarm == 0.0
+    message = none_kept_message(chosen)
+    assert "worth more than none on the held-out" in message and "inferred -2.12" in message
