@@ -98,10 +98,9 @@ class Whole:
     nominal runs that saw the whole monitor: calibration's held-out units (each replayed
     against invariants learnt without it, and judged under the alarm rule and margins its
     fold did not set: :func:`imrosc.calibrate.rule.unseen_alarms`) and successful runs that
-    did not train it; ``k``
-    of ``n`` alarming, a new nominal run alarms with probability ``(k + 1) / (n + 2)``. The
-    failed runs' detections need no holding out: nothing about the monitor was chosen on
-    them.
+    did not train it; ``k`` of ``n`` alarming, a new nominal run alarms with probability
+    ``(k + 1) / (n + 2)``. The failed runs' detections need no holding out: nothing about the
+    monitor was chosen on them.
 
     >>> Whole(("a", "b"), frozenset({1}), frozenset(), 6, 0).false_alarm
     0.125
