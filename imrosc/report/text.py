@@ -32,6 +32,15 @@ ALARMS_SHOWN = 20
 """Alarms listed per run in a text report (all are in the JSON report)."""
 
 
+def agreement(invariants: int) -> str:
+    """How an agreement alarm reads: how many invariants broke together.
+
+    >>> agreement(3), agreement(1)
+    ('3 invariants together', '1 invariant broken')
+    """
+    return f"{invariants} invariants together" if invariants != 1 else "1 invariant broken"
+
+
 def replay(view: Replay) -> str:
     """A replay report: per run a header line and the timeline of its episodes."""
     title = f"imrosc replay of {view.invariants}"
@@ -43,7 +52,7 @@ def replay(view: Replay) -> str:
         if run.error is not None:
             continue
         for alarm in run.alarms[:ALARMS_SHOWN]:
-            why = f"{alarm.invariants} invariants together" if alarm.rule == "agree" else alarm.rule
+            why = agreement(alarm.invariants) if alarm.rule == "agree" else alarm.rule
             lines.append(
                 f"  ALARM {alarm.time}  {alarm.point}  ({why})  {alarm.invariant}  {alarm.text}"
             )

@@ -34,6 +34,9 @@ variables (a polygon, a relation) whose sample also breaks a range of one of tho
 variable out of its range breaks every polygon it is in). An alarm is raised once per
 episode: persistence again only after the invariant held on a sample of its point,
 agreement again only after fewer than ``distinct`` invariants were violated in the window.
+An agreement of invariants each already in alarm (by its own persistence, or at once) raises
+none: it would say again what their alarms said (under ``persist`` 1 and ``distinct`` 1 a
+violation raises one alarm, not two).
 
 ``imrosc infer`` calibrates the rule on the training runs (``docs/calibration.md``) and
 writes it into the invariants file as ``alarms``; a file without it gets
@@ -57,6 +60,8 @@ from typing import Any, Deque, Dict, List, Mapping, NamedTuple, Optional, Sequen
 from .families import DETECTOR, RANGED, VARIANCE
 from .violation import Violation, json_safe
 
+_IDLE = (0.0, 0.0, 0.0, 0.0)
+"""The episode of an invariant not violated now: not in alarm."""
 Fed = Tuple[float, str, str, int, bool, float, str, float]
 """A violating sample as calibration keeps it (:attr:`AlarmTracker.fed`)."""
 RANGES = RANGED
@@ -458,6 +463,9 @@ class AlarmTracker:
             return []
         if point in self._agreeing or not found:
             return []
+        episodes = self._episodes.get(point, {})
+        if all(episodes.get(i, _IDLE)[2] for i in distinct):
+            return []  # each in alarm already: nothing new to say (until one that is not joins)
         self._agreeing.add(point)
         return [Alarm(time, point, "agree", tuple(sorted(distinct)), found[0])]
 

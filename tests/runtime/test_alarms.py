@@ -54,6 +54,26 @@ def test_agreement_of_distinct_invariants_within_the_window() -> None:
     assert [a.rule for a in tracker.sample("p", 5.2, [broken("c", 5.2)])] == ["agree"]
 
 
+def test_an_agreement_of_invariants_already_in_alarm_raises_none() -> None:
+    # every violation an alarm: one alarm, not a persistence and an agreement of the same
+    tracker = AlarmTracker(AlarmRule(persist=1, distinct=1, window=1.0))
+    assert [a.rule for a in tracker.sample("p", 0.0, [broken("a", 0.0)])] == ["persist"]
+    assert tracker.sample("p", 0.1, [broken("a", 0.1)]) == []
+    # two invariants in alarm by their own persistence, then a third that is not
+    tracker = AlarmTracker(AlarmRule(persist=2, distinct=2, window=1.0))
+    assert tracker.sample("p", 0.0, [broken("a", 0.0)]) == []
+    assert [a.rule for a in tracker.sample("p", 0.1, [broken("a", 0.1), broken("b", 0.1)])] == [
+        "persist",
+        "agree",
+    ]
+    tracker = AlarmTracker(AlarmRule(persist=2, distinct=3, window=1.0))
+    tracker.sample("p", 0.0, [broken("a", 0.0), broken("b", 0.0)])
+    raised = tracker.sample("p", 0.1, [broken("a", 0.1), broken("b", 0.1)])
+    assert sorted(a.invariants for a in raised) == [("a",), ("b",)]  # two of three
+    (alarm,) = tracker.sample("p", 0.2, [broken("a", 0.2), broken("b", 0.2), broken("c", 0.2)])
+    assert (alarm.rule, alarm.invariants) == ("agree", ("a", "b", "c"))  # "c" is new
+
+
 def test_violations_in_an_alarmed_episode_are_alarmed() -> None:
     tracker = AlarmTracker(AlarmRule(persist=2))
     first = [broken("a", 0.0)]
