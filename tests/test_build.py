@@ -56,10 +56,16 @@ def test_a_bad_bag_is_reported_by_name(tmp_path: Path) -> None:
     broken = tmp_path / "broken.bag"
     broken.write_bytes(b"#ROSBAG V2.0\n" + b"\0" * 10)
     result = CliRunner().invoke(main, ["build", str(config), "--bags", str(broken)])
-    assert result.exit_code == 1
+    assert result.exit_code == 2  # no bag could be read: an input error (README)
     assert f"{broken}:1:1: error:" in result.output
     assert "[bag-error]" in result.output
-    assert "[relative-without-graph]" in result.output
+    assert "[relative-without-graph]" not in result.output  # the bag was the graph source
+    graph = tmp_path / "empty.yaml"
+    graph.write_text("version: 1\nnodes: {}\n")
+    args = ["build", str(config), "--bags", str(broken), "--graph", str(graph)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1  # the graph file given knows no publisher of /cmd: a finding
+    assert "[unknown-topic]" in result.output
 
 
 MONITORED = """<imROS project="p">

@@ -16,7 +16,15 @@ from pathlib import Path
 
 import pytest
 
-from tests.bad_input.support import COMMANDS, RECOVERED, project, run, snapshot, template
+from tests.bad_input.support import (
+    COMMANDS,
+    CONFIG,
+    RECOVERED,
+    project,
+    run,
+    snapshot,
+    template,
+)
 
 __all__ = ["project", "template"]
 
@@ -107,6 +115,34 @@ def test_a_bag_cut_before_its_first_message_is_an_error(project: Path) -> None:
         stderr
     )
     assert "skipped 1 bag" in stdout
+
+
+RELATIVE = CONFIG.replace('<publish id="a">', '<publish id="a" relative="1">')
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("infer", "{d}/r.xml", "-j", "1", "-q"),
+        ("export-daikon", "{d}/r.xml", "-o", "{d}/daikon", "-q"),
+        ("build", "{d}/r.xml", "--bags", "{d}/bags/train"),
+    ],
+    ids=lambda args: args[0],
+)
+def test_no_bag_read_is_an_input_error_where_the_bags_were_the_graph(
+    args: tuple[str, ...], project: Path
+) -> None:
+    """A relative point learns its inputs from the bags' graph: when none of the bags can be
+    read, the command says so (exit 2), not that the configuration lacks a graph source."""
+    (project / "r.xml").write_text(RELATIVE)
+    for bag in (project / "bags" / "train").iterdir():
+        bag.write_bytes(b"not a bag\n")
+    before = snapshot(project)
+    status, _, stderr = run(project, args)
+    assert status == 2, stderr
+    assert "r1.bag:1:1: error: cannot open bag: not a ROS 1 bag" in stderr
+    assert "relative-without-graph" not in stderr
+    assert snapshot(project) == before
 
 
 def make_active(project: Path, *names: str) -> list[Path]:
