@@ -151,10 +151,17 @@ def check(configs: tuple[Path, ...], output_format: str, strict: bool) -> None:
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
 
 
+_UNREADABLE = frozenset({"io-error", "invariants-unreadable"})
+"""The codes of an input file that could not be read or is malformed (not a configuration's
+findings): a missing configuration, a monitor's invariants file that is missing or bad."""
+
+
 def _stopped(diagnostics: list[Diagnostic]) -> int:
-    """The exit status of a command its inputs stopped: 2 when a file could not be read
-    (an input error, as ``check`` says), else 1 (errors in the configuration)."""
-    return EXIT_USAGE if any(d.code == "io-error" for d in diagnostics) else EXIT_ERRORS
+    """The exit status of a command its inputs stopped: 2 when a file could not be read or
+    is malformed (an input error, as ``check`` and README's "Exit status" say: a configuration
+    that cannot be read, an invariants file ``build`` deploys), else 1 (errors in the
+    configuration)."""
+    return EXIT_USAGE if any(d.code in _UNREADABLE for d in diagnostics) else EXIT_ERRORS
 
 
 def _none_read(bags: Sequence[Path], diagnostics: list[Diagnostic]) -> bool:

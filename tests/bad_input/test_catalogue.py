@@ -590,3 +590,30 @@ def test_build_refuses_to_overwrite_another_kind_of_imrosc_file(project: Path) -
         result.stderr
     )
     assert snapshot(project) == before
+
+
+MONITOR = '  <monitor inv="p.inv"><block>/out</block></monitor>\n'
+MONITORED = CONFIG.replace("</imROS>", MONITOR + "</imROS>")
+
+
+@pytest.mark.parametrize("backend", ["ros1", "ros2"])
+@pytest.mark.parametrize("name", ["missing", *MALFORMED])
+def test_build_refuses_a_bad_invariants_file_as_an_input_error(
+    name: str, backend: str, project: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The invariants file a monitor deploys is an input: missing or malformed, it stops
+    ``build`` with exit 2 (README, "Exit status"), its name and problem on one line."""
+    (project / "m.xml").write_text(MONITORED)
+    message = "cannot read: No such file or directory"
+    if name != "missing":
+        setup, message = MALFORMED[name]
+        setup(project)
+    before = snapshot(project)
+    monkeypatch.chdir(project)
+    args = ["build", "m.xml", "--backend", backend, "--inv", "bad.inv", "-o", "pkg"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == USAGE, result.output
+    assert "Traceback" not in result.output
+    (line,) = [text for text in result.stderr.splitlines() if "[invariants-unreadable]" in text]
+    assert "bad.inv" in line and message in line, line
+    assert snapshot(project) == before
