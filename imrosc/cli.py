@@ -468,12 +468,15 @@ def info(bags: tuple[Path, ...], output_format: str, quiet: bool) -> None:
 def show(inv: Path, families: tuple[str, ...], points: tuple[str, ...], ids: bool) -> None:
     """Print an invariants file, Daikon style, grouped by program point."""
     from imrosc.invariants import InvariantsFileError, load
-    from imrosc.show import render
+    from imrosc.show import render, unknown_filter
 
     try:
         doc = load(inv)
     except InvariantsFileError as error:
         fail("show", str(error), EXIT_USAGE)
+    problem = unknown_filter(doc, families=families, points=points)
+    if problem is not None:
+        fail("show", f"{inv}: {problem}", EXIT_USAGE)
     try:
         text = render(doc, families=families, points=points, ids=ids)
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:

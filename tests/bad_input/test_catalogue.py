@@ -436,6 +436,13 @@ CASES: dict[str, Case] = {
     "demo -o under a file": Case(("demo", "-o", "{d}/p.xml/demo"), ENVIRONMENT, "Not a directory"),
 }
 
+CASES["show --family of no family"] = Case(
+    ("show", INV, "--family", "boundz"), USAGE, "p.inv: unknown family 'boundz' (families: bounds,"
+)
+CASES["show --point of no point"] = Case(
+    ("show", INV, "--point", "zz"), USAGE, "p.inv: no point 'zz' in the file (points: a)"
+)
+
 MALFORMED: dict[str, tuple[Callable[[Path], None], str]] = {
     "a missing key": (edited_inv("bad.inv", _no_point), "$.invariants[0]: missing 'point'"),
     "a wrong type": (edited_inv("bad.inv", _params_list), "$.invariants[0].params: not an object"),
