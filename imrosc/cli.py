@@ -201,7 +201,14 @@ def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
     help="Output directory [default: build/PROJECT-BACKEND].",
 )
 @graph_option
-@bags_option
+@click.option(
+    "--bags",
+    multiple=True,
+    metavar="BAG",
+    callback=bag_arguments,
+    help="Bags, folders, globs or URLs whose graph (architecture records, callerid) and "
+    "message types the build uses; the <detect> bags are not read.",
+)
 @click.option(
     "--inv",
     type=click.Path(dir_okay=False, path_type=Path),

@@ -101,3 +101,19 @@ def test_inv_deploys_another_invariants_file_than_the_monitors(tmp_path: Path) -
     assert plan.exit_code == 2 and "backend plan renders none" in plan.output
     onto = ["--inv", str(tmp_path / "kept.inv"), "-o", str(tmp_path / "kept"), "--force"]
     assert runner.invoke(main, [*args, *onto]).exit_code == 0  # its own outputs, again
+
+
+def test_build_reads_the_bags_given_with_bags_not_the_detect_bags(tmp_path: Path) -> None:
+    """The graph of a relative point comes from --bags (or --graph); <detect> bags are not
+    read, and the error and --help say where to give them."""
+    config = tmp_path / "recorded.xml"
+    detect = '  <detect inv="r.inv"><bag>run.bag</bag></detect>\n</imROS>'
+    config.write_text(CONFIG.replace("</imROS>", detect))
+    bag = recorded_bag(tmp_path / "run.bag")
+    result = CliRunner().invoke(main, ["build", str(config), "-o", str(tmp_path / "a")])
+    assert result.exit_code == 1 and "[relative-without-graph]" in result.output
+    assert "(build reads those bags with --bags)" in result.output
+    args = ["build", str(config), "--bags", str(bag), "-o", str(tmp_path / "b")]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    usage = CliRunner().invoke(main, ["build", "--help"]).output
+    assert "the <detect> bags are not read" in " ".join(usage.split())
