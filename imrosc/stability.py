@@ -96,7 +96,7 @@ def run_stability(
                 problems.append(found_problem)
         document = detected.document
         if document is None or has_errors(detected.diagnostics):
-            problems += detected.diagnostics
+            problems += [d for d in detected.diagnostics if d not in problems]
             return None, problems
         outcomes = observe_runs(document, held_out, workers, progress=progress, cluster=cluster)
         violated = {bag: (o.violated, o.error) for bag, o in outcomes.items()}

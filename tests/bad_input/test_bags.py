@@ -145,6 +145,17 @@ def test_no_bag_read_is_an_input_error_where_the_bags_were_the_graph(
     assert snapshot(project) == before
 
 
+def test_stability_names_a_bag_it_cannot_read_once(project: Path) -> None:
+    """A round that trains on the bag only stops the command; the bag's error is one line,
+    not one per round that met it."""
+    bag = project / "bags" / "train" / "r1.bag"
+    bag.write_bytes(b"not a bag\n")
+    status, _, stderr = run(project, ("stability", "{d}/p.xml", "-j", "1", "-q"))
+    assert status == 1, stderr
+    lines = [line for line in stderr.splitlines() if line.startswith(str(bag))]
+    assert len(lines) == 1 and "[bag-error]" in lines[0], stderr
+
+
 def make_active(project: Path, *names: str) -> list[Path]:
     """The bags ``names`` as an interrupted ``rosbag record`` leaves them: unindexed and
     named ``NAME.bag.active``."""
