@@ -743,6 +743,9 @@ def classify(
     for run in result.report.get("runs", ()):
         for warning in run.get("warnings", ()):
             click.echo(f"imrosc classify: {run['bag']}: warning: {warning}", err=True)
+    for bag, warnings in result.report.get("warnings", {}).items():  # comparing data sets
+        for warning in warnings:
+            click.echo(f"imrosc classify: {bag}: warning: {warning}", err=True)
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
     unread = has_errors(result.diagnostics) or bool(result.report.get("errors"))
