@@ -746,6 +746,8 @@ def classify(
     for bag, warnings in result.report.get("warnings", {}).items():  # comparing data sets
         for warning in warnings:
             click.echo(f"imrosc classify: {bag}: warning: {warning}", err=True)
+    for unread in result.report.get("errors", ()):  # each names its bag
+        click.echo(f"imrosc classify: {unread['error']}", err=True)
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
     unread = has_errors(result.diagnostics) or bool(result.report.get("errors"))

@@ -156,6 +156,22 @@ def test_stability_names_a_bag_it_cannot_read_once(project: Path) -> None:
     assert len(lines) == 1 and "[bag-error]" in lines[0], stderr
 
 
+@pytest.mark.parametrize("names", [["bad/f1.bag"], ["ok/s1.bag", "bad/f1.bag"]])
+def test_classify_names_the_runs_it_cannot_read_on_stderr(names: list[str], project: Path) -> None:
+    """Some runs unreadable: exit 1; none: exit 2 and no report. Either way stderr names
+    each bag and its problem (the report is not always there to say it)."""
+    for name in names:
+        (project / "bags" / name).write_bytes(b"not a bag\n")
+    out = project / "r.json"
+    args = ("classify", "{d}/p.xml", "-j", "1", "-q", "--format", "json", "-o", str(out))
+    status, _, stderr = run(project, args)
+    assert status == (1 if len(names) == 1 else 2), stderr
+    for name in names:
+        line = f"imrosc classify: {project / 'bags' / name}: cannot open bag: not a ROS 1 bag"
+        assert line in stderr, stderr
+    assert out.exists() == (len(names) == 1)
+
+
 def make_active(project: Path, *names: str) -> list[Path]:
     """The bags ``names`` as an interrupted ``rosbag record`` leaves them: unindexed and
     named ``NAME.bag.active``."""
