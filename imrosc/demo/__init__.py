@@ -23,6 +23,7 @@ from imrosc.infer.engine import default_workers
 from imrosc.invariants import dumps
 from imrosc.outputs import write_atomic
 from imrosc.progress import ProgressFactory, bag_progress
+from imrosc.report.values import plural
 from imrosc.show import render
 from imrosc.sim import ScenarioKind
 
@@ -113,7 +114,8 @@ def _check_stage(
     write_files(out, {"replay.html": render_report(document, "html").encode()}, force=True)
     episodes = document["runs"][0]["episodes"]
     click.echo(
-        f"   {len(runs[0].violations)} violations in {len(episodes)} episodes; "
+        f"   {plural(len(runs[0].violations), 'violation')} in "
+        f"{plural(len(episodes), 'episode')}; "
         f"timeline and plots in {out / 'replay.html'}"
     )
     for line in render_report(document, "text").splitlines()[1:7]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from imrosc.report.values import plural
 from imrosc.report.views import Classify, Replay, Stability
 
 
@@ -43,7 +44,8 @@ def replay(view: Replay) -> str:
         if run.error is not None:
             continue
         for alarm in run.alarms[:ALARMS_SHOWN]:
-            why = f"{alarm.invariants} invariants together" if alarm.rule == "agree" else alarm.rule
+            together = f"{plural(alarm.invariants, 'invariant')} together"
+            why = together if alarm.rule == "agree" else alarm.rule
             lines.append(
                 f"  ALARM {alarm.time}  {alarm.point}  ({why})  {alarm.invariant}  {alarm.text}"
             )
