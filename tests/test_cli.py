@@ -92,6 +92,11 @@ def test_demo_runs_the_whole_pipeline_on_the_simulated_system(tmp_path: Path) ->
     code, output = invoke("demo", "-o", str(out), "--runs", "2", "-j", "1", "-q")
     assert code == 0, output
     assert "Success: no issues found" in output
+    # each step shows the command that writes what it wrote
+    assert (
+        f"imrosc classify {out / 'landing_sim.xml'} --format html -o {out / 'classify.html'}"
+        in (output)
+    )
     assert f"wrote {out / 'build' / 'plan' / 'plan.json'}" in output
     assert f"wrote {out / 'landing_sim.inv'}" in output
     assert json.loads((out / "landing_sim.inv").read_text())["format"] == "imrosc-invariants"
