@@ -10,6 +10,7 @@ tests/bad_input/test_bags_ros2.py). No traceback, and no file that was there bef
 
 from __future__ import annotations
 
+import json
 import re
 import struct
 from pathlib import Path
@@ -170,6 +171,27 @@ def test_classify_names_the_runs_it_cannot_read_on_stderr(names: list[str], proj
         line = f"imrosc classify: {project / 'bags' / name}: cannot open bag: not a ROS 1 bag"
         assert line in stderr, stderr
     assert out.exists() == (len(names) == 1)
+
+
+def test_stability_leaves_a_bag_it_cannot_read_out_of_its_rounds(project: Path) -> None:
+    """As infer skips a bag it cannot read, stability trains without it and reports the
+    round that held it out as checking nothing (its errors, no violations, out of the
+    means); exit 1 (README: a bag that could not be read among good ones)."""
+    train = project / "bags" / "train"
+    (train / "r3.bag").write_bytes((train / "r2.bag").read_bytes())
+    (train / "r1.bag").write_bytes(b"not a bag\n")
+    out = project / "s.json"
+    args = ("stability", "{d}/p.xml", "-j", "1", "-q", "--format", "json", "-o", str(out))
+    status, _, stderr = run(project, args)
+    assert status == 1, stderr
+    report = json.loads(out.read_text())
+    (unread,) = [r for r in report["rounds"] if r["errors"]]
+    assert unread["held_out"] == [str(train / "r1.bag")] and unread["violated"] == {}
+    scored = [r for r in report["rounds"] if not r["errors"]]
+    assert len(scored) == 2 and report["held_out_runs"] == 2
+    for family, summary in report["families"].items():
+        mean = sum(r["total"].get(family, 0) for r in scored) / 2
+        assert summary["total_mean"] == round(mean, 3), family
 
 
 def make_active(project: Path, *names: str) -> list[Path]:
