@@ -70,6 +70,17 @@ def load_graph(
     return (Graph.merge(*graphs) if graphs else None), problems
 
 
+NEEDS_GRAPH = frozenset({"relative-without-graph", "launch-without-graph"})
+"""The codes of what a graph would have told. When bags were the only graph source and none
+of them could be read, these errors only repeat the bags' own (``bag-error``): they are left
+out, so that the command fails as one none of whose bags could be read (exit 2)."""
+
+
+def without_graph_errors(problems: list[Diagnostic]) -> list[Diagnostic]:
+    """``problems`` less those a graph would have prevented (:data:`NEEDS_GRAPH`)."""
+    return [d for d in problems if d.code not in NEEDS_GRAPH]
+
+
 def topic_types(bags: Sequence[Path]) -> tuple[dict[str, TopicType], list[Diagnostic]]:
     """The message type of every topic recorded in the bags (first bag that has it wins)."""
     found: dict[str, TopicType] = {}
@@ -104,10 +115,12 @@ def build(
     project, problems = lowered(config_path)
     if project is None:
         return BuildResult(None, finalize(problems))
-    graph, found = load_graph(graph_files, bags, progress_factory)
+    read = read_bag_graphs(bags, progress_factory) if bags else None
+    graph, found = load_graph(graph_files, bags, read=read)
     types, found_types = topic_types(bags)
     problems += found + found_types
     project, found_passes = passed(project, graph)
+    none_read = read is not None and not read.read and not graph_files
     if inv is not None and project.monitor is not None:
         base = Path(project.source).parent.absolute()
         deployed = os.path.relpath(inv.absolute(), base)
@@ -117,6 +130,8 @@ def build(
     renderer = load(backend)
     files = renderer(inputs) if not has_errors(problems) else {}
     problems += inputs.diagnostics
+    if none_read:
+        problems = without_graph_errors(problems)
     if has_errors(problems):
         files = {}
     return BuildResult(project, finalize(problems), files)

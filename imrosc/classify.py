@@ -1202,6 +1202,9 @@ def run_check(
         report["scores"], report["families"] = compare(
             document, {b: o.violated for b, o in runs["reference"].items()}
         )
+        warned = {str(b): list(o.warnings) for b, o in runs["reference"].items() if o.warnings}
+        if warned:  # per bag, what replay warns of (topics missing, points unchecked)
+            report["warnings"] = warned
         unchecked = {str(b): o.unchecked for b, o in runs["reference"].items() if o.unchecked}
         if unchecked:  # per bag, the points that checked no sample
             report["unchecked"] = unchecked

@@ -151,10 +151,17 @@ def check(configs: tuple[Path, ...], output_format: str, strict: bool) -> None:
     sys.exit(EXIT_ERRORS if has_errors(diagnostics) else EXIT_CLEAN)
 
 
+_UNREADABLE = frozenset({"io-error", "invariants-unreadable"})
+"""The codes of an input file that could not be read or is malformed (not a configuration's
+findings): a missing configuration, a monitor's invariants file that is missing or bad."""
+
+
 def _stopped(diagnostics: list[Diagnostic]) -> int:
-    """The exit status of a command its inputs stopped: 2 when a file could not be read
-    (an input error, as ``check`` says), else 1 (errors in the configuration)."""
-    return EXIT_USAGE if any(d.code == "io-error" for d in diagnostics) else EXIT_ERRORS
+    """The exit status of a command its inputs stopped: 2 when a file could not be read or
+    is malformed (an input error, as ``check`` and README's "Exit status" say: a configuration
+    that cannot be read, an invariants file ``build`` deploys), else 1 (errors in the
+    configuration)."""
+    return EXIT_USAGE if any(d.code in _UNREADABLE for d in diagnostics) else EXIT_ERRORS
 
 
 def _none_read(bags: Sequence[Path], diagnostics: list[Diagnostic]) -> bool:
@@ -194,7 +201,14 @@ def _report(diagnostics: list[Diagnostic], output_format: str) -> None:
     help="Output directory [default: build/PROJECT-BACKEND].",
 )
 @graph_option
-@bags_option
+@click.option(
+    "--bags",
+    multiple=True,
+    metavar="BAG",
+    callback=bag_arguments,
+    help="Bags, folders, globs or URLs whose graph (architecture records, callerid) and "
+    "message types the build uses; the <detect> bags are not read.",
+)
 @click.option(
     "--inv",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -461,12 +475,15 @@ def info(bags: tuple[Path, ...], output_format: str, quiet: bool) -> None:
 def show(inv: Path, families: tuple[str, ...], points: tuple[str, ...], ids: bool) -> None:
     """Print an invariants file, Daikon style, grouped by program point."""
     from imrosc.invariants import InvariantsFileError, load
-    from imrosc.show import render
+    from imrosc.show import render, unknown_filter
 
     try:
         doc = load(inv)
     except InvariantsFileError as error:
         fail("show", str(error), EXIT_USAGE)
+    problem = unknown_filter(doc, families=families, points=points)
+    if problem is not None:
+        fail("show", f"{inv}: {problem}", EXIT_USAGE)
     try:
         text = render(doc, families=families, points=points, ids=ids)
     except (KeyError, IndexError, TypeError, ValueError, OverflowError) as error:
@@ -726,6 +743,11 @@ def classify(
     for run in result.report.get("runs", ()):
         for warning in run.get("warnings", ()):
             click.echo(f"imrosc classify: {run['bag']}: warning: {warning}", err=True)
+    for bag, warnings in result.report.get("warnings", {}).items():  # comparing data sets
+        for warning in warnings:
+            click.echo(f"imrosc classify: {bag}: warning: {warning}", err=True)
+    for unread in result.report.get("errors", ()):  # each names its bag
+        click.echo(f"imrosc classify: {unread['error']}", err=True)
     if not result.report:
         sys.exit(_stopped(result.diagnostics))
     unread = has_errors(result.diagnostics) or bool(result.report.get("errors"))

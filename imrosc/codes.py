@@ -265,7 +265,7 @@ CODES: tuple[Code, ...] = (
         "launch-error",
         _E,
         "backend",
-        "The <monitor> launch file cannot be read or is not a roslaunch XML file.",
+        "The <monitor> launch file is not a roslaunch XML file (unreadable: io-error).",
     ),
     Code(
         "launch-without-graph",

@@ -18,7 +18,7 @@ from typing import Any
 from imrosc import ir
 from imrosc.backends.plan import render_job, render_plan
 from imrosc.backends.registry import BuildInputs, TopicType
-from imrosc.build import load_graph
+from imrosc.build import load_graph, without_graph_errors
 from imrosc.calibrate import Calibration, calibrate
 from imrosc.calibrate.rule import Replays
 from imrosc.diagnostics import Diagnostic, finalize, has_errors, make
@@ -163,6 +163,9 @@ def prepare(
         bags = [bag_path(b, base) for b in detect.bags] if detect else []
     catalog = build_catalog(bags, noter)
     project, plan, job, found = _compile(lowered_project, graph_files, catalog)
+    unread = any(d.code == "bag-error" for d in catalog.diagnostics)
+    if unread and not catalog.bags and not graph_files:  # the bags were the graph source
+        found = without_graph_errors(found)
     problems = finalize(problems + found + catalog.diagnostics)
     if has_errors(found):
         return None, problems

@@ -34,7 +34,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from imrosc.infer.polygon.text import polygon_text
-from imrosc.runtime.families import POLYGON
+from imrosc.runtime.families import NAMES, POLYGON
 
 RULE = "=" * 75
 
@@ -73,6 +73,32 @@ def render(
             prefix = f"[{invariant['id']}] " if ids and "id" in invariant else ""
             lines.append(prefix + text(invariant))
     return "\n".join(lines) + ("\n" if lines else "")
+
+
+def unknown_filter(
+    doc: Mapping[str, Any], *, families: Sequence[str] = (), points: Sequence[str] = ()
+) -> str | None:
+    """What is wrong with the filters asked for, or None: a family imrosc does not know, or a
+    point the file has not (a point's key, or the key of the point a conditional one
+    refines: ``a`` shows ``a?1`` too). A filter that matches nothing would print nothing.
+
+    >>> doc = {"points": {"a": {}, "a?1": {}, "b": {}}}
+    >>> unknown_filter(doc, families=["bounds"], points=["a", "a?1"]) is None
+    True
+    >>> unknown_filter(doc, families=["boundz"])[:50]
+    "unknown family 'boundz' (families: bounds, one-of,"
+    >>> unknown_filter(doc, points=["c"])
+    "no point 'c' in the file (points: a, b)"
+    """
+    for family in families:
+        if family not in NAMES:
+            return f"unknown family {family!r} (families: {', '.join(NAMES)})"
+    keys = set(doc["points"])
+    bases = {key.split("?")[0] for key in keys}
+    for point in points:
+        if point not in keys and point not in bases:
+            return f"no point {point!r} in the file (points: {', '.join(sorted(bases))})"
+    return None
 
 
 def alarm_lines(doc: Mapping[str, Any]) -> list[str]:

@@ -79,6 +79,7 @@ def run_stability(
     rounds: list[dict[str, Any]] = []
     totals: dict[str, list[int]] = {}
     violations: dict[str, list[int]] = {}
+    scored = 0  # the rounds that checked some held-out bag
     for held_out in folds_of(bags, count):
         train = [b for b in bags if b not in held_out]
         detected = run_detect(
@@ -95,13 +96,19 @@ def run_stability(
             if bag_level and found_problem not in problems:  # each round sees the same bags
                 problems.append(found_problem)
         document = detected.document
-        if document is None or has_errors(detected.diagnostics):
-            problems += detected.diagnostics
+        # a bag that cannot be read is left out of the round, as infer leaves it out (its
+        # error is reported, exit 1); a round that read none of its bags stops the command
+        other = [d for d in detected.diagnostics if not d.code.startswith("bag-")]
+        if document is None or has_errors(other):
+            problems += [d for d in detected.diagnostics if d not in problems]
             return None, problems
         outcomes = observe_runs(document, held_out, workers, progress=progress, cluster=cluster)
         violated = {bag: (o.violated, o.error) for bag, o in outcomes.items()}
         broken = set().union(*(ids for ids, _ in violated.values()))
         alarmed = sorted(str(bag) for bag, o in outcomes.items() if o.alarms)
+        # a round none of whose held-out bags could be read checked nothing: listed with
+        # its errors, left out of the means (its violations are unknown, not 0)
+        unread = all(error is not None for _, error in violated.values())
         total: dict[str, int] = {}
         hit: dict[str, int] = {}
         for inv in document["invariants"]:
@@ -116,18 +123,21 @@ def run_stability(
                 "errors": [
                     {"bag": str(b), "error": e} for b, (_, e) in violated.items() if e is not None
                 ],
-                "violated": dict(sorted(hit.items())),
+                "violated": {} if unread else dict(sorted(hit.items())),
                 "total": dict(sorted(total.items())),
                 "alarmed": alarmed,
             }
         )
+        if unread:
+            continue
+        scored += 1
         for family, number in total.items():
             totals.setdefault(family, []).append(number)
             violations.setdefault(family, []).append(hit[family])
     families = {}
     for family in sorted(totals):
-        mean_total = sum(totals[family]) / len(rounds)
-        mean_violated = sum(violations[family]) / len(rounds)
+        mean_total = sum(totals[family]) / scored
+        mean_violated = sum(violations[family]) / scored
         families[family] = {
             "total_mean": round(mean_total, 3),
             "violated_mean": round(mean_violated, 3),
@@ -143,6 +153,6 @@ def run_stability(
         "rounds": rounds,
         "families": families,
         "alarmed_runs": sum(len(r["alarmed"]) for r in rounds),
-        "held_out_runs": sum(len(r["held_out"]) for r in rounds),
+        "held_out_runs": sum(len(r["held_out"]) - len(r["errors"]) for r in rounds),
     }
     return report, problems

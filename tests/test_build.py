@@ -56,10 +56,16 @@ def test_a_bad_bag_is_reported_by_name(tmp_path: Path) -> None:
     broken = tmp_path / "broken.bag"
     broken.write_bytes(b"#ROSBAG V2.0\n" + b"\0" * 10)
     result = CliRunner().invoke(main, ["build", str(config), "--bags", str(broken)])
-    assert result.exit_code == 1
+    assert result.exit_code == 2  # no bag could be read: an input error (README)
     assert f"{broken}:1:1: error:" in result.output
     assert "[bag-error]" in result.output
-    assert "[relative-without-graph]" in result.output
+    assert "[relative-without-graph]" not in result.output  # the bag was the graph source
+    graph = tmp_path / "empty.yaml"
+    graph.write_text("version: 1\nnodes: {}\n")
+    args = ["build", str(config), "--bags", str(broken), "--graph", str(graph)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1  # the graph file given knows no publisher of /cmd: a finding
+    assert "[unknown-topic]" in result.output
 
 
 MONITORED = """<imROS project="p">
@@ -95,3 +101,19 @@ def test_inv_deploys_another_invariants_file_than_the_monitors(tmp_path: Path) -
     assert plan.exit_code == 2 and "backend plan renders none" in plan.output
     onto = ["--inv", str(tmp_path / "kept.inv"), "-o", str(tmp_path / "kept"), "--force"]
     assert runner.invoke(main, [*args, *onto]).exit_code == 0  # its own outputs, again
+
+
+def test_build_reads_the_bags_given_with_bags_not_the_detect_bags(tmp_path: Path) -> None:
+    """The graph of a relative point comes from --bags (or --graph); <detect> bags are not
+    read, and the error and --help say where to give them."""
+    config = tmp_path / "recorded.xml"
+    detect = '  <detect inv="r.inv"><bag>run.bag</bag></detect>\n</imROS>'
+    config.write_text(CONFIG.replace("</imROS>", detect))
+    bag = recorded_bag(tmp_path / "run.bag")
+    result = CliRunner().invoke(main, ["build", str(config), "-o", str(tmp_path / "a")])
+    assert result.exit_code == 1 and "[relative-without-graph]" in result.output
+    assert "(build reads those bags with --bags)" in result.output
+    args = ["build", str(config), "--bags", str(bag), "-o", str(tmp_path / "b")]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    usage = CliRunner().invoke(main, ["build", "--help"]).output
+    assert "the <detect> bags are not read" in " ".join(usage.split())

@@ -88,7 +88,8 @@ def test_show_filters_by_family_and_point(project: Path) -> None:
     assert lines[0].startswith("a:::POINT")
     listed = [line for line in lines if ":::POINT" not in line]
     assert listed and all("freq(" in line for line in listed)
-    assert CliRunner().invoke(main, ["show", inv, "--point", "zz"]).output == ""
+    unknown = CliRunner().invoke(main, ["show", inv, "--point", "zz"])  # a typo is said
+    assert unknown.exit_code == 2 and "no point 'zz' in the file (points: a" in unknown.output
 
 
 def test_infer_refuses_to_overwrite_a_file_it_did_not_write(project: Path) -> None:

@@ -92,16 +92,20 @@ def _parser() -> etree.XMLParser:
 
 
 def read_launch(path: Path, label: str) -> tuple[etree._ElementTree | None, list[Diagnostic]]:
-    """Parse a launch file safely; a ``launch-error`` diagnostic says why it could not be."""
+    """Parse a launch file safely; a ``launch-error`` diagnostic says why it could not be
+    (``io-error`` when it cannot be read at all: missing, a directory, no permission: an
+    input error, as a configuration that cannot be read)."""
 
-    def error(message: str, line: int = 1) -> tuple[None, list[Diagnostic]]:
-        return None, [make(label, line, 1, "launch-error", message)]
+    def error(
+        message: str, line: int = 1, code: str = "launch-error"
+    ) -> tuple[None, list[Diagnostic]]:
+        return None, [make(label, line, 1, code, message)]
 
     try:
         with open(path, "rb") as stream:
             data = stream.read(MAX_CONFIG_BYTES + 1)
     except OSError as problem:
-        return error(f"cannot read the launch file: {problem.strerror}")
+        return error(f"cannot read the launch file: {problem.strerror}", code="io-error")
     if len(data) > MAX_CONFIG_BYTES:
         return error(f"the launch file is larger than {MAX_CONFIG_BYTES} bytes")
     try:

@@ -81,7 +81,8 @@ def _check_stage(
     from imrosc.replay import replay_document
     from imrosc.report import render as render_report
 
-    click.echo(f"\n5. imrosc classify {config}")
+    report = out / "classify.html"
+    click.echo(f"\n5. imrosc classify {config} --format html -o {report}")
     try:
         checked = run_check(config, workers=workers or default_workers(), progress_factory=progress)
     except CheckStageError as error:
@@ -93,7 +94,6 @@ def _check_stage(
     write_files(
         checked.output.parent, {checked.output.name: dumps(checked.refined).encode()}, force=True
     )
-    report = out / "classify.html"
     write_files(out, {report.name: render_report(checked.report, "html").encode()}, force=True)
     families = checked.report["families"]
     kept = sum(f["kept"] for f in families.values())

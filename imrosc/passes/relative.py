@@ -85,7 +85,8 @@ def _grouped(point: ir.PublishPoint, context: PassContext) -> ir.PublishPoint:
             point.span,
             "relative-without-graph",
             f"relative={point.relative} on {point.topic} needs to know who subscribes to what, "
-            f"but there is {have}: record with 'imrosc record' or pass --graph FILE",
+            f"but there is {have}: record with 'imrosc record' (build reads those bags "
+            f"with --bags) or pass --graph FILE",
         )
         return dataclasses.replace(point, inputs=_with_explicit([], point.explicit_topics))
     if not graph.publishers(point.topic):

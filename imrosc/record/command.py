@@ -257,8 +257,10 @@ def _write_launch(
     )
     rewritten = rewrite_for_recording(launch, found, prefix=prefix, banner=banner)
     _report(rewritten.diagnostics)
-    if rewritten.content is None:
-        sys.exit(EXIT_ERRORS)
+    if rewritten.content is None:  # a launch file that cannot be read: an input error
+        sys.exit(
+            EXIT_USAGE if any(d.code == "io-error" for d in rewritten.diagnostics) else EXIT_ERRORS
+        )
     for service, node in rewritten.missing:
         _warn(f"{launch}: no <node> {node} (the server of {service}) to remap; remap it by hand")
     try:

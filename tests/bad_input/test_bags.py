@@ -10,13 +10,22 @@ tests/bad_input/test_bags_ros2.py). No traceback, and no file that was there bef
 
 from __future__ import annotations
 
+import json
 import re
 import struct
 from pathlib import Path
 
 import pytest
 
-from tests.bad_input.support import COMMANDS, RECOVERED, project, run, snapshot, template
+from tests.bad_input.support import (
+    COMMANDS,
+    CONFIG,
+    RECOVERED,
+    project,
+    run,
+    snapshot,
+    template,
+)
 
 __all__ = ["project", "template"]
 
@@ -107,6 +116,82 @@ def test_a_bag_cut_before_its_first_message_is_an_error(project: Path) -> None:
         stderr
     )
     assert "skipped 1 bag" in stdout
+
+
+RELATIVE = CONFIG.replace('<publish id="a">', '<publish id="a" relative="1">')
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("infer", "{d}/r.xml", "-j", "1", "-q"),
+        ("export-daikon", "{d}/r.xml", "-o", "{d}/daikon", "-q"),
+        ("build", "{d}/r.xml", "--bags", "{d}/bags/train"),
+    ],
+    ids=lambda args: args[0],
+)
+def test_no_bag_read_is_an_input_error_where_the_bags_were_the_graph(
+    args: tuple[str, ...], project: Path
+) -> None:
+    """A relative point learns its inputs from the bags' graph: when none of the bags can be
+    read, the command says so (exit 2), not that the configuration lacks a graph source."""
+    (project / "r.xml").write_text(RELATIVE)
+    for bag in (project / "bags" / "train").iterdir():
+        bag.write_bytes(b"not a bag\n")
+    before = snapshot(project)
+    status, _, stderr = run(project, args)
+    assert status == 2, stderr
+    assert "r1.bag:1:1: error: cannot open bag: not a ROS 1 bag" in stderr
+    assert "relative-without-graph" not in stderr
+    assert snapshot(project) == before
+
+
+def test_stability_names_a_bag_it_cannot_read_once(project: Path) -> None:
+    """A round that trains on the bag only stops the command; the bag's error is one line,
+    not one per round that met it."""
+    bag = project / "bags" / "train" / "r1.bag"
+    bag.write_bytes(b"not a bag\n")
+    status, _, stderr = run(project, ("stability", "{d}/p.xml", "-j", "1", "-q"))
+    assert status == 1, stderr
+    lines = [line for line in stderr.splitlines() if line.startswith(str(bag))]
+    assert len(lines) == 1 and "[bag-error]" in lines[0], stderr
+
+
+@pytest.mark.parametrize("names", [["bad/f1.bag"], ["ok/s1.bag", "bad/f1.bag"]])
+def test_classify_names_the_runs_it_cannot_read_on_stderr(names: list[str], project: Path) -> None:
+    """Some runs unreadable: exit 1; none: exit 2 and no report. Either way stderr names
+    each bag and its problem (the report is not always there to say it)."""
+    for name in names:
+        (project / "bags" / name).write_bytes(b"not a bag\n")
+    out = project / "r.json"
+    args = ("classify", "{d}/p.xml", "-j", "1", "-q", "--format", "json", "-o", str(out))
+    status, _, stderr = run(project, args)
+    assert status == (1 if len(names) == 1 else 2), stderr
+    for name in names:
+        line = f"imrosc classify: {project / 'bags' / name}: cannot open bag: not a ROS 1 bag"
+        assert line in stderr, stderr
+    assert out.exists() == (len(names) == 1)
+
+
+def test_stability_leaves_a_bag_it_cannot_read_out_of_its_rounds(project: Path) -> None:
+    """As infer skips a bag it cannot read, stability trains without it and reports the
+    round that held it out as checking nothing (its errors, no violations, out of the
+    means); exit 1 (README: a bag that could not be read among good ones)."""
+    train = project / "bags" / "train"
+    (train / "r3.bag").write_bytes((train / "r2.bag").read_bytes())
+    (train / "r1.bag").write_bytes(b"not a bag\n")
+    out = project / "s.json"
+    args = ("stability", "{d}/p.xml", "-j", "1", "-q", "--format", "json", "-o", str(out))
+    status, _, stderr = run(project, args)
+    assert status == 1, stderr
+    report = json.loads(out.read_text())
+    (unread,) = [r for r in report["rounds"] if r["errors"]]
+    assert unread["held_out"] == [str(train / "r1.bag")] and unread["violated"] == {}
+    scored = [r for r in report["rounds"] if not r["errors"]]
+    assert len(scored) == 2 and report["held_out_runs"] == 2
+    for family, summary in report["families"].items():
+        mean = sum(r["total"].get(family, 0) for r in scored) / 2
+        assert summary["total_mean"] == round(mean, 3), family
 
 
 def make_active(project: Path, *names: str) -> list[Path]:

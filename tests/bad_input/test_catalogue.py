@@ -436,6 +436,13 @@ CASES: dict[str, Case] = {
     "demo -o under a file": Case(("demo", "-o", "{d}/p.xml/demo"), ENVIRONMENT, "Not a directory"),
 }
 
+CASES["show --family of no family"] = Case(
+    ("show", INV, "--family", "boundz"), USAGE, "p.inv: unknown family 'boundz' (families: bounds,"
+)
+CASES["show --point of no point"] = Case(
+    ("show", INV, "--point", "zz"), USAGE, "p.inv: no point 'zz' in the file (points: a)"
+)
+
 MALFORMED: dict[str, tuple[Callable[[Path], None], str]] = {
     "a missing key": (edited_inv("bad.inv", _no_point), "$.invariants[0]: missing 'point'"),
     "a wrong type": (edited_inv("bad.inv", _params_list), "$.invariants[0].params: not an object"),
@@ -590,3 +597,61 @@ def test_build_refuses_to_overwrite_another_kind_of_imrosc_file(project: Path) -
         result.stderr
     )
     assert snapshot(project) == before
+
+
+MONITOR = '  <monitor inv="p.inv"><block>/out</block></monitor>\n'
+MONITORED = CONFIG.replace("</imROS>", MONITOR + "</imROS>")
+
+
+@pytest.mark.parametrize("backend", ["ros1", "ros2"])
+@pytest.mark.parametrize("name", ["missing", *MALFORMED])
+def test_build_refuses_a_bad_invariants_file_as_an_input_error(
+    name: str, backend: str, project: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The invariants file a monitor deploys is an input: missing or malformed, it stops
+    ``build`` with exit 2 (README, "Exit status"), its name and problem on one line."""
+    (project / "m.xml").write_text(MONITORED)
+    message = "cannot read: No such file or directory"
+    if name != "missing":
+        setup, message = MALFORMED[name]
+        setup(project)
+    before = snapshot(project)
+    monkeypatch.chdir(project)
+    args = ["build", "m.xml", "--backend", backend, "--inv", "bad.inv", "-o", "pkg"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == USAGE, result.output
+    assert "Traceback" not in result.output
+    (line,) = [text for text in result.stderr.splitlines() if "[invariants-unreadable]" in text]
+    assert "bad.inv" in line and message in line, line
+    assert snapshot(project) == before
+
+
+@pytest.mark.parametrize("command", ["build", "record"])
+def test_a_launch_file_that_cannot_be_read_is_an_input_error(
+    command: str, project: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The system's launch file, missing: exit 2 (README, "Exit status"), one diagnostic
+    naming it; a launch file that is not roslaunch XML stays a launch-error (exit 1)."""
+    record_project(project)
+    if command == "build":
+        monitor = MONITOR.replace('inv="p.inv"', 'inv="p.inv" launch="nowhere.launch"')
+        (project / "m.xml").write_text(CONFIG.replace("</imROS>", monitor + "</imROS>"))
+        args = ["build", "m.xml", "--backend", "ros1", "-o", "pkg", "--graph", "g.yaml"]
+        graph = "version: 1\nnodes:\n  /n:\n    publishes: [/out]\n    subscribes: [/in]\n"
+        (project / "g.yaml").write_text(graph)
+    else:
+        _no_master(monkeypatch)
+        args = [*RECORD[:5], "nowhere.launch", *RECORD[6:8]]
+        args = [arg.replace("{d}/", "") for arg in args]
+    before = snapshot(project)
+    monkeypatch.chdir(project)
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == USAGE, result.output
+    assert "Traceback" not in result.output
+    assert "nowhere.launch:1:1: error: cannot read the launch file: No such file or directory" in (
+        result.stderr
+    )
+    assert snapshot(project) == before
+    (project / "nowhere.launch").write_text("<launch><node")
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1 and "[launch-error]" in result.stderr, result.output

@@ -232,3 +232,11 @@ def test_a_point_that_checked_no_sample_has_its_own_exit_status(tmp_path: Path) 
     compared = runner.invoke(main, ["classify", str(tmp_path / "d.xml"), "--format", "json"])
     assert compared.exit_code == 5, compared.output
     assert json.loads(compared.stdout)["unchecked"] == {str(alone): ["t"]}
+    # which point went unchecked, and why, is said on stderr as when scoring runs
+    warnings = [
+        "no messages on /u: their invariants are not checked",
+        "point t checked no sample: a topic or parameter it pairs /t with never came",
+    ]
+    for warning in warnings:
+        assert f"imrosc classify: {alone}: warning: {warning}" in compared.stderr
+    assert json.loads(compared.stdout)["warnings"] == {str(alone): warnings}

@@ -69,6 +69,16 @@ def test_a_run_without_violations_says_so(replay_document: dict[str, Any]) -> No
     assert "  ALARM 31.250 s  v  (2 invariants together)  i5b0c61e9d2f4" in text
 
 
+def test_an_alarm_of_one_invariant_together_is_singular(replay_document: dict[str, Any]) -> None:
+    (alarm,) = [
+        a for run in replay_document["runs"] for a in run.get("alarms", ()) if a["rule"] == "agree"
+    ]
+    alarm["invariants"] = alarm["invariants"][:1]
+    assert "  ALARM 31.250 s  v  (1 invariant broken)  i5b0c61e9d2f4" in render(
+        replay_document, "text"
+    )
+
+
 def test_kept_invariants_best_f_first_and_dropped_count() -> None:
     text = render(load("classify"), "text")
     lines = text.splitlines()
