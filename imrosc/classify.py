@@ -1079,6 +1079,16 @@ def run_check(
                 out.diagnostics.append(_diagnostic(config_path, span, "onset-unusable", message))
         overlap = success_in_detect(project, base, found["success"])
         report["success_in_detect"] = [str(b) for b in overlap]
+        if cross_validate is not None and not overlap:
+            message = (
+                f"--cross-validate {cross_validate}: none of the {len(found['success'])} "
+                f"<success> bags is a <detect> bag: each is scored against invariants it did "
+                f"not teach already, as without the option, and no fold is inferred"
+            )
+            out.diagnostics.append(
+                _diagnostic(config_path, check.span, "cross-validation-unneeded", message)
+            )
+            cross_validate = None
         success_runs = dict(runs["success"])
         success_broken = {b: o.violated for b, o in runs["success"].items()}
         held: dict[Path, HeldOutRun] = {}

@@ -203,6 +203,13 @@ CODES: tuple[Code, ...] = (
         "false positives are 0 by construction.",
     ),
     Code(
+        "cross-validation-unneeded",
+        _W,
+        "classify",
+        "--cross-validate asked, but no <success> bag is a <detect> bag: nothing to "
+        "cross-validate; the runs are scored as without it.",
+    ),
+    Code(
         "no-monitor-kept",
         _W,
         "classify",

@@ -268,10 +268,13 @@ def test_classify_fixture_reports_exactly_its_expectations(
     case: Path, prepared: Path, tmp_path: Path
 ) -> None:
     """Each ``tests/fixtures/classify/<code>/`` runs on the prepared bags; ``classify.expect``
-    lists every diagnostic as ``FILE:LINE: severity: [code]``."""
+    lists every diagnostic as ``FILE:LINE: severity: [code]``, and ``options.json``, when
+    there is one, the options of the run (``{"cross_validate": 2}``)."""
     folder = onsets.copy(prepared, tmp_path / case.name)
     shutil.copytree(case, folder, dirs_exist_ok=True)
-    result = run_check(folder / "config.xml", workers=1)
+    given = case / "options.json"
+    options = json.loads(given.read_text()) if given.exists() else {}
+    result = run_check(folder / "config.xml", workers=1, **options)
     got = {(Path(d.path).name, d.line, d.severity.value, d.code) for d in result.diagnostics}
     assert got == _expected(case), [d.as_text() for d in result.diagnostics]
 
