@@ -838,6 +838,16 @@ def stability(
         fail("stability", str(error), EXIT_USAGE)
     _report(problems, "text")
     if report is None:
+        if _none_read(inputs[1 + len(bags) :], problems):  # the <detect> bags it found
+            fail("stability", "no bag could be read: nothing cross-validated", EXIT_USAGE)
+        errors = [d for d in problems if d.severity is Severity.ERROR]
+        if errors and all(d.code == "bag-error" for d in errors):
+            fail(
+                "stability",
+                "no round both trained on a bag it could read and checked one: nothing "
+                "cross-validated",
+                EXIT_ERRORS,
+            )
         sys.exit(_stopped(problems))
     _emit("stability", report, output_format, report_path, force, inputs)
     sys.exit(EXIT_ERRORS if has_errors(problems) else EXIT_CLEAN)

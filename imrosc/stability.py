@@ -80,6 +80,7 @@ def run_stability(
     totals: dict[str, list[int]] = {}
     violations: dict[str, list[int]] = {}
     scored = 0  # the rounds that checked some held-out bag
+    checked = 0  # the held-out bags they checked
     for held_out in folds_of(bags, count):
         train = [b for b in bags if b not in held_out]
         detected = run_detect(
@@ -97,11 +98,28 @@ def run_stability(
                 problems.append(found_problem)
         document = detected.document
         # a bag that cannot be read is left out of the round, as infer leaves it out (its
-        # error is reported, exit 1); a round that read none of its bags stops the command
+        # error is reported, exit 1)
         other = [d for d in detected.diagnostics if not d.code.startswith("bag-")]
         if document is None or has_errors(other):
             problems += [d for d in detected.diagnostics if d not in problems]
             return None, problems
+        catalog, inferred = detected.catalog, detected.result
+        if catalog is None or inferred is None or len(catalog.bags) == len(inferred.failed):
+            # none of its training bags could be read: invariants of nothing, which its
+            # held-out bags would break none of; listed with their errors, checks nothing
+            unreadable = [d for d in detected.diagnostics if d.code == "bag-error"]
+            rounds.append(
+                {
+                    "held_out": [str(b) for b in held_out],
+                    "trained_on": [str(b) for b in train],
+                    "invariants": 0,
+                    "errors": [{"bag": d.path, "error": d.message} for d in unreadable],
+                    "violated": {},
+                    "total": {},
+                    "alarmed": [],
+                }
+            )
+            continue
         outcomes = observe_runs(document, held_out, workers, progress=progress, cluster=cluster)
         violated = {bag: (o.violated, o.error) for bag, o in outcomes.items()}
         broken = set().union(*(ids for ids, _ in violated.values()))
@@ -131,9 +149,12 @@ def run_stability(
         if unread:
             continue
         scored += 1
+        checked += sum(error is None for _, error in violated.values())
         for family, number in total.items():
             totals.setdefault(family, []).append(number)
             violations.setdefault(family, []).append(hit[family])
+    if not scored:  # every round trained on nothing or checked nothing
+        return None, problems
     families = {}
     for family in sorted(totals):
         mean_total = sum(totals[family]) / scored
@@ -153,6 +174,6 @@ def run_stability(
         "rounds": rounds,
         "families": families,
         "alarmed_runs": sum(len(r["alarmed"]) for r in rounds),
-        "held_out_runs": sum(len(r["held_out"]) - len(r["errors"]) for r in rounds),
+        "held_out_runs": checked,
     }
     return report, problems

@@ -155,6 +155,23 @@ def test_stability_names_a_bag_it_cannot_read_once(project: Path) -> None:
     assert status == 1, stderr
     lines = [line for line in stderr.splitlines() if line.startswith(str(bag))]
     assert len(lines) == 1 and "[bag-error]" in lines[0], stderr
+    # one bag left of two: no round trains on it and checks another
+    assert "no round both trained on a bag it could read and checked one" in stderr
+
+
+def test_stability_with_no_bag_it_can_read_is_an_input_error(project: Path) -> None:
+    """Every <detect> bag unreadable: exit 2 (README), each bag named once, no report."""
+    train = sorted((project / "bags" / "train").glob("*.bag"))
+    for bag in train:
+        bag.write_bytes(b"not a bag\n")
+    out = project / "s.json"
+    args = ("stability", "{d}/p.xml", "-j", "1", "-q", "--format", "json", "-o", str(out))
+    status, _, stderr = run(project, args)
+    assert status == 2, stderr
+    assert "imrosc stability: no bag could be read: nothing cross-validated" in stderr
+    for bag in train:
+        assert sum(line.startswith(str(bag)) for line in stderr.splitlines()) == 1, stderr
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("names", [["bad/f1.bag"], ["ok/s1.bag", "bad/f1.bag"]])
