@@ -82,25 +82,41 @@ def _read_bytes(path: Path, label: str, max_bytes: int) -> tuple[bytes | None, l
         kind = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
         return None, [make(label, 1, 1, "io-error", f"cannot read file: it is {kind}")]
     if info.st_size > max_bytes:
-        return None, [_too_large(label, info.st_size, max_bytes)]
+        return None, [_too_large(label, info.st_size, max_bytes, _head(path))]
     try:
         with open(path, "rb") as stream:
             data = stream.read(max_bytes + 1)
     except OSError as error:
         return None, [make(label, 1, 1, "io-error", f"cannot read file: {error.strerror}")]
     if len(data) > max_bytes:
-        return None, [_too_large(label, len(data), max_bytes)]
+        return None, [_too_large(label, len(data), max_bytes, data[:64])]
     return data, []
 
 
-def _too_large(label: str, size: int, max_bytes: int) -> Diagnostic:
-    return make(
-        label,
-        1,
-        1,
-        "file-too-large",
-        f"file has {size} bytes or more, over the {max_bytes}-byte cap for configurations",
-    )
+def _head(path: Path) -> bytes:
+    """The first bytes of ``path`` (none when it cannot be read)."""
+    try:
+        with open(path, "rb") as stream:
+            return stream.read(64)
+    except OSError:
+        return b""
+
+
+def _too_large(label: str, size: int, max_bytes: int, head: bytes) -> Diagnostic:
+    """The ``file-too-large`` error; it says so when the file is JSON, not XML (an
+    invariants file given where a configuration goes, usually)."""
+    message = f"file has {size} bytes or more, over the {max_bytes}-byte cap for configurations"
+    if _is_json(head):
+        message += f"; {_JSON}"
+    return make(label, 1, 1, "file-too-large", message)
+
+
+_JSON = "it is JSON, not an imROS XML configuration (an invariants file?)"
+
+
+def _is_json(head: bytes) -> bool:
+    """Whether bytes that should be XML begin as JSON does."""
+    return head.removeprefix(b"\xef\xbb\xbf").lstrip().startswith((b"{", b"["))
 
 
 def _decode(data: bytes, label: str) -> tuple[str | None, list[Diagnostic]]:
@@ -148,7 +164,10 @@ def parse_config_bytes(data: bytes, label: str) -> tuple[LoadedConfig | None, li
     except etree.XMLSyntaxError as error:
         line, column = error.position if error.position else (1, 1)
         message = (error.msg or "malformed XML").split(", line ")[0]
-        return None, [make(label, line, column, "xml-syntax", message[:1].lower() + message[1:])]
+        message = message[:1].lower() + message[1:]
+        if _is_json(data):
+            message += f"; {_JSON}"
+        return None, [make(label, line, column, "xml-syntax", message)]
     tree = root.getroottree()
     if getattr(tree.docinfo, "doctype", ""):  # lxml-stubs lack DocInfo.doctype
         message = "DOCTYPE is not allowed: configurations take no DTD and no entities"

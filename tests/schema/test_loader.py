@@ -144,6 +144,19 @@ def test_fifty_megabyte_file_is_refused_unread(tmp_path: Path) -> None:
     assert str(MAX_CONFIG_BYTES) in found[0].message
 
 
+@pytest.mark.parametrize("size", [100, 2 * MAX_CONFIG_BYTES])
+def test_a_json_file_where_a_configuration_goes_is_named_json(tmp_path: Path, size: int) -> None:
+    """An invariants file given as the configuration (arguments swapped): too large or not,
+    the error says it is JSON."""
+    config = tmp_path / "p.inv"
+    config.write_text('{"format": "imrosc-invariants", "pad": "' + "x" * size + '"}')
+    (found,) = check_file(config)
+    assert found.code == ("xml-syntax" if size < MAX_CONFIG_BYTES else "file-too-large")
+    assert found.message.endswith(
+        "it is JSON, not an imROS XML configuration (an invariants file?)"
+    )
+
+
 def test_non_utf8_bytes_point_at_the_bad_byte(tmp_path: Path) -> None:
     config = tmp_path / "latin1.xml"
     config.write_bytes(BODY.replace("/a/x", "/a/caf\xe9").encode("latin-1"))
