@@ -85,6 +85,24 @@ replay runs the alarm engine). The variants, each a question about the score:
   statistic, shrinkage 0.1), the number of trees from ``--trees`` chosen by the
   cross-fitting in place of the penalty: comparisons, so that a large spread alone can be
   nominal while a shifted mean is a fault;
+* ``--model mil:H[,T]``: the same linear score fitted for the run-level rule it is judged by
+  (:class:`Pooled`, multiple-instance): each good run and each fault flight's part before
+  its onset a negative bag, each fault flight's first ``H`` seconds from its onset a
+  positive bag, a bag's score the smooth maximum ``T log sum exp(m / T)`` (``T`` 1 log-odds
+  unless given) of its trailing 1 s mean scores ``m``; the bags' softplus loss, the classes
+  weighed equally, plus the L2 penalty the cross-fitting chooses, by L-BFGS from
+  :func:`imrosc.detectors.fit`'s solution;
+* ``--model mil:H,T,anchored``: the penalty on the weights' distance from ``fit``'s
+  solution, not from 0 (the cross-fitting chooses how far the bags may move it);
+* ``--model hardneg:R[,Q]``: :func:`imrosc.detectors.fit`, then ``R`` refits in which each
+  nominal stretch's top ``Q`` seconds of 1 s mean score (its odd moments: what sets the
+  threshold) and each fault's first ``Q`` seconds after its onset hold half their class's
+  weight (:class:`Hardened`);
+* ``--model A|B|...``: alternatives, each fold's the one whose cross-fitted choice ranks best
+  (as ``--features A|B``);
+* ``--margins S,S,...``: beside the figures, per fault flight its largest evidence in the
+  ``S`` seconds from its onset less its fold's threshold (above 0: detected by then), and per
+  class their median;
 * ``--features energy[:NAMES]``: fields of the total energy balance (what a fixed-wing
   autopilot's throttle controls) derived from the recorded ones beside them
   (:func:`energy_fields`: the energy the autopilot lacks, the specific power along the body
@@ -721,10 +739,13 @@ class Bags:
         return temperature * (top + np.log(total)), e / total[self.bag]
 
 
-def mil_loss(w: Any, bags: Bags, temperature: float, penalty: float) -> tuple[float, Any]:
+def mil_loss(
+    w: Any, bags: Bags, temperature: float, penalty: float, anchor: Any = None
+) -> tuple[float, Any]:
     """The bags' softplus loss, summed with the two classes weighed equally (each class
     as much as half the bags, as :func:`imrosc.detectors.fit` weighs its samples), plus
-    ``penalty / 2`` times the squared weights (the bias unpenalised), and its gradient."""
+    ``penalty / 2`` times the squared weights' distance from ``anchor`` (from 0 without
+    one; the bias unpenalised), and its gradient."""
     pooled, share = bags.pooled(w, temperature)
     sign = np.where(bags.positive, -1.0, 1.0)
     positives = max(1, int(bags.positive.sum()))
@@ -734,7 +755,7 @@ def mil_loss(w: Any, bags: Bags, temperature: float, penalty: float) -> tuple[fl
     loss = float(weight @ np.logaddexp(0.0, margin))
     slope = weight * sign / (1.0 + np.exp(-np.clip(margin, -30.0, 30.0)))  # d loss / d pooled
     gradient = bags.rows.T @ (share * slope[bags.bag])
-    shrunk = w.copy()
+    shrunk = w - anchor if anchor is not None else w.copy()
     shrunk[-1] = 0.0
     return loss + 0.5 * penalty * float(shrunk @ shrunk), gradient + penalty * shrunk
 
@@ -751,10 +772,12 @@ class Pooled:
     bags in place of samples: the bags' softplus summed, the classes weighed equally, plus
     the L2 penalty ``strength`` (the bags are this objective's data, as the samples are
     ``fit``'s); L-BFGS with the analytic gradient, on the statistics standardised as
-    ``fit`` standardises them, started from ``fit``'s solution."""
+    ``fit`` standardises them, started from ``fit``'s solution. ``anchored``: the penalty
+    is on the weights' distance from that solution, not from 0 (the cross-fitting's
+    penalty then chooses how far the bags may move the per-sample fit)."""
 
-    def __init__(self, horizon: float, temperature: float = 1.0) -> None:
-        self.horizon, self.temperature = horizon, temperature
+    def __init__(self, horizon: float, temperature: float = 1.0, anchored: bool = False) -> None:
+        self.horizon, self.temperature, self.anchored = horizon, temperature, anchored
 
     def __call__(self, runs: Sequence[Any], strength: float) -> Any:
         start = LOGISTIC(runs, strength)
@@ -765,7 +788,7 @@ class Pooled:
             found = minimize(
                 mil_loss,
                 np.asarray(start.weights, dtype=np.float64),
-                args=(bags, self.temperature, strength),
+                args=(bags, self.temperature, strength, start.weights if self.anchored else None),
                 jac=True,
                 method="L-BFGS-B",
                 options={"maxiter": MIL_STEPS},
@@ -861,12 +884,16 @@ def model_fit(kind: str, horizon: float | None) -> Callable[..., Any]:
     if kind == "logistic":
         return with_horizon(horizon)
     name, _, spec = kind.partition(":")
-    values = [float(v) for v in spec.split(",") if v.strip()]
+    words = [v.strip() for v in spec.split(",") if v.strip()]
+    anchored = words[-1:] == ["anchored"]
+    values = [float(v) for v in words[: len(words) - anchored]]
     if horizon is not None:
         raise SystemExit(f"--model {kind}: without --horizon only")
-    if name == "mil" and 1 <= len(values) <= 2:
-        return Pooled(*values)
-    if name == "hardneg" and 1 <= len(values) <= 2:
+    if name == "mil" and len(values) == 1:
+        return Pooled(values[0], 1.0, anchored)
+    if name == "mil" and len(values) == 2:
+        return Pooled(values[0], values[1], anchored)
+    if name == "hardneg" and 1 <= len(values) <= 2 and not anchored:
         return Hardened(int(values[0]), *values[1:])
     raise SystemExit(f"unknown --model {kind}")
 

@@ -408,3 +408,14 @@ def test_hard_samples_are_a_stretchs_top_second_and_a_faults_first_seconds() -> 
     # the 1 s means highest at 6.9 s; the second of samples that made them, from 5.9 s on
     assert marked.min() > 5.0 and marked[marked < 15.0].max() < 8.0
     assert np.allclose(times[hard & (times >= 15.0)], np.arange(15.0, 16.0, 0.1))
+
+
+def test_an_anchored_pooled_fit_stays_near_the_per_sample_fit_under_a_strong_penalty() -> None:
+    runs = burst_and_spikes(17)
+    start = detectors.fit(runs, 1e6)
+    anchored = a.Pooled(2.0, 1.0, anchored=True)(runs, 1e6)
+    shrunk = a.Pooled(2.0, 1.0)(runs, 1e6)
+    assert np.allclose(anchored.weights[:-1], start.weights[:-1], atol=1e-4)
+    assert np.abs(shrunk.weights[:-1]).max() < 1e-3 < np.abs(start.weights[:-1]).max()
+    loose = a.Pooled(2.0, 1.0, anchored=True)(runs, 1.0)
+    assert early_margin(loose, burst_and_spikes(18)) > 0.0
