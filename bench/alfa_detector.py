@@ -85,6 +85,24 @@ replay runs the alarm engine). The variants, each a question about the score:
   statistic, shrinkage 0.1), the number of trees from ``--trees`` chosen by the
   cross-fitting in place of the penalty: comparisons, so that a large spread alone can be
   nominal while a shifted mean is a fault;
+* ``--model mil:H[,T]``: the same linear score fitted for the run-level rule it is judged by
+  (:class:`Pooled`, multiple-instance): each good run and each fault flight's part before
+  its onset a negative bag, each fault flight's first ``H`` seconds from its onset a
+  positive bag, a bag's score the smooth maximum ``T log sum exp(m / T)`` (``T`` 1 log-odds
+  unless given) of its trailing 1 s mean scores ``m``; the bags' softplus loss, the classes
+  weighed equally, plus the L2 penalty the cross-fitting chooses, by L-BFGS from
+  :func:`imrosc.detectors.fit`'s solution;
+* ``--model mil:H,T,anchored``: the penalty on the weights' distance from ``fit``'s
+  solution, not from 0 (the cross-fitting chooses how far the bags may move it);
+* ``--model hardneg:R[,Q]``: :func:`imrosc.detectors.fit`, then ``R`` refits in which each
+  nominal stretch's top ``Q`` seconds of 1 s mean score (its odd moments: what sets the
+  threshold) and each fault's first ``Q`` seconds after its onset hold half their class's
+  weight (:class:`Hardened`);
+* ``--model A|B|...``: alternatives, each fold's the one whose cross-fitted choice ranks best
+  (as ``--features A|B``);
+* ``--margins S,S,...``: beside the figures, per fault flight its largest evidence in the
+  ``S`` seconds from its onset less its fold's threshold (above 0: detected by then), and per
+  class their median;
 * ``--features energy[:NAMES]``: fields of the total energy balance (what a fixed-wing
   autopilot's throttle controls) derived from the recorded ones beside them
   (:func:`energy_fields`: the energy the autopilot lacks, the specific power along the body
@@ -112,7 +130,9 @@ from typing import Any
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from scipy.optimize import minimize
 from scipy.signal import lfilter
+from threadpoolctl import threadpool_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -653,6 +673,231 @@ class Boosting:
         return Forest(full.trees, int(-strength), full.bias)
 
 
+LOGISTIC = detectors.fit
+"""The product's fit, as imported (the variants below start from it, whatever
+``detectors.fit`` is replaced by)."""
+POOL = 1.0
+"""Seconds of the trailing mean of the scores the bags pool (``--model mil``)."""
+POOL_SAMPLES = 50_000
+"""The most pooled means a ``--model mil`` fit weighs (the 1 s means change little between
+neighbouring samples: a long run's are thinned evenly; a failed run's first seconds never)."""
+MIL_STEPS = 300
+"""L-BFGS iterations at most (``--model mil``)."""
+
+
+def trailing_means(times: Any, rows: Any, seconds: float) -> tuple[Any, Any]:
+    """The trailing ``seconds`` mean of each column of ``rows`` (the rows later than
+    ``t - seconds``, as :func:`imrosc.runtime.detector.evidence` means the scores) and
+    whether the rows so far span ``seconds`` (only those means are evidence)."""
+    at = np.asarray(times, dtype=np.float64)
+    starts = np.searchsorted(at, at - seconds, side="right")
+    ends = np.arange(1, len(at) + 1)
+    sums = np.vstack([np.zeros((1, rows.shape[1])), np.cumsum(rows, axis=0)])
+    means = (sums[ends] - sums[starts]) / (ends - starts)[:, None]
+    spans = at - at[0] >= seconds if len(at) else np.zeros(0, dtype=bool)
+    return means, spans
+
+
+class Bags:
+    """A training set's runs as bags of the trailing :data:`POOL` s means of their
+    standardised statistics (a column of ones last, the bias's): each good run and each
+    failed run's part before its onset a negative bag, each failed run's first ``horizon``
+    seconds from its onset a positive bag. The score's mean over a window is linear in the
+    weights, so a bag's pooled score is a smooth maximum of ``rows @ w``."""
+
+    def __init__(self, runs: Sequence[Any], center: Any, scale: Any, horizon: float) -> None:
+        parts: list[tuple[Any, bool]] = []
+        for r in runs:
+            keep = r.scored
+            times = r.times[keep]
+            if not len(times):
+                continue
+            z = np.nan_to_num((r.stats[keep] - center) / scale, posinf=0.0, neginf=0.0)
+            z = np.hstack([z, np.ones((len(z), 1))])
+            means, spans = trailing_means(times, z, POOL)
+            faulty = r.faulty[keep]
+            since = times - r.start - (r.onset if r.onset is not None else math.inf)
+            parts.append((means[spans & ~faulty], False))
+            parts.append((means[spans & faulty & (since < horizon)], True))
+        parts = [(m, positive) for m, positive in parts if len(m)]
+        self.samples = sum(len(m) for m, _ in parts)
+        """The pooled means before the thinning (what the penalty is weighed against)."""
+        every = max(1, -(-self.samples // POOL_SAMPLES))
+        rows = [m if positive else m[::every] for m, positive in parts]
+        self.rows = np.vstack(rows) if rows else np.zeros((0, len(center) + 1))
+        self.starts = np.cumsum([0] + [len(m) for m in rows[:-1]]).astype(np.int64)
+        self.positive = np.array([positive for _, positive in parts], dtype=bool)
+        self.bag = np.repeat(np.arange(len(rows)), [len(m) for m in rows])
+
+    def pooled(self, w: Any, temperature: float) -> tuple[Any, Any]:
+        """Each bag's smooth maximum ``T log sum exp(s / T)`` of its scores ``s``, and each
+        row's weight in it (the softmax: the pooled score's gradient is their mean row)."""
+        s = self.rows @ w / temperature
+        top = np.maximum.reduceat(s, self.starts)
+        e = np.exp(s - top[self.bag])
+        total = np.add.reduceat(e, self.starts)
+        return temperature * (top + np.log(total)), e / total[self.bag]
+
+
+def mil_loss(
+    w: Any, bags: Bags, temperature: float, penalty: float, anchor: Any = None
+) -> tuple[float, Any]:
+    """The bags' softplus loss, summed with the two classes weighed equally (each class
+    as much as half the bags, as :func:`imrosc.detectors.fit` weighs its samples), plus
+    ``penalty / 2`` times the squared weights' distance from ``anchor`` (from 0 without
+    one; the bias unpenalised), and its gradient."""
+    pooled, share = bags.pooled(w, temperature)
+    sign = np.where(bags.positive, -1.0, 1.0)
+    positives = max(1, int(bags.positive.sum()))
+    negatives = max(1, len(pooled) - positives)
+    weight = np.where(bags.positive, 0.5 / positives, 0.5 / negatives) * len(pooled)
+    margin = sign * pooled
+    loss = float(weight @ np.logaddexp(0.0, margin))
+    slope = weight * sign / (1.0 + np.exp(-np.clip(margin, -30.0, 30.0)))  # d loss / d pooled
+    gradient = bags.rows.T @ (share * slope[bags.bag])
+    shrunk = w - anchor if anchor is not None else w.copy()
+    shrunk[-1] = 0.0
+    return loss + 0.5 * penalty * float(shrunk @ shrunk), gradient + penalty * shrunk
+
+
+class Pooled:
+    """``detectors.fit`` for ``--model mil:H[,T]`` (multiple-instance, pooled logistic
+    regression): the product's linear score, trained on runs as bags for the run-level rule
+    it is judged by. A good run (and a failed run's part before its onset) is a negative
+    bag, a failed run's first ``H`` seconds after its onset a positive bag; a bag's score is
+    the smooth maximum ``T log sum exp(m / T)`` (``T`` in log-odds) of the trailing 1 s means
+    ``m`` of its scores: the threshold is the largest evidence of a good run, and a mean
+    over a second, not one sample's score, is what a good run's isolated spike does not
+    move and what the evidence's smoothing (0 to 4 s) weighs. The loss is ``fit``'s with
+    bags in place of samples: the bags' softplus summed, the classes weighed equally, plus
+    the L2 penalty ``strength`` (the bags are this objective's data, as the samples are
+    ``fit``'s); L-BFGS with the analytic gradient, on the statistics standardised as
+    ``fit`` standardises them, started from ``fit``'s solution. ``anchored``: the penalty
+    is on the weights' distance from that solution, not from 0 (the cross-fitting's
+    penalty then chooses how far the bags may move the per-sample fit)."""
+
+    def __init__(self, horizon: float, temperature: float = 1.0, anchored: bool = False) -> None:
+        self.horizon, self.temperature, self.anchored = horizon, temperature, anchored
+
+    def __call__(self, runs: Sequence[Any], strength: float) -> Any:
+        start = LOGISTIC(runs, strength)
+        bags = Bags(runs, start.center, start.scale, self.horizon)
+        if not bags.positive.any() or bags.positive.all():
+            return start
+        with threadpool_limits(limits=1, user_api="blas"):
+            found = minimize(
+                mil_loss,
+                np.asarray(start.weights, dtype=np.float64),
+                args=(bags, self.temperature, strength, start.weights if self.anchored else None),
+                jac=True,
+                method="L-BFGS-B",
+                options={"maxiter": MIL_STEPS},
+            )
+        return detectors.Model(start.center, start.scale, found.x)
+
+
+def newton(z: Any, y: Any, weight: Any, strength: float) -> Any:
+    """The weighted, L2-regularised logistic regression of :func:`imrosc.detectors.fit`
+    (its Newton's method) on standardised rows ``z`` (a column of ones last)."""
+    w = np.zeros(z.shape[1])
+    penalty = np.full(z.shape[1], strength)
+    penalty[-1] = 0.0
+    with threadpool_limits(limits=1, user_api="blas"):
+        for _ in range(detectors.NEWTON_STEPS):
+            p = 1 / (1 + np.exp(-np.clip(z @ w, -30, 30)))
+            gradient = z.T @ (weight * (p - y)) + penalty * w
+            hessian = (z * (weight * p * (1 - p))[:, None]).T @ z + np.diag(penalty + 1e-9)
+            step = np.linalg.solve(hessian, gradient)
+            w -= step
+            if float(np.abs(step).max()) <= detectors.CONVERGED * (1.0 + float(np.abs(w).max())):
+                break
+    return w
+
+
+def hard_samples(run: Any, scores: Any, seconds: float) -> Any:
+    """Per sample of ``run``, whether it is hard: of a nominal stretch, one of the samples
+    whose trailing 1 s mean score is among the stretch's top ``seconds`` worth of samples,
+    or one within the second before such a sample (the scores that made its mean); of a
+    faulty stretch, the first ``seconds`` after the onset."""
+    hard = np.zeros(len(run.times), dtype=bool)
+    if run.onset is not None:
+        since = run.times - run.start - run.onset
+        hard |= run.faulty & (since < seconds)
+    nominal = np.flatnonzero(~run.faulty & run.scored)
+    if len(nominal) < 2:
+        return hard
+    at = run.times[nominal]
+    means, spans = trailing_means(at, np.nan_to_num(scores[nominal])[:, None], POOL)
+    ranked = np.where(spans, means[:, 0], -np.inf)
+    step = float(np.median(np.diff(at)))
+    count = max(1, min(int(spans.sum()), round(seconds / max(step, 1e-9))))
+    top = np.argsort(ranked)[-count:]
+    top = top[np.isfinite(ranked[top])]
+    covered = np.zeros(len(at) + 1, dtype=np.int64)
+    first = np.searchsorted(at, at[top] - POOL, side="right")
+    np.add.at(covered, first, 1)
+    np.add.at(covered, top + 1, -1)
+    hard[nominal] |= np.cumsum(covered)[:-1] > 0
+    return hard
+
+
+class Hardened:
+    """``detectors.fit`` for ``--model hardneg:R[,Q]`` (hard-negative reweighting): fit as
+    the product fits, then ``R`` rounds of: score the training runs, find each nominal
+    stretch's odd moments (its top ``Q`` seconds of 1 s mean score, what sets the
+    threshold: :func:`hard_samples`) and each failed run's first ``Q`` seconds after its
+    onset, and refit with those samples holding half their class's weight (the classes
+    still weighed equally, as ``fit`` weighs them)."""
+
+    def __init__(self, rounds: int, seconds: float = 4.0) -> None:
+        self.rounds, self.seconds = rounds, seconds
+
+    def __call__(self, runs: Sequence[Any], strength: float) -> Any:
+        model = LOGISTIC(runs, strength)
+        total = sum(int(r.scored.sum()) for r in runs)
+        every = max(1, -(-total // detectors.FIT_SAMPLES))
+        x = np.vstack([r.stats[r.scored][::every] for r in runs])
+        y = np.concatenate([r.faulty[r.scored][::every] for r in runs])
+        finite = np.isfinite(x).all(axis=1)
+        z = np.hstack([(x - model.center) / model.scale, np.ones((len(x), 1))])[finite]
+        y = y[finite]
+        for _ in range(self.rounds):
+            hard = np.concatenate(
+                [hard_samples(r, model.scores(r), self.seconds)[r.scored][::every] for r in runs]
+            )[finite]
+            weight = np.zeros(len(y))
+            for label in (False, True):
+                for group in (hard, ~hard):
+                    rows = (y == label) & group
+                    # each class len(y) / 2 in all, as fit weighs it; half of it the hard ones
+                    # (all of it when a class has none or only hard ones)
+                    other = (y == label) & ~group
+                    share = 0.5 if rows.any() and other.any() else 1.0
+                    weight[rows] = share * len(y) / 2 / max(1, int(rows.sum()))
+            w = newton(z, y.astype(np.float64), weight, strength)
+            model = detectors.Model(model.center, model.scale, w)
+        return model
+
+
+def model_fit(kind: str, horizon: float | None) -> Callable[..., Any]:
+    """The fit of ``--model kind`` (``logistic``, ``mil:H[,T]``, ``hardneg:R[,Q]``)."""
+    if kind == "logistic":
+        return with_horizon(horizon)
+    name, _, spec = kind.partition(":")
+    words = [v.strip() for v in spec.split(",") if v.strip()]
+    anchored = words[-1:] == ["anchored"]
+    values = [float(v) for v in words[: len(words) - anchored]]
+    if horizon is not None:
+        raise SystemExit(f"--model {kind}: without --horizon only")
+    if name == "mil" and len(values) == 1:
+        return Pooled(values[0], 1.0, anchored)
+    if name == "mil" and len(values) == 2:
+        return Pooled(values[0], values[1], anchored)
+    if name == "hardneg" and 1 <= len(values) <= 2 and not anchored:
+        return Hardened(int(values[0]), *values[1:])
+    raise SystemExit(f"unknown --model {kind}")
+
+
 G = 9.80665
 """Standard gravity (m/s^2)."""
 MERGED = [
@@ -1087,7 +1332,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--inner-folds", type=int, default=detectors.FOLDS)
     parser.add_argument("--folds", type=int, default=5)
     parser.add_argument("--nominal-copies", choices=("twice", "once"), default="twice")
-    parser.add_argument("--model", choices=("logistic", "gbm1", "gbm2"), default="logistic")
+    parser.add_argument(
+        "--model",
+        default="logistic",
+        help="logistic, gbm1, gbm2, mil:H[,T], hardneg:R[,Q]; A|B|...: the cross-fitting's best",
+    )
+    parser.add_argument(
+        "--margins",
+        default="",
+        help="S,S,...: per fault flight, its largest evidence in the S seconds from its onset "
+        "less its fold's threshold",
+    )
     parser.add_argument("--trees", default="30,100,300", help="--model gbm: tree counts")
     parser.add_argument(
         "--scan", default="", help="NAME[:WINDOW[:BASELINE]]: one signal against held-out maxima"
@@ -1131,14 +1386,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         # choose() tries each of SMOOTHING, weighed by the evidence its module names
         detectors.SMOOTHING = CUSUM_DRIFTS  # type: ignore[assignment]
     detectors.evidence = weigh  # type: ignore[attr-defined,assignment]
-    recorded = Recorded(with_horizon(args.horizon))
-    detectors.fit = recorded
-    if args.model != "logistic":
-        if args.final != "refit" or args.horizon is not None:
-            raise SystemExit("--model gbm: with --final refit and no --horizon only")
+    kinds = args.model.split("|")
+    if any(k.startswith("gbm") for k in kinds):
+        if args.final != "refit" or args.horizon is not None or len(kinds) > 1:
+            raise SystemExit("--model gbm: alone, with --final refit and no --horizon only")
+        if kinds[0] not in ("gbm1", "gbm2"):
+            raise SystemExit(f"unknown --model {kinds[0]}")
         detectors.PENALTIES = tuple(-float(n) for n in args.trees.split(","))  # type: ignore[assignment]
-        recorded = Recorded(Boosting(int(args.model[-1])))
-        detectors.fit = recorded
+        fitters = {kinds[0]: Recorded(Boosting(int(kinds[0][-1])))}
+    else:
+        fitters = {k: Recorded(model_fit(k, args.horizon)) for k in kinds}
+    spans = [float(v) for v in args.margins.split(",") if v.strip()]
+    margins: list[tuple[str, str, list[float]]] = []
     outcomes: list[Outcome] = []
     shifted: dict[float, list[Outcome]] = {d: [] for d in offsets}
     for index, held in enumerate(session_folds(onsets, args.folds)):
@@ -1148,18 +1407,22 @@ def main(argv: Sequence[str] | None = None) -> int:
             stats, window = features_of(kind, [flights[n] for n in training])
             detectors.WINDOW = window
             runs = runs_of(training, flights, stats, args.nominal_copies)
-            recorded.forget()
-            tried = detectors.choose(runs, 0.05)
-            if tried is not None and (best is None or tried.rank() > best[0].rank()):
-                best = (tried, kind, stats, window, runs, dict(recorded.models))
+            for fitted, recorded in fitters.items():
+                detectors.fit = recorded
+                recorded.forget()
+                tried = detectors.choose(runs, 0.05)
+                if tried is not None and (best is None or tried.rank() > best[0].rank()):
+                    best = (tried, kind, stats, window, runs, fitted, dict(recorded.models))
         if best is None:
             print(f"fold {index}: no detector")
             continue
-        choice, kind, stats, window, runs, models = best
+        choice, kind, stats, window, runs, fitted, models = best
         detectors.WINDOW = window
+        recorded = fitters[fitted]
+        detectors.fit = recorded
         recorded.models = models
-        if "|" in args.features:
-            print(f"fold {index}: {kind}")
+        if "|" in args.features or len(fitters) > 1:
+            print(f"fold {index}: {kind}, {fitted}")
         if args.final == "average":
             model = Linear.mean_of(recorded.models[choice.strength])
         else:
@@ -1177,18 +1440,54 @@ def main(argv: Sequence[str] | None = None) -> int:
             weighed = weigh(times, model.scores(run), window, choice.smooth)
             onset = None if info["onset_ns"] is None else info["onset_ns"] / 1e9
             group = info["class"] if onset is not None else "no_failure"
+            if onset is not None and spans:
+                found_margins = margin_after(times, weighed, onset, spans)
+                margins.append((name, group, [*found_margins, choice.threshold]))
             for shift, found in [(0.0, outcomes), *shifted.items()]:
                 over = np.flatnonzero(weighed > choice.threshold + shift)
                 alarms = (float(times[over[0]]),) if len(over) else ()
                 start = info["start_ns"] / 1e9
                 found.append(Outcome(name, group, onset, alarms, start=start))
     print_outcomes(outcomes)
+    if spans:
+        print_margins(margins, spans)
     if shifted:
         print("\nevery fold's threshold moved by (log-odds):")
     for shift, found in shifted.items():
         print(f"  {shift:+g}: {describe(score(found))}")
     print(f"{time.monotonic() - started:.0f} s")
     return 0
+
+
+def margin_after(times: Any, weighed: Any, onset: float, spans: Sequence[float]) -> list[float]:
+    """Per span ``S``, the largest evidence from ``onset`` to ``onset + S`` (NaN with none)."""
+    found = []
+    for span in spans:
+        inside = (times >= onset) & (times <= onset + span) & ~np.isnan(weighed)
+        found.append(float(weighed[inside].max()) if inside.any() else math.nan)
+    return found
+
+
+def print_margins(rows: Sequence[tuple[str, str, list[float]]], spans: Sequence[float]) -> None:
+    """Per fault flight, its largest evidence in each span from its onset less its fold's
+    threshold (above 0: detected by then), and each class's median."""
+    heads = " ".join(f"{f'{s:g} s':>8}" for s in spans)
+    print("\nlargest evidence from the onset less the threshold:")
+    print(f"  {'flight':<75} {heads} threshold")
+    groups: dict[str, list[list[float]]] = {}
+    for name, group, found in sorted(rows):
+        *highs, threshold = found
+        over = [h - threshold for h in highs]
+        groups.setdefault(group, []).append(over)
+        shown = " ".join(f"{v:8.2f}" for v in over)
+        print(f"  {Path(name).stem[:64]:<64} {group:<10} {shown} {threshold:9.2f}")
+    for group, members in sorted(groups.items()):
+        medians = " ".join(f"{v:8.2f}" for v in np.nanmedian(np.array(members), axis=0))
+        above = ", ".join(
+            f"{sum(1 for f in members if f[j] > 0)} of {len(members)} above at {s:g} s"
+            for j, s in enumerate(spans)
+        )
+        print(f"  median {group:<57} {medians} ({above})")
 
 
 def describe(s: Any) -> str:

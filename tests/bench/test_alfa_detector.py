@@ -325,3 +325,97 @@ def test_commanded_signals_read_roll_pitch_speed_and_their_commands() -> None:
     assert np.allclose(outputs[0], [0.0, 10.0, 15.0])
     assert np.allclose(commands[0], [5.0, 12.0, 16.5])
     assert updates.tolist() == [[False] * 3, [False, False, False]]
+
+
+def burst_and_spikes(seed: int) -> list[detectors.Run]:
+    """Four good runs, each with one isolated 1.5 s spike of statistic 1, and four failed
+    runs whose fault moves statistic 0 a little from its onset (30 s) and statistic 1 a lot
+    from 3 s later: the bulk of the faulty samples is the late, obvious part."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(0.0, 60.0, 0.05)
+    runs = []
+    for k in range(8):
+        stats = rng.normal(size=(len(times), 2))
+        if k % 2:
+            stats[times >= 30.0, 0] += 1.5
+            stats[times >= 33.0, 1] += 4.0
+            runs.append(detectors.Run(f"f{k}", 0.0, 30.0, times, stats))
+        else:
+            at = rng.uniform(5.0, 50.0)
+            stats[(times >= at) & (times < at + 1.5), 1] += 6.0
+            runs.append(detectors.Run(f"g{k}", 0.0, None, times, stats))
+    return runs
+
+
+def early_margin(model: Any, runs: list[detectors.Run]) -> float:
+    """The failed runs' smallest largest 1 s mean score in their first 2 s after the onset,
+    less the good runs' largest 1 s mean score (above 0: each detected within 2 s at a
+    threshold on the good runs' maxima)."""
+    early, nominal = [], []
+    for run in runs:
+        means, spans = a.trailing_means(run.times, model.scores(run)[:, None], 1.0)
+        found = means[:, 0]
+        if run.onset is None:
+            nominal.append(float(found[spans].max()))
+        else:
+            since = run.times - run.onset
+            early.append(float(found[spans & (since >= 0.0) & (since < 2.0)].max()))
+    return min(early) - max(nominal)
+
+
+def test_the_pooled_fit_ranks_a_faults_first_seconds_above_good_runs_odd_moments() -> None:
+    training, new = burst_and_spikes(17), burst_and_spikes(18)
+    assert early_margin(detectors.fit(training, 1.0), new) < 0.0
+    assert early_margin(a.Pooled(2.0)(training, 1.0), new) > 0.0
+
+
+def test_hard_negative_rounds_weigh_good_runs_odd_moments_down() -> None:
+    training, new = burst_and_spikes(17), burst_and_spikes(18)
+    alone, hardened = a.Hardened(0, 2.0)(training, 1.0), a.Hardened(3, 2.0)(training, 1.0)
+    assert np.allclose(alone.weights, detectors.fit(training, 1.0).weights)  # no round: fit
+    # the spikes' statistic weighs less than half as much, the gap closes by 4 log-odds
+    assert hardened.weights[1] < 0.5 * alone.weights[1]
+    assert early_margin(hardened, new) > early_margin(alone, new) + 4.0
+
+
+def test_the_pooled_loss_gradient_is_its_derivative() -> None:
+    runs = burst_and_spikes(19)
+    start = detectors.fit(runs, 1.0)
+    bags = a.Bags(runs, start.center, start.scale, 2.0)
+    # a good run and the failed runs' parts before their onsets are negative bags
+    assert (len(bags.starts), int(bags.positive.sum())) == (12, 4)
+    w = np.asarray(start.weights) + np.random.default_rng(3).normal(0.0, 0.3, 3)
+    _, gradient = a.mil_loss(w, bags, 1.0, 0.5)
+    step = 1e-6
+    numeric = [
+        (a.mil_loss(w + e, bags, 1.0, 0.5)[0] - a.mil_loss(w - e, bags, 1.0, 0.5)[0]) / (2 * step)
+        for e in np.eye(3) * step
+    ]
+    assert np.allclose(gradient, numeric, rtol=1e-5, atol=1e-6)
+    pooled, share = bags.pooled(w, 1.0)
+    first = bags.rows[: bags.starts[1]] @ w
+    assert math.isclose(pooled[0], float(np.log(np.exp(first).sum())))
+    assert np.allclose(np.add.reduceat(share, bags.starts), 1.0)
+
+
+def test_hard_samples_are_a_stretchs_top_second_and_a_faults_first_seconds() -> None:
+    times = np.arange(0.0, 20.0, 0.1)
+    scores = np.zeros(len(times))
+    scores[(times >= 6.0) & (times < 7.0)] = 5.0
+    run = detectors.Run("f", 0.0, 15.0, times, np.zeros((len(times), 1)))
+    hard = a.hard_samples(run, scores, 1.0)
+    marked = times[hard]
+    # the 1 s means highest at 6.9 s; the second of samples that made them, from 5.9 s on
+    assert marked.min() > 5.0 and marked[marked < 15.0].max() < 8.0
+    assert np.allclose(times[hard & (times >= 15.0)], np.arange(15.0, 16.0, 0.1))
+
+
+def test_an_anchored_pooled_fit_stays_near_the_per_sample_fit_under_a_strong_penalty() -> None:
+    runs = burst_and_spikes(17)
+    start = detectors.fit(runs, 1e6)
+    anchored = a.Pooled(2.0, 1.0, anchored=True)(runs, 1e6)
+    shrunk = a.Pooled(2.0, 1.0)(runs, 1e6)
+    assert np.allclose(anchored.weights[:-1], start.weights[:-1], atol=1e-4)
+    assert np.abs(shrunk.weights[:-1]).max() < 1e-3 < np.abs(start.weights[:-1]).max()
+    loose = a.Pooled(2.0, 1.0, anchored=True)(runs, 1.0)
+    assert early_margin(loose, burst_and_spikes(18)) > 0.0
