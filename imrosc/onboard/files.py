@@ -96,13 +96,87 @@ def load_monitor_spec(directory: Optional[str] = None) -> SpecDocument:
     return cast(SpecDocument, load_spec(directory))
 
 
+class InvariantsError(ValueError):
+    """An invariants file the monitor cannot check (the message names the file, or the
+    node's ``main`` adds it)."""
+
+
+_TOP = (("topics", dict), ("points", dict), ("invariants", list))
+_POINT = (("kind", str), ("variables", list))
+_VARIABLE = (("name", str), ("type", str))
+_INVARIANT = (
+    ("id", str),
+    ("family", str),
+    ("kind", str),
+    ("point", str),
+    ("variables", list),
+    ("params", dict),
+    ("text", str),
+)
+
+
+def _fields(item: Any, shape: Any, where: str) -> Optional[str]:
+    if not isinstance(item, dict):
+        return f"{where}: not an object"
+    for key, kind in shape:
+        if key not in item:
+            return f"{where}: missing {key!r}"
+        if not isinstance(item[key], kind):
+            return f"{where}.{key}: not {_JSON[kind]}"
+    return None
+
+
+_JSON = {str: "a string", dict: "an object", list: "an array"}
+
+
+def invariants_problem(document: Any) -> Optional[str]:
+    """The first problem of an invariants document's shape, as ``imrosc`` itself checks it
+    when it reads one (``imrosc/invariants.py``: the keys and types the engine reads, every
+    invariant's point among the points), or ``None``.
+
+    >>> invariants_problem({"topics": {}, "points": {}, "invariants": [{"id": "i1"}]})
+    "$.invariants[0]: missing 'family'"
+    """
+    problem = _fields(document, _TOP, "$")
+    if problem:
+        return problem
+    for key, point in document["points"].items():
+        problem = _fields(point, _POINT, f"$.points.{key}")
+        for index, variable in enumerate(point["variables"]) if not problem else ():
+            problem = problem or _fields(variable, _VARIABLE, f"$.points.{key}.variables[{index}]")
+        if problem:
+            return problem
+    for index, invariant in enumerate(document["invariants"]):
+        where = f"$.invariants[{index}]"
+        problem = _fields(invariant, _INVARIANT, where)
+        if problem:
+            return problem
+        if invariant["point"] not in document["points"]:
+            return f"{where}.point: no point {invariant['point']!r} in 'points'"
+    return None
+
+
 def load_invariants(path: str) -> Dict[str, Any]:
-    """An invariants file; ``ValueError`` with the reason if it is not one."""
-    with open(path, encoding="utf-8") as stream:
-        document = json.load(stream)
+    """An invariants file; :class:`InvariantsError` (a ``ValueError``), one line naming the
+    file and the first problem, if it cannot be read or is not one."""
+    try:
+        with open(path, encoding="utf-8") as stream:
+            document = json.load(stream)
+    except OSError as error:
+        raise InvariantsError(f"{path}: cannot read: {error.strerror}") from None
+    except UnicodeDecodeError:
+        raise InvariantsError(f"{path}: not UTF-8 text") from None
+    except json.JSONDecodeError as error:
+        where = f"{path}:{error.lineno}:{error.colno}"
+        raise InvariantsError(f"{where}: not JSON: {error.msg}") from None
+    except (RecursionError, ValueError) as error:  # nested too deeply, an overlong integer
+        raise InvariantsError(f"{path}: not JSON: {str(error).split(';')[0]}") from None
     if not isinstance(document, dict) or document.get("format") != INVARIANTS_FORMAT:
-        raise ValueError(f"{path}: not an imrosc invariants file")
+        raise InvariantsError(f"{path}: not an imrosc invariants file")
     for key in ("topics", "points", "invariants"):
         if key not in document:
-            raise ValueError(f"{path}: missing {key!r}")
+            raise InvariantsError(f"{path}: missing {key!r}")
+    problem = invariants_problem(document)
+    if problem:
+        raise InvariantsError(f"{path}: malformed: {problem}")
     return document

@@ -49,7 +49,11 @@ from typing import (
 
 from ..runtime import families
 from ..runtime.violation import json_safe
-from .files import SpecDocument
+from .files import InvariantsError, SpecDocument
+
+ENGINE_ERRORS = (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError)
+"""What building the engine from an invariants file of the right shape but wrong contents
+raises (``imrosc/invariants.py`` turns the same into its one-line error)."""
 
 WARM = 0.002
 """Default ``~warm`` (the launch file's ``warm``): seconds between rehearsals of the latest
@@ -314,6 +318,10 @@ def compile_engines(engines: Sequence[Any], compiler: Optional[str]) -> str:
     ...     def compile(self): return (1, 2)
     >>> compile_engines([Stub()], "0.68.1").split(", compiled in")[0]
     'imrosc: compiled checks in use (numba 0.68.1) on 1 of 2 points (numpy checks the others)'
+    >>> Stub.compile = lambda self: (0, 0)  # the invariants are all frequencies, say
+    >>> compile_engines([Stub()], "0.68.1")  # doctest: +NORMALIZE_WHITESPACE
+    'imrosc: numba 0.68.1 has nothing to compile (none of the invariants is of a family it
+    compiles): numpy checks every sample'
     """
     started = time.monotonic()
     enabled = gc.isenabled()
@@ -327,6 +335,11 @@ def compile_engines(engines: Sequence[Any], compiler: Optional[str]) -> str:
     seconds = time.monotonic() - started
     compiled = sum(done for done, _ in counts)
     total = sum(of for _, of in counts)
+    if not total:
+        return (
+            f"imrosc: numba {compiler} has nothing to compile (none of the invariants is of a "
+            "family it compiles): numpy checks every sample"
+        )
     if not compiled:
         return (
             f"imrosc: numba {compiler} compiled none of the checks of {total} points: numpy "
@@ -380,13 +393,24 @@ class Checking:
         self.guard = Guard(stop)
         """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
         document = alarm_document(document, spec.get("alarms"))
-        # numba compiles the checks later, in a thread of its own (:meth:`compile_checks`)
-        self.engine = engine_class(document, compile=False)
-        self.precheck = (
-            engine_class(request_document(document, self.blocked_services), compile=False)
-            if self.blocked_services
-            else None
-        )
+        for index, invariant in enumerate(document.get("invariants", ())):
+            if invariant.get("family") not in families.NAMES:  # the engine would skip it
+                raise InvariantsError(
+                    f"malformed: $.invariants[{index}].family: unknown family "
+                    f"{invariant['family']!r}"
+                )
+        try:
+            # numba compiles the checks later, in a thread of its own (:meth:`compile_checks`)
+            self.engine = engine_class(document, compile=False)
+            self.precheck = (
+                engine_class(request_document(document, self.blocked_services), compile=False)
+                if self.blocked_services
+                else None
+            )
+        except ENGINE_ERRORS as error:  # a file edited by hand: keys or values it lacks
+            what = f"missing {error}" if isinstance(error, KeyError) else str(error)
+            first = f"malformed: {type(error).__name__}: {what}".splitlines()[0]
+            raise InvariantsError(first) from None
         self.graph: Optional[Snapshot] = None
         self.params: Optional[Dict[str, Any]] = None
         self.last_relayed = 0.0

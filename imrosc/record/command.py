@@ -432,6 +432,11 @@ def _record_ros1(
     )
 
     given = _parse_servers(servers)
+    if launch is not None:
+        try:
+            launch.open("rb").close()
+        except OSError as error:  # before the servers, which the file itself cannot tell
+            _fail(f"--launch {launch}: cannot read it: {error.strerror}", EXIT_USAGE)
     uri = master_uri()
     state = None
     master_problem = None

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from imrosc.onboard import monitor
+from imrosc.onboard import files, monitor
 from imrosc.runtime import Engine, Violation
 from imrosc.runtime.alarms import EVERY_VIOLATION, AlarmRule, AlarmTracker
 from tests.runtime.support import alarm_document as alarm_case
@@ -237,3 +237,27 @@ def test_the_guard_stops_checking_at_the_first_exception_and_reports_it() -> Non
     assert report["kind"] == "failure" and report["alarm"] and report["rule"] == "failure"
     assert report["error"] == {"where": "message on /a", "type": "KeyError", "message": "'op'"}
     assert "stops checking" in monitor.failure_text("tick", ValueError("x"))
+
+
+def test_an_invariants_file_the_engine_cannot_be_built_from_is_refused() -> None:
+    """A hand-edited file of the right shape: an unknown family (the engine would skip the
+    invariant, and the node would say it checks it) or a parameter the engine reads that
+    does not convert; ``files.InvariantsError`` saying what, which the node's ``main`` prefixes with
+    the file's path."""
+    spec: Any = {"topics": [], "services": [], "violations": {}, "actions": {}}
+    document = alarm_case(None)
+    assert monitor.Checking(spec, document, Engine, "/m", print).engine is not None
+    unknown = json.loads(json.dumps(document))
+    unknown["invariants"][1]["family"] = "bogus"
+    try:
+        monitor.Checking(spec, unknown, Engine, "/m", print)
+        raise AssertionError("an unknown family was accepted")
+    except files.InvariantsError as error:
+        assert str(error) == "malformed: $.invariants[1].family: unknown family 'bogus'"
+    edited = json.loads(json.dumps(document))
+    edited["invariants"][0]["params"] = {"max": "one"}
+    try:
+        monitor.Checking(spec, edited, Engine, "/m", print)
+        raise AssertionError("a bound that is no number was accepted")
+    except files.InvariantsError as error:
+        assert str(error) == "malformed: ValueError: could not convert string to float: 'one'"

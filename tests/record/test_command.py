@@ -161,6 +161,16 @@ def test_launch_needs_to_know_the_servers(config: Path, tmp_path: Path) -> None:
     assert not (tmp_path / "robot.record.launch").exists()
 
 
+def test_a_launch_file_that_cannot_be_read_is_named_first(config: Path, tmp_path: Path) -> None:
+    """A missing --launch file is the error, not the servers no graph names (it would name
+    them too late: the user would fix those first and meet the missing file next)."""
+    missing = tmp_path / "gone.launch"
+    result = record(str(config), "-o", str(tmp_path / "out"), "--launch", str(missing))
+    line = one_line_error(result, 2)
+    assert line == f"imrosc record: --launch {missing}: cannot read it: No such file or directory"
+    assert not (tmp_path / "out").exists()
+
+
 def test_launch_writes_a_remapped_copy_beside_the_original(config: Path, tmp_path: Path) -> None:
     launch = tmp_path / "robot.launch"
     launch.write_text(LAUNCH)

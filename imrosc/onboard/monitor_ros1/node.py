@@ -489,7 +489,11 @@ def main(
     except (OSError, ValueError) as error:
         rospy.logfatal(f"imrosc monitor: {error}")
         sys.exit(1)
-    monitor = Monitor(spec, document, engine_class, flatteners)
+    try:
+        monitor = Monitor(spec, document, engine_class, flatteners)
+    except files.InvariantsError as error:  # the engine cannot be built from the file
+        rospy.logfatal(f"imrosc monitor: {path}: {error}")
+        sys.exit(1)
     compiler = monitor.engine.compiler()
     rospy.loginfo(
         f"imrosc monitor {rospy.get_name()}: checking {len(document['invariants'])} "

@@ -674,7 +674,11 @@ def main(
     except (OSError, ValueError) as error:
         node.get_logger().fatal(f"imrosc monitor: {error}")
         sys.exit(1)
-    monitor = Monitor(node, spec, document, engine_class, flatteners)
+    try:
+        monitor = Monitor(node, spec, document, engine_class, flatteners)
+    except files.InvariantsError as error:  # the engine cannot be built from the file
+        node.get_logger().fatal(f"imrosc monitor: {path}: {error}")
+        sys.exit(1)
     # the engine's tens of thousands of objects live as long as the node: out of the
     # collector's sight, a full collection no longer walks them (17 ms for 1,000 invariants,
     # a stall of the relay; the objects made later are collected as before)
