@@ -36,7 +36,7 @@ import numpy as np
 import numpy.typing as npt
 
 from imrosc.infer.core import kept_restarts
-from imrosc.infer.timed.windows import episode_starts, windowed_moments
+from imrosc.infer.timed.windows import episode_starts, windowed_moments, with_silences
 from imrosc.runtime.alarms import Alarm, Fed
 from imrosc.runtime.conditions import holds
 from imrosc.runtime.engine import PARAMS, Engine, _Point
@@ -369,10 +369,11 @@ class ChunkPoint:
         starts = np.searchsorted(all_time, cutoff, side="right").astype(np.int64)
         ends = np.arange(old, len(all_time), dtype=np.int64)
         assert state.first_time is not None
-        # the engine resets its windows where an episode of the condition begins
-        starts, first, begun = episode_starts(
-            state.restarts, all_time, starts, ends, state.first_time
-        )
+        # the engine resets its windows where an episode of the condition begins, and
+        # begins a stretch after a silence longer than the window
+        restarts = with_silences(state.restarts, all_time, cutoff, old)
+        before = state.first_time
+        starts, first, begun = episode_starts(restarts, all_time, starts, ends, before)
         defined = first <= cutoff
         if begun >= 0:
             state.first_time = float(all_time[begun])
@@ -408,6 +409,8 @@ class ChunkPoint:
         state.values = all_values[keep:].copy()
         out["all_time"] = all_time
         out["old"] = old
+        out["first"] = np.broadcast_to(np.asarray(first, dtype=np.float64), (len(time),))
+        out["first_before"] = before
         return out
 
     def _timer(
@@ -430,11 +433,20 @@ class ChunkPoint:
         seen = old + np.searchsorted(pos, events, side="left")
         gone = np.minimum(np.searchsorted(all_time, now - windows.width, side="right"), seen)
         size = seen - gone
-        first = state.first_time
-        if first is None:
+        # the stretch in force at an event is its last seen sample's (or, before the
+        # chunk's first, the one carried in)
+        carried = window.get("first_before", state.first_time)
+        firsts: FloatArray | None = window.get("first")
+        if firsts is not None and len(firsts):
+            at = seen - old - 1
+            first = np.where(
+                at >= 0, firsts[np.maximum(at, 0)], np.nan if carried is None else carried
+            )
+            defined = (seen > 0) & (first <= now - windows.width)
+        elif carried is None:
             defined = np.zeros(len(events), dtype=bool)
         else:
-            defined = (seen > 0) & (first <= now - windows.width)
+            defined = (seen > 0) & (carried <= now - windows.width)
         candidate = defined & ((size + 1) / windows.window < point.min_frequency)
         ticks = 2 * events[candidate]
         tick_rows = np.flatnonzero(candidate)

@@ -6,7 +6,10 @@ computes the window of each new sample as it arrives, bit for bit the same:
 
 * the window of a sample at time ``t`` holds the samples ``j`` of the run with
   ``t_j > t - w'``, ``w' = window - min(1e-6, window / 1000)`` (one float64 subtraction);
-* a window is defined once the run's first sample has left it (``t_first <= t - w'``);
+* a window is defined once the first sample of its stretch has left it (``t_first <= t -
+  w'``): a stretch begins at the run's first sample and at every sample whose predecessor
+  has left its window (a silence longer than the window), whose windows would otherwise
+  hold a second's worth of samples or less and span less than a window;
 * frequency is ``len(window) / window``; the rate is ``(x_last - x_first) / (t_last -
   t_first)`` (no rate when the times are equal); the variance is the fixed dyadic
   algorithm of ``docs/families/time-and-polygon.md``, whose blocks are memoised per
@@ -82,13 +85,15 @@ class Windows:
 
     def add(self, time: float, values: Sequence[float]) -> bool:
         """Append a sample; whether its window is defined."""
-        if self.first_time is None:
+        cutoff = time - self.width
+        if self.first_time is None or (
+            self.count and self.times[self.count - 1 - self.base] <= cutoff
+        ):  # the run's first sample, or the first after a silence longer than the window
             self.first_time = time
         self.times.append(time)
         self.values.append(np.asarray(values, dtype=np.float64))
         self.blocks.append([])
         self.count += 1
-        cutoff = time - self.width
         self._evict(cutoff)
         return self.first_time <= cutoff
 

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -26,6 +27,14 @@ SPECIAL = np.array(
     [0.0, -0.0, 1.0, 0.1, 1e300, -1e300, 5e-324, -7.5, math.nan, math.inf, -math.inf]
 )
 WIDTHS = st.sampled_from([1.0, 0.5, 2.0, 0.3, 1e-4, 0.1])
+
+
+def stretch_start(times: FloatArray, window: float) -> float:
+    """The time of the first sample of the last stretch: the run's first, or the last one
+    whose predecessor had left its window (a silence longer than the window)."""
+    width = effective_width(window)
+    begins = [0] + [i for i in range(1, len(times)) if times[i - 1] <= times[i] - width]
+    return float(times[begins[-1]])
 
 
 def bits(values: FloatArray) -> list[int]:
@@ -142,7 +151,7 @@ def test_timer_queries_match_a_window_ending_then(
         # a sample at ``now`` would see the samples after the cutoff, plus itself
         expected = len(times) - int(np.searchsorted(times, cutoff, side="right"))
         assert online.size_at(now) == expected
-        assert online.defined_at(now) == (float(times[0]) <= cutoff)
+        assert online.defined_at(now) == (stretch_start(times, window) <= cutoff)
 
 
 def test_effective_width_is_inferences() -> None:
@@ -194,12 +203,32 @@ def test_reset_starts_a_new_run() -> None:
     assert not online.defined_at(4.0)
     assert online.size() == 0
     assert not online.add(10.0, [1.0])  # warm-up again
+    assert not online.add(10.5, [2.0])
     assert online.add(11.0, [3.0])
-    assert online.size() == 1  # the sample at 10.0 is one window old
-    assert math.isnan(float(online.variance()[0]))
-    assert online.add(11.5, [4.0])
+    assert online.size() == 2  # the sample at 10.0 is one window old
     assert online.rate().tolist() == [2.0]
     assert online.variance().tolist() == [0.5]
+
+
+def test_a_silence_longer_than_the_window_begins_a_stretch() -> None:
+    """After a pause the windows warm up again, as at a run's start: a live monitor, one
+    run for its whole life, would otherwise judge a rate over two samples 0.05 s apart.
+    Inference computes the same windows."""
+    times = np.concatenate([np.arange(0.0, 3.0, 0.05), 30.0 + np.arange(0.0, 3.0, 0.05)])
+    values = np.sin(times)[:, None]
+    online = Windows(1.0, 1)
+    defined = [i for i, t in enumerate(times.tolist()) if online.add(t, values[i])]
+    after = [float(times[i]) for i in defined if times[i] >= 30.0]
+    assert after[0] == pytest.approx(31.0)  # not 30.05, whose window holds two samples
+    assert sorted(inference(1.0, times, values, [70])) == defined
+    assert online.defined_at(33.5)  # the silence timer's queries: the stretch's warm-up
+    silent = Windows(1.0, 1)
+    for t in (0.0, 0.5, 1.0, 1.5):
+        silent.add(t, [t])
+    assert silent.defined_at(4.9) and silent.size_at(4.9) == 0  # a silence to report
+    assert not silent.add(5.0, [5.0])  # it begins a stretch
+    assert not silent.defined_at(5.5)
+    assert silent.defined_at(6.0)
 
 
 def test_undefined_statistics_are_nan() -> None:

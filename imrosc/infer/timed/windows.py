@@ -19,6 +19,11 @@ A window is *defined* (yields a value) once the run's first message has left it,
 the warm-up erratum of the thesis' Algorithm 2 (a partial window would make the minimum
 frequency ``1 / window`` on every run) and is applied alike to variance and change rate,
 whose partial windows hold fewer samples than any later window. Windows never span runs.
+A silence longer than the window (a message whose predecessor has left its window) begins
+a stretch as the run's start does: ``t_first`` is then that message's time, so the partial
+windows after a pause (a driver restarted, a robot idle) are not values either; a live
+monitor, one run for its whole life, would otherwise judge a rate over two messages
+0.05 s apart.
 
 Window variance: the fixed algorithm
 ------------------------------------
@@ -301,6 +306,21 @@ def episode_starts(
     return np.maximum(starts, begun), first, int(begun[-1])
 
 
+def with_silences(
+    restarts: npt.NDArray[np.bool_] | None, all_time: FloatArray, cutoff: FloatArray, old: int
+) -> npt.NDArray[np.bool_] | None:
+    """``restarts`` (rows ``old ..`` of ``all_time``, whose windows end at ``cutoff``) and
+    the rows after a silence longer than the window: their predecessor has left their
+    window. Such a row begins a stretch as a run's first row does (module docstring)."""
+    rows = np.arange(old, len(all_time))
+    silent = np.zeros(len(rows), dtype=bool)
+    after = rows >= 1
+    silent[after] = all_time[rows[after] - 1] <= cutoff[after]
+    if not silent.any():
+        return restarts
+    return silent if restarts is None else restarts | silent
+
+
 class WindowTracker:
     """Carries the open window of the current run from one chunk to the next."""
 
@@ -344,6 +364,7 @@ class WindowTracker:
         ends = np.arange(old, len(all_time), dtype=np.int64)
         assert self.first_time is not None
         keep = int(np.searchsorted(all_time, all_time[-1] - self.effective, side="right"))
+        restarts = with_silences(restarts, all_time, cutoff, old)
         starts, first, begun = episode_starts(restarts, all_time, starts, ends, self.first_time)
         defined = cutoff >= first
         if begun >= 0:

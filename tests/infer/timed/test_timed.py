@@ -369,11 +369,15 @@ def test_constant_windows_have_exactly_zero_variance() -> None:
 
 def brute(time: FloatArray, values: FloatArray, window: float) -> dict[str, list[float]]:
     """Every defined window's frequency, variance, rate and mean, straight from the
-    definition."""
+    definition (a window is defined once the first sample of its stretch has left it; a
+    sample whose predecessor has left its window begins a stretch)."""
     cut = time - effective_width(window)
     out: dict[str, list[float]] = {"frequency": [], "variance": [], "rate": [], "mean": []}
+    stretch = 0
     for i in range(len(time)):
-        if cut[i] < time[0]:
+        if i and time[i - 1] <= cut[i]:
+            stretch = i
+        if cut[i] < time[stretch]:
             continue
         first = int(np.searchsorted(time, cut[i], side="right"))
         members = values[first : i + 1]
