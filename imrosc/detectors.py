@@ -55,7 +55,7 @@ from threadpoolctl import threadpool_limits
 from imrosc.calibrate.tolerance import prediction_bound
 from imrosc.folds import blocked
 from imrosc.invariants import hashed_id
-from imrosc.runtime.detector import evidence, features
+from imrosc.runtime.detector import evidence, features, spans
 from imrosc.runtime.families import DETECTOR
 from imrosc.runtime.points import Pairing
 
@@ -107,7 +107,7 @@ class Run:
             self.faulty = np.zeros(len(times), dtype=bool)
         else:
             self.faulty = times - self.start >= self.onset
-        self.scored = times - times[0] >= WINDOW if len(times) else np.zeros(0, dtype=bool)
+        self.scored = spans(times, WINDOW)
 
 
 @dataclass(frozen=True)

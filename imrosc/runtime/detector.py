@@ -14,7 +14,10 @@ the calibrated decision (set on the evidence held-out good runs reached; imrosc.
 The window of a sample at time ``t`` holds the point's samples with times ``> t - window``;
 a run's samples are scored once they span the window (``window`` seconds after the first),
 and weighed once those scores span ``smooth`` seconds: the statistics of a shorter stretch
-are not the ones learnt from.
+are not the ones learnt from. A silence longer than the window (a sample whose predecessor
+has left its window) begins a stretch as the run's first sample does: scored again once the
+stretch spans the window, weighed once its scores span ``smooth`` (a monitor is one run for
+its whole life; the windows after a pause would hold a sample or two).
 A value that is NaN or infinite is the variable's last finite value (0 before the
 first): one infinity would otherwise poison the window's running sums for good. This module
 computes each sample's statistics incrementally; :func:`features` computes a whole run's
@@ -72,6 +75,9 @@ class WindowFeatures:
         self.last = np.zeros(self.width)
         self.added = 0
         self.first: Optional[float] = None
+        self.begun = False
+        """Whether the latest sample began a stretch (the run's first, or the first after a
+        silence longer than the window)."""
 
     def spans(self, time: float) -> bool:
         """Whether the samples so far span the window (before, the statistics describe a
@@ -85,9 +91,10 @@ class WindowFeatures:
         if missing.any():
             x[missing] = self.last[missing]
         self.last = x
-        if self.first is None:
-            self.first = time
         held = self.held
+        self.begun = self.first is None or (self.window > 0.0 and held[-1][0] <= time - self.window)
+        if self.begun:
+            self.first = time
         held.append((time, x))
         self.total += x
         self.squares += x * x
@@ -154,21 +161,44 @@ def evidence(times: Any, scores: Any, window: float, smooth: float) -> Any:
     found = np.full(len(values), math.nan)
     if not len(values):
         return found
-    spanning = at - at[0] >= window  # as WindowFeatures.spans has it
+    spanning = spans(at, window)
     if not spanning.any():
         return found
-    scored = int(np.argmax(spanning))
-    at, values = at[scored:], values[scored:]
     if smooth <= 0.0:
-        found[scored:] = values
+        found[spanning] = values[spanning]
         return found
-    starts = np.searchsorted(at, at - smooth, side="right")
+    # the first scored sample of each stretch: scores are weighed within their stretch
+    rows = np.arange(len(at))
+    opens = spanning.copy()
+    opens[1:] &= ~spanning[:-1] | stretches(at, window)[1:]
+    scored = np.maximum.accumulate(np.where(opens, rows, 0))
+    starts = np.maximum(np.searchsorted(at, at - smooth, side="right"), scored)
     sums = np.concatenate(([0.0], np.cumsum(values)))
-    ends = np.arange(1, len(values) + 1)
-    means = (sums[ends] - sums[starts]) / (ends - starts)
-    means[at - at[0] < smooth] = math.nan
-    found[scored:] = means
+    means = (sums[rows + 1] - sums[starts]) / (rows + 1 - starts)
+    weighed = spanning & (at - at[scored] >= smooth)
+    found[weighed] = means[weighed]
     return found
+
+
+def stretches(times: Any, window: float) -> Any:
+    """Per sample, whether it begins a stretch: the run's first, and every sample whose
+    predecessor has left its window (``WindowFeatures.begun``)."""
+    at = np.asarray(times, dtype=np.float64)
+    begins = np.ones(len(at), dtype=bool)
+    if window > 0.0 and len(at) > 1:
+        begins[1:] = at[:-1] <= at[1:] - window
+    return begins
+
+
+def spans(times: Any, window: float) -> Any:
+    """Per sample, whether the samples of its stretch so far span the window (only those
+    are scored: ``WindowFeatures.spans``)."""
+    at = np.asarray(times, dtype=np.float64)
+    if not len(at):
+        return np.zeros(0, dtype=bool)
+    rows = np.arange(len(at))
+    first = at[np.maximum.accumulate(np.where(stretches(at, window), rows, 0))]
+    return at - first >= window
 
 
 def features(times: Any, rows: Any, window: float) -> Any:
@@ -210,6 +240,8 @@ class Detector:
     def sample(self, time: float, row: Any, point: str = "") -> Optional[Violation]:
         """The violation of the sample ``row``, if the evidence is above the threshold."""
         score = self.score(time, row)
+        if self.window.begun:  # a stretch begins: so does the evidence's
+            self.evidence.reset()
         if not self.window.spans(time):
             return None
         weighed = self.evidence.add(time, score)

@@ -133,6 +133,32 @@ def test_the_evidence_of_a_run_matches_the_detector_s_sample_by_sample() -> None
     assert np.allclose(whole[~np.isnan(whole)], direct, atol=1e-6)
 
 
+def test_a_silence_longer_than_the_window_begins_a_stretch() -> None:
+    """After a pause the detector scores again once the samples since span the window, and
+    weighs once those scores span ``smooth``, as at a run's start; what classification
+    computes for a whole run (``features``, ``evidence``) is what the monitor computes."""
+    rng = np.random.default_rng(5)
+    gaps = rng.uniform(0.05, 0.3, 400)
+    gaps[[60, 61, 200, 330]] = [2.5, 0.1, 1.25, 7.0]  # silences longer than the window
+    times = np.cumsum(gaps)
+    rows = rng.normal(0.0, 1.0, (400, 1))
+    invariant = _invariant(0.5)
+    invariant["params"]["smooth"] = 0.5
+    detector = Detector(invariant, {"x.data": 0})
+    live = [detector.sample(t, row) is not None for t, row in zip(times, rows, strict=True)]
+    params = invariant["params"]
+    scores = features(times, rows, 1.0) @ (np.asarray(params["weights"]) / params["scale"])
+    whole = evidence(times, scores + params["bias"], 1.0, 0.5)
+    assert live == list(whole > 0.5)
+    for silence in (60, 200, 330):  # the sample after the silence begins a stretch
+        after = times[silence:] - times[silence]
+        scored = silence + int(np.searchsorted(after, 1.0, side="left"))  # spans 1 s
+        weighed = scored + int(np.searchsorted(times[scored:] - times[scored], 0.5, "left"))
+        assert np.isnan(whole[silence:weighed]).all()
+        assert not np.isnan(whole[weighed])
+        assert not np.isnan(whole[silence - 1])  # the stretch before was weighed
+
+
 def test_a_smoothed_detector_alarms_on_a_lasting_score_not_a_passing_one() -> None:
     invariant = _invariant(1.5)
     invariant["params"]["smooth"] = 1.0
