@@ -184,8 +184,9 @@ def stretches(times: Any, window: float) -> Any:
     """Per sample, whether it begins a stretch: the run's first, and every sample whose
     predecessor has left its window (``WindowFeatures.begun``)."""
     at = np.asarray(times, dtype=np.float64)
-    begins = np.ones(len(at), dtype=bool)
-    if window > 0.0 and len(at) > 1:
+    begins = np.zeros(len(at), dtype=bool)
+    begins[:1] = True
+    if window > 0.0 and len(at) > 1:  # (no window: one stretch, as WindowFeatures keeps it)
         begins[1:] = at[:-1] <= at[1:] - window
     return begins
 

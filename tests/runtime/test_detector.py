@@ -111,7 +111,7 @@ def test_the_evidence_of_a_run_matches_the_detector_s_sample_by_sample() -> None
     times = np.cumsum(rng.uniform(0.01, 0.4, 500))
     scores = rng.normal(0.0, 3.0, 500)
     scores[17], scores[90], scores[91] = math.nan, math.inf, -math.inf
-    for window, smooth in ((0.0, 0.0), (1.0, 0.0), (1.0, 0.5), (0.5, 2.0)):
+    for window, smooth in ((0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 0.5), (0.5, 2.0)):
         weighed = TrailingMean(smooth)
         spans = times - times[0] >= window
         one_by_one = [
