@@ -681,12 +681,15 @@ class Stability:
     bags: list[str]
     rounds: list[Round]
     rows: list[StabilityRow]
+    checked: int | None = None
+    """The held-out runs checked (``held_out_runs``: not those that could not be read, nor
+    those of a round that trained on nothing); ``None``: every held-out run."""
 
     @property
     def summary(self) -> str:
         """``4-fold cross-validation over 8 bags; 1 of 8 held-out runs raised an alarm``."""
         alarmed = sum(len(r.alarmed) for r in self.rounds)
-        held = sum(len(r.held_out) for r in self.rounds)
+        held = sum(len(r.held_out) for r in self.rounds) if self.checked is None else self.checked
         return (
             f"{self.folds}-fold cross-validation over {plural(len(self.bags), 'bag')}; "
             f"{alarmed} of {held} held-out runs raised an alarm"
@@ -752,4 +755,5 @@ def stability(document: Mapping[str, Any]) -> Stability:
         bags=[str(b) for b in document.get("bags") or []],
         rounds=rounds,
         rows=rows,
+        checked=_optional_int(document.get("held_out_runs")),
     )

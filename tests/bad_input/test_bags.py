@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from imrosc.report import render
 from tests.bad_input.support import (
     COMMANDS,
     CONFIG,
@@ -206,6 +207,7 @@ def test_stability_leaves_a_bag_it_cannot_read_out_of_its_rounds(project: Path) 
     assert unread["held_out"] == [str(train / "r1.bag")] and unread["violated"] == {}
     scored = [r for r in report["rounds"] if not r["errors"]]
     assert len(scored) == 2 and report["held_out_runs"] == 2
+    assert "of 2 held-out runs raised an alarm" in render(report, "text")  # not of 3
     for family, summary in report["families"].items():
         mean = sum(r["total"].get(family, 0) for r in scored) / 2
         assert summary["total_mean"] == round(mean, 3), family
