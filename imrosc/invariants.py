@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, TypedDict
 
 from imrosc.infer.core import Invariant, Variable
+from imrosc.onboard.files import ENGINE_ERRORS, invariants_problem
 from imrosc.outputs import INVARIANTS, mark
 from imrosc.runtime.families import INTERVAL, NAMES, PATTERN
 from imrosc.runtime.points import Pairing, PairingEntry
@@ -327,37 +328,6 @@ def _walk(value: Any, where: str, depth: int) -> str | None:
     return None
 
 
-KNOWN_FAMILIES = frozenset(NAMES)
-"""Every family inference writes and the runtime engine checks."""
-
-_TOP = {"topics": dict, "points": dict, "invariants": list}
-_POINT = {"kind": str, "variables": list}
-_INVARIANT = {
-    "id": str,
-    "family": str,
-    "kind": str,
-    "point": str,
-    "variables": list,
-    "params": dict,
-    "text": str,
-}
-
-
-def _fields(item: Any, shape: Mapping[str, type], where: str) -> str | None:
-    if not isinstance(item, dict):
-        return f"{where}: not an object"
-    for key, kind in shape.items():
-        if key not in item:
-            return f"{where}: missing '{key}'"
-        if not isinstance(item[key], kind) or isinstance(item[key], bool):
-            name = _JSON[kind]
-            return f"{where}.{key}: not {'an' if name[0] in 'aeiou' else 'a'} {name}"
-    return None
-
-
-_JSON = {str: "string", dict: "object", list: "array", int: "integer"}
-
-
 def validate(data: Any, path: Path) -> None:
     """Check an invariants document's shape (what the runtime engine reads, and numbers that
     fit a float); raise :class:`InvariantsFileError` naming the file and the first problem.
@@ -372,40 +342,20 @@ def validate(data: Any, path: Path) -> None:
     for key in ("points", "invariants", "topics"):
         if key not in data:
             raise InvariantsFileError(f"{path}: missing '{key}'")
-    problem = _walk(data, "$", 0) or _fields(data, _TOP, "$")
-    for key, point in data.get("points", {}).items() if not problem else ():
-        problem = _fields(point, _POINT, f"$.points.{key}")
-        for index, variable in enumerate(point["variables"]) if not problem else ():
-            where = f"$.points.{key}.variables[{index}]"
-            problem = problem or _fields(variable, {"name": str, "type": str}, where)
-        if problem:
-            break
-    for index, invariant in enumerate(data.get("invariants", [])) if not problem else ():
-        where = f"$.invariants[{index}]"
-        problem = _fields(invariant, _INVARIANT, where)
-        if not problem and invariant["point"] not in data["points"]:
-            problem = f"{where}.point: no point {invariant['point']!r} in 'points'"
-        if not problem and invariant["family"] not in KNOWN_FAMILIES:
-            problem = f"{where}.family: unknown family {invariant['family']!r}"
-        if problem:
-            break
+    problem = _walk(data, "$", 0) or invariants_problem(data, NAMES)
     if problem:
         raise InvariantsFileError(f"{path}: malformed: {problem}")
     from imrosc.runtime import Engine
 
     try:
         Engine(data)
-    except _ENGINE_ERRORS as error:
+    except ENGINE_ERRORS as error:
         what = f"missing {error}" if isinstance(error, KeyError) else str(error)
         culprit = _first_unbuildable(data)
         where = "" if culprit is None else f"$.invariants[{culprit}]: "
         raise InvariantsFileError(
             f"{path}: malformed: {where}{type(error).__name__}: {what}".splitlines()[0]
         ) from None
-
-
-_ENGINE_ERRORS = (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError)
-"""What building the engine from a document of the right shape but wrong contents raises."""
 
 
 def _first_unbuildable(data: Mapping[str, Any]) -> int | None:
@@ -416,7 +366,7 @@ def _first_unbuildable(data: Mapping[str, Any]) -> int | None:
     def builds(invariants: list[Any]) -> bool:
         try:
             Engine({**data, "invariants": invariants})
-        except _ENGINE_ERRORS:
+        except ENGINE_ERRORS:
             return False
         return True
 

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from imrosc import invariants
+from imrosc.onboard import files
 from imrosc.runtime import families, points
 from tests.runtime.support import infer, planted
 
@@ -64,9 +65,10 @@ def test_the_typed_dictionaries_name_the_schema_s_keys() -> None:
 
 def test_the_reader_checks_the_keys_the_schema_requires() -> None:
     definitions = invariants.schema()["$defs"]
-    assert set(invariants._INVARIANT) == set(definitions["invariant"]["required"])
-    assert set(invariants._POINT) == set(definitions["point"]["required"])
-    assert set(invariants._TOP) | {"format", "version"} == set(invariants.schema()["required"])
+    # the reader's shape check (imrosc.onboard.files, shared with the monitor nodes)
+    assert set(files._INVARIANT) == set(definitions["invariant"]["required"])
+    assert set(files._POINT) == set(definitions["point"]["required"])
+    assert set(files._TOP) | {"format", "version"} == set(invariants.schema()["required"])
 
 
 def _conforms(document: Any) -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Dict, List, Mapping, Optional, TypedDict, Union, cast
+from typing import Any, Collection, Dict, List, Mapping, Optional, TypedDict, Union, cast
 
 SPEC_FILE = "spec.json"
 """The monitor spec of a package (what the monitor node watches and does)."""
@@ -101,59 +101,78 @@ class InvariantsError(ValueError):
     node's ``main`` adds it)."""
 
 
-_TOP = (("topics", dict), ("points", dict), ("invariants", list))
-_POINT = (("kind", str), ("variables", list))
-_VARIABLE = (("name", str), ("type", str))
-_INVARIANT = (
-    ("id", str),
-    ("family", str),
-    ("kind", str),
-    ("point", str),
-    ("variables", list),
-    ("params", dict),
-    ("text", str),
-)
+ENGINE_ERRORS = (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError)
+"""What building the engine from an invariants document of the right shape but wrong
+contents raises (a file edited by hand: keys or values it lacks)."""
+
+_TOP = {"topics": dict, "points": dict, "invariants": list}
+_POINT = {"kind": str, "variables": list}
+_VARIABLE = {"name": str, "type": str}
+_INVARIANT = {
+    "id": str,
+    "family": str,
+    "kind": str,
+    "point": str,
+    "variables": list,
+    "params": dict,
+    "text": str,
+}
+_JSON = {str: "string", dict: "object", list: "array", int: "integer"}
 
 
-def _fields(item: Any, shape: Any, where: str) -> Optional[str]:
+def _fields(item: Any, shape: Mapping[str, type], where: str) -> Optional[str]:
     if not isinstance(item, dict):
         return f"{where}: not an object"
-    for key, kind in shape:
+    for key, kind in shape.items():
         if key not in item:
-            return f"{where}: missing {key!r}"
-        if not isinstance(item[key], kind):
-            return f"{where}.{key}: not {_JSON[kind]}"
+            return f"{where}: missing '{key}'"
+        if not isinstance(item[key], kind) or isinstance(item[key], bool):
+            name = _JSON[kind]
+            return f"{where}.{key}: not {'an' if name[0] in 'aeiou' else 'a'} {name}"
     return None
 
 
-_JSON = {str: "a string", dict: "an object", list: "an array"}
+def _family(invariant: Mapping[str, Any], known: Collection[str], where: str) -> Optional[str]:
+    family = invariant.get("family")
+    return None if family in known else f"{where}.family: unknown family {family!r}"
 
 
-def invariants_problem(document: Any) -> Optional[str]:
-    """The first problem of an invariants document's shape, as ``imrosc`` itself checks it
-    when it reads one (``imrosc/invariants.py``: the keys and types the engine reads, every
-    invariant's point among the points), or ``None``.
+def unknown_family(invariants: Any, known: Collection[str]) -> Optional[str]:
+    """The first invariant of a family not ``known`` (the engine would skip it), or
+    ``None``."""
+    for index, invariant in enumerate(invariants):
+        problem = _family(invariant, known, f"$.invariants[{index}]")
+        if problem:
+            return problem
+    return None
+
+
+def invariants_problem(document: Any, known: Optional[Collection[str]] = None) -> Optional[str]:
+    """The first problem of an invariants document's shape (the keys and types the engine
+    reads, every invariant's point among the points and, given the ``known`` families, its
+    family among them), or ``None``: the one check of ``imrosc`` (``imrosc/invariants.py``)
+    and of the monitor nodes.
 
     >>> invariants_problem({"topics": {}, "points": {}, "invariants": [{"id": "i1"}]})
     "$.invariants[0]: missing 'family'"
     """
     problem = _fields(document, _TOP, "$")
-    if problem:
-        return problem
-    for key, point in document["points"].items():
+    for key, point in document["points"].items() if not problem else ():
         problem = _fields(point, _POINT, f"$.points.{key}")
         for index, variable in enumerate(point["variables"]) if not problem else ():
             problem = problem or _fields(variable, _VARIABLE, f"$.points.{key}.variables[{index}]")
         if problem:
             return problem
-    for index, invariant in enumerate(document["invariants"]):
+    for index, invariant in enumerate(document["invariants"]) if not problem else ():
         where = f"$.invariants[{index}]"
         problem = _fields(invariant, _INVARIANT, where)
+        if not problem and invariant["point"] not in document["points"]:
+            problem = f"{where}.point: no point {invariant['point']!r} in 'points'"
+        if not problem and known is not None:
+            problem = _family(invariant, known, where)
         if problem:
             return problem
-        if invariant["point"] not in document["points"]:
-            return f"{where}.point: no point {invariant['point']!r} in 'points'"
-    return None
+    return problem
 
 
 def load_invariants(path: str) -> Dict[str, Any]:

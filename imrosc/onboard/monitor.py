@@ -49,11 +49,7 @@ from typing import (
 
 from ..runtime import families
 from ..runtime.violation import json_safe
-from .files import InvariantsError, SpecDocument
-
-ENGINE_ERRORS = (KeyError, IndexError, TypeError, ValueError, OverflowError, AttributeError)
-"""What building the engine from an invariants file of the right shape but wrong contents
-raises (``imrosc/invariants.py`` turns the same into its one-line error)."""
+from .files import ENGINE_ERRORS, InvariantsError, SpecDocument, unknown_family
 
 WARM = 0.002
 """Default ``~warm`` (the launch file's ``warm``): seconds between rehearsals of the latest
@@ -393,12 +389,9 @@ class Checking:
         self.guard = Guard(stop)
         """Stops the node when a check raises (docs/monitor.md, "When the monitor fails")."""
         document = alarm_document(document, spec.get("alarms"))
-        for index, invariant in enumerate(document.get("invariants", ())):
-            if invariant.get("family") not in families.NAMES:  # the engine would skip it
-                raise InvariantsError(
-                    f"malformed: $.invariants[{index}].family: unknown family "
-                    f"{invariant['family']!r}"
-                )
+        unknown = unknown_family(document.get("invariants", ()), families.NAMES)
+        if unknown:  # the engine would skip it
+            raise InvariantsError(f"malformed: {unknown}")
         try:
             # numba compiles the checks later, in a thread of its own (:meth:`compile_checks`)
             self.engine = engine_class(document, compile=False)
